@@ -1,0 +1,41 @@
+"""One place for paths and tunables shared by the core, the CLI and the workbench.
+
+All physical quantities are SI: metres, lux, lumens, candela.
+"""
+import os
+
+#: Root of the checkout / installed workbench (holds kernels/ and tables/).
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+KERNELS_DIR = os.path.join(ROOT, "kernels")
+TABLES_DIR = os.path.join(ROOT, "tables")
+RESOURCES_DIR = os.path.join(ROOT, "resources")
+EXAMPLES_DIR = os.path.join(ROOT, "examples")
+
+#: Geometric tolerance in metres: points closer than this are the same point,
+#: planes whose offsets differ by less are the same plane.
+EPS_M = 1e-6
+#: Offset in metres of ray origins/ends off a surface for occlusion tests.
+RAY_EPS_M = 1e-4
+#: Two unit normals are parallel when their dot product exceeds this.
+COPLANAR_COS = 1.0 - 1e-6
+#: Coplanarity tolerance for grouping faces into planes (metres).
+PLANE_OFFSET_TOL_M = 1e-4
+#: A scene whose bounding box is larger than this (metres) is probably in millimetres.
+MAX_PLAUSIBLE_EXTENT_M = 2000.0
+#: Faces smaller than this (m^2) are degenerate.
+MIN_FACE_AREA_M2 = 1e-10
+
+#: Disk luminaires are integrated with this many rings (Gauss-Legendre in r^2) x angles.
+DISK_RINGS = 3
+DISK_ANGLES = 8
+
+#: Radiosity: target number of patches per room and smallest patch edge (metres).
+RADIOSITY_TARGET_PATCHES = 1200
+RADIOSITY_MIN_PATCH_M = 0.1
+#: Near-field: emitter patches closer than this many patch radii are integrated exactly.
+RADIOSITY_NEAR_FACTOR = 3.0
+RADIOSITY_MAX_ITER = 500
+RADIOSITY_TOL = 1e-5
+
+#: Default reflectance of faces without one.
+DEFAULT_REFLECTANCE = 0.5

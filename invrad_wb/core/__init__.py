@@ -1,0 +1,1 @@
+"""The FreeCAD-free core of invrad: scenes, forward solver, votes, peaks, reports."""

@@ -1,0 +1,231 @@
+"""Bounding volume hierarchy over the scene's triangles, for occlusion (shadow) tests.
+
+One BVH serves both backends. Leaves hold up to :data:`LEAF` triangles stored as structure
+of arrays (``v0, e1, e2`` x/y/z, each a row of ``LEAF`` floats) so that the OpenCL kernel
+tests a whole leaf with ``float16`` vector operations (PoCL does not vectorise scalar
+kernels; see ENVIRONMENT.md). Padding triangles are degenerate and never hit.
+
+A segment ``p -> q`` is occluded when a triangle crosses it strictly between its ends:
+``t in (eps / |q - p|, 1 - eps / |q - p|)`` with ``eps = constants.RAY_EPS_M``, so the
+surfaces the ends lie on never count.
+
+Functions here are the numpy side: :func:`segments_occluded_bruteforce` is the obviously
+correct reference, :func:`segments_occluded_numpy` the fast numpy twin of the kernel in
+``kernels/bvh.h`` (a vectorised breadth-first traversal over (segment, node) pairs).
+"""
+import numpy as np
+
+from .. import constants as C
+
+#: Triangles per leaf; must match the vector width used in kernels/bvh.h.
+LEAF = 16
+
+
+class BVH:
+    """A flat BVH.
+
+    Attributes
+    ----------
+    lo, hi : (N, 3) float64
+        Node bounds.
+    left, right : (N,) int64
+        Children of internal nodes (-1 for leaves).
+    leaf : (N,) int64
+        Leaf block index of leaf nodes (-1 for internal nodes).
+    tris : (L, 9, LEAF) float64
+        Leaf triangles as SoA rows v0x v0y v0z e1x e1y e1z e2x e2y e2z.
+    tri_index : (L, LEAF) int64
+        Scene face of each leaf slot (-1 for padding).
+    """
+
+    def __init__(self, triangles):
+        tri = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+        self.n_triangles = len(tri)
+        cent = tri.mean(axis=1)
+        tmin, tmax = tri.min(axis=1), tri.max(axis=1)
+        lo, hi, left, right, leaf, blocks = [], [], [], [], [], []
+        if len(tri) == 0:
+            tmin = tmax = np.zeros((1, 3))
+        # iterative build: (node id, index array)
+        order = np.arange(len(tri))
+        stack = [(self._new(lo, hi, left, right, leaf), order)]
+        while stack:
+            node, idx = stack.pop()
+            if len(idx):
+                lo[node] = tmin[idx].min(0)
+                hi[node] = tmax[idx].max(0)
+            else:
+                lo[node] = hi[node] = np.zeros(3)
+            if len(idx) <= LEAF:
+                leaf[node] = len(blocks)
+                blocks.append(idx)
+                continue
+            c = cent[idx]
+            axis = int(np.argmax(c.max(0) - c.min(0)))
+            # split at the median, rounded to a multiple of LEAF so leaves stay full
+            half = max(LEAF, (len(idx) // 2 + LEAF - 1) // LEAF * LEAF)
+            half = min(half, len(idx) - 1)
+            part = np.argpartition(c[:, axis], half)
+            l_id = self._new(lo, hi, left, right, leaf)
+            r_id = self._new(lo, hi, left, right, leaf)
+            left[node], right[node] = l_id, r_id
+            stack.append((l_id, idx[part[:half]]))
+            stack.append((r_id, idx[part[half:]]))
+        self.lo = np.array(lo)
+        self.hi = np.array(hi)
+        self.left = np.array(left, dtype=np.int64)
+        self.right = np.array(right, dtype=np.int64)
+        self.leaf = np.array(leaf, dtype=np.int64)
+        nb = len(blocks)
+        self.tris = np.zeros((nb, 9, LEAF))
+        self.tri_index = np.full((nb, LEAF), -1, dtype=np.int64)
+        for b, idx in enumerate(blocks):
+            t = tri[idx]
+            k = len(idx)
+            self.tris[b, 0:3, :k] = t[:, 0].T
+            self.tris[b, 3:6, :k] = (t[:, 1] - t[:, 0]).T
+            self.tris[b, 6:9, :k] = (t[:, 2] - t[:, 0]).T
+            self.tri_index[b, :k] = idx
+        self._cl_buffers = None
+
+    @staticmethod
+    def _new(lo, hi, left, right, leaf):
+        lo.append(None)
+        hi.append(None)
+        left.append(-1)
+        right.append(-1)
+        leaf.append(-1)
+        return len(lo) - 1
+
+    @property
+    def n_nodes(self):
+        return len(self.lo)
+
+    # ------------------------------------------------------------------ OpenCL upload
+    def cl_buffers(self, env):
+        """Device buffers (node lo, node hi, node info, leaf triangles), uploaded once."""
+        if self._cl_buffers is not None and self._cl_buffers[0] is env.ctx:
+            return self._cl_buffers[1]
+        cl = env.cl
+        mf = cl.mem_flags
+        n = self.n_nodes
+        lo4 = np.zeros((n, 4), np.float32)
+        hi4 = np.zeros((n, 4), np.float32)
+        # widen the bounds by a float32 ulp-scale margin so float rounding never culls a hit
+        pad = 1e-5 * max(1.0, float(np.abs(np.concatenate([self.lo, self.hi])).max()))
+        lo4[:, :3] = self.lo - pad
+        hi4[:, :3] = self.hi + pad
+        info = np.zeros((n, 2), np.int32)
+        internal = self.leaf < 0
+        info[internal, 0] = self.left[internal]
+        info[internal, 1] = self.right[internal]
+        info[~internal, 0] = -1 - self.leaf[~internal]
+        tris = np.ascontiguousarray(self.tris.astype(np.float32))
+        if tris.size == 0:
+            tris = np.zeros((1, 9, LEAF), np.float32)
+        bufs = tuple(cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
+                     for a in (lo4, hi4, info, tris))
+        self._cl_buffers = (env.ctx, bufs)
+        return bufs
+
+
+def _segment_params(p, q, eps):
+    d = q - p
+    length = np.linalg.norm(d, axis=1)
+    safe = np.maximum(length, 1e-30)
+    tmin = eps / safe
+    tmax = 1.0 - eps / safe
+    return d, tmin, tmax
+
+
+def _tri_hits(o, d, tmin, tmax, v0, e1, e2):
+    """Moller-Trumbore for paired rays/triangles (all (k, 3)); True where hit in range."""
+    pvec = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, pvec)
+    ok = np.abs(det) > 1e-14
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    tvec = o - v0
+    u = np.einsum("ij,ij->i", tvec, pvec) * inv
+    qvec = np.cross(tvec, e1)
+    v = np.einsum("ij,ij->i", d, qvec) * inv
+    t = np.einsum("ij,ij->i", e2, qvec) * inv
+    return ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > tmin) & (t < tmax)
+
+
+def segments_occluded_bruteforce(triangles, p, q, eps=C.RAY_EPS_M):
+    """Reference: test every segment against every triangle. (k,) bool.
+
+    Parameters
+    ----------
+    triangles : (m, 3, 3) float64
+    p, q : (k, 3) float64, segment ends (metres)
+    """
+    tri = np.asarray(triangles, dtype=np.float64)
+    p = np.asarray(p, dtype=np.float64)
+    q = np.asarray(q, dtype=np.float64)
+    d, tmin, tmax = _segment_params(p, q, eps)
+    out = np.zeros(len(p), dtype=bool)
+    v0, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    for i in range(len(p)):
+        k = len(tri)
+        out[i] = _tri_hits(np.broadcast_to(p[i], (k, 3)), np.broadcast_to(d[i], (k, 3)),
+                           tmin[i], tmax[i], v0, e1, e2).any()
+    return out
+
+
+def segments_occluded_numpy(bvh, p, q, eps=C.RAY_EPS_M, chunk=200_000):
+    """Numpy twin of the OpenCL occlusion test: breadth-first BVH traversal. (k,) bool."""
+    p = np.asarray(p, dtype=np.float64)
+    q = np.asarray(q, dtype=np.float64)
+    out = np.zeros(len(p), dtype=bool)
+    if bvh.n_triangles == 0 or len(p) == 0:
+        return out
+    for s in range(0, len(p), chunk):
+        out[s:s + chunk] = _occluded_chunk(bvh, p[s:s + chunk], q[s:s + chunk], eps)
+    return out
+
+
+def _occluded_chunk(bvh, p, q, eps):
+    d, tmin, tmax = _segment_params(p, q, eps)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / d
+    occluded = np.zeros(len(p), dtype=bool)
+    ray = np.arange(len(p))
+    node = np.zeros(len(p), dtype=np.int64)
+    while len(ray):
+        # slab test of (ray, node) pairs
+        with np.errstate(invalid="ignore"):
+            t0 = (bvh.lo[node] - p[ray]) * inv[ray]
+            t1 = (bvh.hi[node] - p[ray]) * inv[ray]
+        tn = np.fmin(t0, t1)
+        tf = np.fmax(t0, t1)
+        # axis-parallel rays: inside the slab -> (-inf, inf), outside -> empty
+        par = d[ray] == 0
+        inside = (p[ray] >= bvh.lo[node]) & (p[ray] <= bvh.hi[node])
+        tn = np.where(par, np.where(inside, -np.inf, np.inf), tn)
+        tf = np.where(par, np.where(inside, np.inf, -np.inf), tf)
+        enter = np.max(tn, axis=1)
+        leave = np.min(tf, axis=1)
+        hit = (enter <= leave) & (leave >= tmin[ray]) & (enter <= tmax[ray])
+        ray, node = ray[hit], node[hit]
+        is_leaf = bvh.leaf[node] >= 0
+        # leaves: test their triangles
+        lr, ln = ray[is_leaf], bvh.leaf[node[is_leaf]]
+        if len(lr):
+            blk = bvh.tris[ln]  # (k, 9, LEAF)
+            k = len(lr)
+            o = np.repeat(p[lr], LEAF, axis=0)
+            dd = np.repeat(d[lr], LEAF, axis=0)
+            v0 = blk[:, 0:3].transpose(0, 2, 1).reshape(-1, 3)
+            e1 = blk[:, 3:6].transpose(0, 2, 1).reshape(-1, 3)
+            e2 = blk[:, 6:9].transpose(0, 2, 1).reshape(-1, 3)
+            h = _tri_hits(o, dd, np.repeat(tmin[lr], LEAF), np.repeat(tmax[lr], LEAF),
+                          v0, e1, e2).reshape(k, LEAF).any(axis=1)
+            occluded[lr[h]] = True
+        # internal nodes: descend into both children, unless the ray is already occluded
+        ir, inode = ray[~is_leaf], node[~is_leaf]
+        keep = ~occluded[ir]
+        ir, inode = ir[keep], inode[keep]
+        ray = np.concatenate([ir, ir])
+        node = np.concatenate([bvh.left[inode], bvh.right[inode]])
+    return occluded

@@ -1,0 +1,99 @@
+"""Direct illuminance at receiver points from lambertian luminaires, with occlusion.
+
+``E = sum_k F_k * cos(theta_l) * cos(theta_s) / (pi * r^2) * V`` over the emitter samples of
+:func:`invrad_wb.core.luminaires.emitter_samples` (one per point luminaire, a quadrature per
+disk). Two implementations with one signature: :func:`direct_illuminance_numpy` (the twin)
+and :func:`direct_illuminance_opencl` (``kernels/direct.cl``).
+"""
+import numpy as np
+
+from .. import constants as C
+from .bvh import BVH, segments_occluded_numpy
+from .clenv import get_env, round_up, check_backend
+from .luminaires import emitter_samples
+
+
+def _geometry(points, normals, c, n, flux):
+    r = points - c
+    r2 = np.einsum("ij,ij->i", r, r)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv_r = 1.0 / np.sqrt(r2)
+        cl = (r @ n) * inv_r
+        cs = -np.einsum("ij,ij->i", normals, r) * inv_r
+        g = flux * cl * cs / (np.pi * r2)
+    ok = (r2 >= 1e-12) & (cl > 0) & (cs > 0)
+    return np.where(ok, g, 0.0), ok
+
+
+def direct_illuminance_numpy(points, normals, luminaires, bvh=None, occlusion=True):
+    """Direct illuminance (numpy twin).
+
+    Parameters
+    ----------
+    points : (n, 3) float64, metres
+    normals : (n, 3) float64, unit receiver normals
+    luminaires : list of Luminaire
+    bvh : BVH, optional
+        Occluding triangles; required when ``occlusion`` is True.
+
+    Returns
+    -------
+    (n,) float64, lux
+    """
+    points = np.asarray(points, dtype=np.float64)
+    normals = np.asarray(normals, dtype=np.float64)
+    pos, nrm, flux, _ = emitter_samples(luminaires)
+    out = np.zeros(len(points))
+    for c, n, f in zip(pos, nrm, flux):
+        g, ok = _geometry(points, normals, c, n, f)
+        if occlusion and bvh is not None and ok.any():
+            idx = np.flatnonzero(ok)
+            occ = segments_occluded_numpy(bvh, np.broadcast_to(c, (len(idx), 3)), points[idx])
+            g[idx[occ]] = 0.0
+        out += g
+    return out
+
+
+def _f4(a, w=None):
+    a = np.asarray(a, dtype=np.float64)
+    out = np.zeros((len(a), 4), np.float32)
+    out[:, :3] = a
+    if w is not None:
+        out[:, 3] = w
+    return out
+
+
+def direct_illuminance_opencl(points, normals, luminaires, bvh=None, occlusion=True):
+    """Direct illuminance on the OpenCL device (same contract as the numpy twin)."""
+    env = get_env()
+    cl = env.cl
+    points = np.asarray(points, dtype=np.float64)
+    n = len(points)
+    pos, nrm, flux, _ = emitter_samples(luminaires)
+    if n == 0 or len(pos) == 0:
+        return np.zeros(n)
+    if bvh is None:
+        bvh = BVH(np.zeros((0, 3, 3)))
+        occlusion = False
+    knl = env.kernel("direct", "direct_illuminance", [f"-D OCCLUSION={1 if occlusion else 0}"])
+    mf = cl.mem_flags
+    bufs = bvh.cl_buffers(env)
+    out = np.empty(n, np.float32)
+    d_pts = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=_f4(points))
+    d_nrm = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=_f4(normals))
+    d_epos = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=_f4(pos))
+    d_enrm = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=_f4(nrm, flux))
+    d_out = cl.Buffer(env.ctx, mf.WRITE_ONLY, out.nbytes)
+    knl(env.queue, (round_up(n, 64),), None, np.int32(n), d_pts, d_nrm,
+                           np.int32(len(pos)), d_epos, d_enrm, np.float32(C.RAY_EPS_M),
+                           *bufs, d_out)
+    cl.enqueue_copy(env.queue, out, d_out)
+    return out.astype(np.float64)
+
+
+def direct_illuminance(points, normals, luminaires, bvh=None, occlusion=True,
+                       backend="opencl"):
+    """Direct illuminance (lux) at points; ``backend`` is 'opencl', 'numpy' or 'auto'."""
+    backend = check_backend(backend)
+    fn = direct_illuminance_opencl if backend == "opencl" else direct_illuminance_numpy
+    return fn(points, normals, luminaires, bvh=bvh, occlusion=occlusion)

@@ -1,0 +1,184 @@
+"""Luminaires: lambertian point and disk emitters with a flux in lumens.
+
+A lambertian luminaire of flux ``F`` (lm) facing ``n`` has the intensity
+``I(theta) = (F / pi) * cos(theta)`` (cd) and gives the illuminance
+``E = F * cos(theta_l) * cos(theta_s) / (pi * r^2)`` (lx) at a point at distance ``r``.
+A disk luminaire of radius ``R`` is a lambertian disk of uniform luminance; it is integrated
+with a fixed quadrature (Gauss-Legendre rings in ``r^2`` times equally spaced angles).
+
+JSON form (``LUMS.json``, also the ``luminaires`` list of a locate result)::
+
+    {"luminaires": [{"position": [x, y, z], "normal": [x, y, z],
+                     "flux_lm": F, "radius_m": r}]}
+"""
+from dataclasses import dataclass, field
+import json
+
+import numpy as np
+
+from .. import constants as C
+from ..errors import LuminaireError
+
+
+@dataclass
+class Luminaire:
+    """One lambertian luminaire.
+
+    Attributes
+    ----------
+    position : (3,) float64, metres
+    normal : (3,) float64, unit facing direction
+    flux_lm : float, lumens
+    radius_m : float, metres (0 = point emitter)
+    room : int or None
+    score : float or None
+        How much this luminaire lowers the locate cost (locate results only).
+    """
+
+    position: np.ndarray
+    normal: np.ndarray
+    flux_lm: float
+    radius_m: float = 0.0
+    room: int = None
+    score: float = None
+    extra: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.position = np.asarray(self.position, dtype=np.float64).reshape(3)
+        n = np.asarray(self.normal, dtype=np.float64).reshape(3)
+        self.normal = n / np.linalg.norm(n)
+
+    def to_dict(self):
+        d = {"position": [round(float(x), 6) for x in self.position],
+             "normal": [round(float(x), 6) for x in self.normal],
+             "flux_lm": float(self.flux_lm), "radius_m": float(self.radius_m)}
+        if self.room is not None:
+            d["room"] = int(self.room)
+        if self.score is not None:
+            d["score"] = float(self.score)
+        d.update(self.extra)
+        return d
+
+
+def _vec3(value, what):
+    try:
+        a = np.asarray(value, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise LuminaireError(f"{what} must be three numbers, got {value!r}")
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise LuminaireError(f"{what} must be three finite numbers, got {value!r}")
+    return a
+
+
+def luminaire_from_dict(d, where="luminaire"):
+    """Build and check a :class:`Luminaire` from its JSON dict."""
+    if not isinstance(d, dict):
+        raise LuminaireError(f"{where} must be an object, got {d!r}")
+    for key in ("position", "flux_lm"):
+        if key not in d:
+            raise LuminaireError(f"{where} has no '{key}'")
+    pos = _vec3(d["position"], f"{where}.position")
+    nrm = _vec3(d.get("normal", [0, 0, -1]), f"{where}.normal")
+    if np.linalg.norm(nrm) < 1e-9:
+        raise LuminaireError(f"{where}.normal is the zero vector")
+    try:
+        flux = float(d["flux_lm"])
+        radius = float(d.get("radius_m", 0.0))
+    except (TypeError, ValueError):
+        raise LuminaireError(f"{where}: flux_lm and radius_m must be numbers")
+    if not np.isfinite(flux) or flux <= 0:
+        raise LuminaireError(f"{where}.flux_lm is {d['flux_lm']!r}: must be a positive number"
+                             " of lumens")
+    if not np.isfinite(radius) or radius < 0:
+        raise LuminaireError(f"{where}.radius_m is {d.get('radius_m')!r}: must be >= 0 metres")
+    known = {"position", "normal", "flux_lm", "radius_m", "room", "score"}
+    extra = {k: v for k, v in d.items() if k not in known}
+    return Luminaire(pos, nrm, flux, radius, room=d.get("room"), score=d.get("score"),
+                     extra=extra)
+
+
+def load_luminaires(path):
+    """Read ``{"luminaires": [...]}`` from a JSON file; errors name the file and entry."""
+    try:
+        with open(path, "r", encoding="utf-8") as fh:
+            data = json.load(fh)
+    except OSError as exc:
+        raise LuminaireError(f"{path}: cannot read: {exc.strerror}")
+    except json.JSONDecodeError as exc:
+        raise LuminaireError(f"{path}: not valid JSON: {exc}")
+    if isinstance(data, dict):
+        items = data.get("luminaires")
+    else:
+        items = data
+    if not isinstance(items, list):
+        raise LuminaireError(f"{path}: expected {{\"luminaires\": [...]}}")
+    try:
+        return [luminaire_from_dict(d, f"luminaires[{i}]") for i, d in enumerate(items)]
+    except LuminaireError as exc:
+        raise LuminaireError(f"{path}: {exc}")
+
+
+def disk_quadrature(rings=C.DISK_RINGS, angles=C.DISK_ANGLES):
+    """Unit-disk quadrature: points (k, 2) and weights (k,) summing to 1.
+
+    Gauss-Legendre in ``s = r^2`` (area-uniform) times equally spaced, ring-staggered angles:
+    exact for polynomials in ``r^2`` of degree ``2*rings-1`` times trigonometric polynomials
+    of degree ``angles-1``.
+    """
+    x, w = np.polynomial.legendre.leggauss(rings)
+    s = 0.5 * (x + 1.0)
+    r = np.sqrt(s)
+    pts, wts = [], []
+    for i in range(rings):
+        phi = 2 * np.pi * (np.arange(angles) + 0.5 * (i % 2)) / angles
+        pts.append(np.stack([r[i] * np.cos(phi), r[i] * np.sin(phi)], axis=1))
+        wts.append(np.full(angles, 0.5 * w[i] / angles))
+    return np.concatenate(pts), np.concatenate(wts)
+
+
+def emitter_samples(luminaires):
+    """Point emitters that together represent the luminaires.
+
+    Returns
+    -------
+    positions : (k, 3) float64, metres
+    normals : (k, 3) float64
+    flux : (k,) float64, lumens of each sample (sums to each luminaire's flux)
+    owner : (k,) int64, index of the luminaire of each sample
+    """
+    pos, nrm, flux, owner = [], [], [], []
+    qp, qw = disk_quadrature()
+    for i, lum in enumerate(luminaires):
+        if lum.radius_m > 0:
+            from .scene import plane_basis
+            u, v = plane_basis(lum.normal)
+            p = lum.position + lum.radius_m * (qp[:, :1] * u + qp[:, 1:] * v)
+            pos.append(p)
+            nrm.append(np.repeat(lum.normal[None], len(p), 0))
+            flux.append(lum.flux_lm * qw)
+            owner.append(np.full(len(p), i))
+        else:
+            pos.append(lum.position[None])
+            nrm.append(lum.normal[None])
+            flux.append(np.array([lum.flux_lm]))
+            owner.append(np.array([i]))
+    if not pos:
+        return (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=np.int64))
+    return (np.concatenate(pos), np.concatenate(nrm), np.concatenate(flux),
+            np.concatenate(owner).astype(np.int64))
+
+
+def write_luminaires_json(path, luminaires, **extra):
+    """Write ``{"luminaires": [...], **extra}`` atomically."""
+    from .atomic import atomic_write_text
+    data = {"luminaires": [l.to_dict() for l in luminaires]}
+    data.update(extra)
+    atomic_write_text(path, json.dumps(data, indent=2, default=_json_default) + "\n")
+
+
+def _json_default(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    raise TypeError(f"cannot serialise {type(o).__name__}")
