@@ -16,7 +16,7 @@ def scene_bvh(scene):
     """The scene's occlusion BVH, built once per Scene object."""
     bvh = getattr(scene, "_bvh", None)
     if bvh is None:
-        bvh = BVH(scene.triangles)
+        bvh = BVH(scene.triangles[scene.occluder_faces])
         scene._bvh = bvh
     return bvh
 

@@ -9,7 +9,10 @@ can trust it:
 * target illuminance in lux per vertex (``vertex_lux``), per face (``face_lux``) or as a
   UV-mapped texture (``face_uv`` + ``lux_texture``). NaN means "no target" (don't care);
   0 means "must stay dark" (shade);
-* ``face_room (m,) int`` room id per face and ``face_reflectance (m,)`` in [0, 1).
+* ``face_room (m,) int`` room id per face and ``face_reflectance (m,)`` in [0, 1);
+* ``face_virtual (m,) bool``: virtual receiver faces such as a work plane at 0.75 m. They
+  carry targets and receive light, but are transparent (never occlude), do not reflect and
+  are never a mounting plane for luminaires.
 
 Coplanar faces of one room are grouped into :class:`Plane` objects (the thesis' planes that
 votes are cast onto). A vertex shared by faces of different planes (a room corner) receives
@@ -64,6 +67,7 @@ class Plane:
     faces: np.ndarray
     area: float
     is_dummy: bool = False
+    is_virtual: bool = False
 
     def to_plane_coords(self, points):
         """Points (n, 3) -> in-plane coordinates (n, 2) in metres from ``origin``."""
@@ -142,6 +146,8 @@ class Scene:
         Texture coordinates of each face corner for ``lux_texture``.
     lux_texture : (h, w) float64, lux, optional
         UV-mapped target illuminance; row 0 is v = 1 (image convention).
+    face_virtual : (m,) bool, optional
+        Virtual receiver faces (work planes): transparent, non-reflecting.
     source : str, optional
         File or object name used in error messages.
     check_winding : bool
@@ -149,8 +155,8 @@ class Scene:
     """
 
     def __init__(self, vertices, faces, vertex_lux=None, face_lux=None, face_room=None,
-                 face_reflectance=None, face_uv=None, lux_texture=None, source=None,
-                 check_winding=True, _split=True):
+                 face_reflectance=None, face_uv=None, lux_texture=None, face_virtual=None,
+                 source=None, check_winding=True, _split=True):
         self.source = source
         v = _as_array("vertices", vertices, (3,), np.float64, source)
         try:
@@ -211,6 +217,12 @@ class Scene:
                                  f" (a fraction, not a percentage); {int(bad.sum())} such"
                                  " face(s)", source)
             face_reflectance = rho
+        if face_virtual is None:
+            face_virtual = np.zeros(m, dtype=bool)
+        else:
+            face_virtual = np.asarray(face_virtual, dtype=bool).reshape(-1)
+            if len(face_virtual) != m:
+                raise SceneError(f"{len(face_virtual)} virtual flags for {m} faces", source)
         if (face_uv is None) != (lux_texture is None):
             raise SceneError("a lux texture needs texture coordinates and vice versa", source)
         if face_uv is not None:
@@ -233,6 +245,7 @@ class Scene:
         self.face_room = face_room
         self.face_reflectance = face_reflectance
         self.face_uv = face_uv
+        self.face_virtual = face_virtual
         self.lux_texture = lux_texture
         self.vertex_source = np.arange(len(v))
 
@@ -295,6 +308,11 @@ class Scene:
         return np.unique(self.face_room)
 
     @property
+    def occluder_faces(self):
+        """Indices of the faces that cast shadows and reflect (all but virtual ones)."""
+        return np.flatnonzero(~self.face_virtual)
+
+    @property
     def has_targets(self):
         return (self.vertex_lux is not None or self.face_lux is not None
                 or self.lux_texture is not None)
@@ -307,6 +325,7 @@ class Scene:
         # group by (room, normal, offset) on a fine grid, then merge keys that lie within
         # tolerance across grid boundaries (so rounding can never split a plane)
         key = np.concatenate([self.face_room[:, None].astype(np.float64),
+                              self.face_virtual[:, None].astype(np.float64),
                               np.round(n * 1e4), np.round(off[:, None] / C.PLANE_OFFSET_TOL_M)],
                              axis=1)
         ukeys, inverse = np.unique(key, axis=0, return_inverse=True)
@@ -319,7 +338,7 @@ class Scene:
         rep_n /= np.linalg.norm(rep_n, axis=1, keepdims=True)
         rep_o = np.bincount(inverse, weights=off * a, minlength=k) / np.bincount(
             inverse, weights=a, minlength=k)
-        rep_room = ukeys[:, 0]
+        rep_room = ukeys[:, 0] * 2 + ukeys[:, 1]
         parent = np.arange(k)
 
         def find(i):
@@ -366,7 +385,8 @@ class Scene:
             origin = lo[0] * u + lo[1] * v - off * nrm
             out.append(Plane(index=idx, room=int(self.face_room[faces[0]]), normal=nrm,
                              offset=off, origin=origin, u=u, v=v, size=hi - lo,
-                             faces=faces, area=float(w.sum())))
+                             faces=faces, area=float(w.sum()),
+                             is_virtual=bool(self.face_virtual[faces[0]])))
         return out
 
     @functools.cached_property
@@ -424,10 +444,13 @@ class Scene:
         q = np.round(self.vertices / tol).astype(np.int64)
         _, weld = np.unique(q, axis=0, return_inverse=True)
         weld = weld.reshape(-1)
+        real = ~self.face_virtual
         f = weld[self.faces]
+        f_idx = np.flatnonzero(real)
+        f = f[real]
         a = f.reshape(-1)
         b = f[:, [1, 2, 0]].reshape(-1)
-        face_of = np.repeat(np.arange(len(f)), 3)
+        face_of = np.repeat(f_idx, 3)
         room = self.face_room[face_of]
         lo, hi = np.minimum(a, b), np.maximum(a, b)
         key = np.stack([room, lo, hi], axis=1)
@@ -445,7 +468,9 @@ class Scene:
                 f" ({len(e)} such edge(s)); faces must be counter-clockwise seen from the room",
                 self.source)
         for r in self.rooms:
-            sel = np.flatnonzero(self.face_room == r)
+            sel = np.flatnonzero((self.face_room == r) & real)
+            if len(sel) == 0:
+                continue
             tri = self.vertices[self.faces[sel]]
             size = float(np.max(tri.reshape(-1, 3).max(0) - tri.reshape(-1, 3).min(0)))
             probe = sel[np.argsort(self.face_areas[sel])[::-1][:12]]
@@ -519,7 +544,8 @@ class Scene:
                     face_lux=None if self.face_lux is None else self.face_lux[sel],
                     face_room=self.face_room[sel], face_reflectance=self.face_reflectance[sel],
                     face_uv=None if self.face_uv is None else self.face_uv[sel],
-                    lux_texture=self.lux_texture, source=self.source, check_winding=False)
+                    lux_texture=self.lux_texture, face_virtual=self.face_virtual[sel],
+                    source=self.source, check_winding=False)
         sub.vertex_source = self.vertex_source[used][sub.vertex_source]
         sub.face_source = sel
         return sub
@@ -527,7 +553,8 @@ class Scene:
     def with_vertex_lux(self, lux):
         """A copy of this scene whose targets are ``lux (n,)`` per vertex."""
         s = Scene(self.vertices, self.faces, vertex_lux=lux, face_room=self.face_room,
-                  face_reflectance=self.face_reflectance, source=self.source,
+                  face_reflectance=self.face_reflectance, face_virtual=self.face_virtual,
+                  source=self.source,
                   check_winding=False, _split=False)
         s.vertex_source = self.vertex_source.copy()
         return s
