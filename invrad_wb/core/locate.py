@@ -1,0 +1,492 @@
+"""Locate luminaires: the inverted-radiosity pipeline, room by room.
+
+For each room (faces sharing a room id; votes from a room go only to that room's planes and
+dummy planes):
+
+1. Poisson-disk voting points with their target illuminance (:mod:`.sampling`).
+2. Vote maps on every plane and on the dummy planes (:mod:`.votemaps`); occlusion is used
+   where the room is not convex ('auto'), only with the faces that can occlude.
+3. Votes (:mod:`.votes`, exact model by default, or the thesis' deformed ellipses).
+   With interreflection, the ambient part of the light is estimated and taken off the
+   targets before voting (an interreflected contribution makes points look nearer to a
+   luminaire than they are).
+4. Peaks: Laplace filter, non-maxima suppression, joint 0-255 scaling, threshold
+   (:mod:`.peaks`).
+5. Joint refinement of the peaks against the targets with all luminaires' light and the
+   interreflected light predicted together (:mod:`.refine`); peaks that do not lower the
+   cost are dropped.
+
+``locate(scene, flux_lm=...)`` returns a :class:`LocateResult`; ``result.repeak(...)``
+re-runs steps 4-5 with a new threshold/neighbourhood without voting again.
+"""
+from dataclasses import dataclass, field, asdict
+import os
+import time
+
+import numpy as np
+
+from .. import constants as C
+from ..errors import Cancelled, SceneError, SettingsError
+from .bvh import BVH
+from .clenv import check_backend, get_env
+from .luminaires import Luminaire
+from .peaks import find_peaks
+from .refine import Light, RefineProblem, greedy_select
+from .sampling import voting_points, default_density
+from .votemaps import build_canvas
+from .votes import vote_weights, cast_exact_numpy, cast_exact_opencl
+
+VOTE_MODELS = ("exact", "ellipse")
+INDIRECT_MODES = ("radiosity", "ambient", "none")
+
+
+@dataclass
+class LocateSettings:
+    """Every option of a locate run. Defaults need only the flux for a typical room.
+
+    Attributes
+    ----------
+    vote_model : 'exact' or 'ellipse' (the thesis' voting table)
+    pixel_m : vote-map resolution, metres per pixel
+    votes_per_m2 : voting point density (None: about 3000 points in the largest room)
+    weighting : 'illumination', 'distance', 'both' or 'none'
+    vote_strength : basic weight of each vote
+    occlusion : 'auto' (when the room is not convex), True or False
+    dummy_planes : vote also on horizontal mid-air layers (pendants)
+    dummy_spacing_m, dummy_count, dummy_lowest_m : layers from one spacing below the
+        ceiling down to ``dummy_lowest_m`` above the floor (or ``dummy_count`` layers)
+    two_sided_dummies : dummy layers also hold upward-facing luminaires
+    all_planes : vote to all planes (False: only to planes visible from the brightest spots)
+    threshold : 0-254, peaks kept after joint scaling
+    neighbourhood_m : non-maxima suppression radius, metres
+    refine : jointly refine the peaks (False: report the thesis' raw peaks)
+    optimiser : 'lm' (Levenberg-Marquardt) or 'es' ((1+1) evolution strategy)
+    indirect : 'radiosity' (forward radiosity solve), 'ambient' (constant term) or 'none'
+    min_gain : a peak is kept if it lowers the refinement cost by this fraction
+    max_candidates : at most this many peaks are tried per room
+    shade_limit_lux : a luminaire position is forbidden if it would put more than this on
+        a point that must stay dark (None: 10 % of the median target, at least 1 lx)
+    seed : seed of the voting point pattern offsets
+    """
+
+    vote_model: str = "exact"
+    pixel_m: float = 0.1
+    votes_per_m2: float = None
+    weighting: str = "illumination"
+    vote_strength: float = 1.0
+    occlusion: object = "auto"
+    dummy_planes: bool = True
+    dummy_spacing_m: float = 0.15
+    dummy_count: int = None
+    dummy_lowest_m: float = None
+    two_sided_dummies: bool = False
+    all_planes: bool = True
+    threshold: float = 24.0
+    neighbourhood_m: float = 0.3
+    refine: bool = True
+    optimiser: str = "lm"
+    indirect: str = "radiosity"
+    min_gain: float = 0.03
+    max_candidates: int = 40
+    shade_limit_lux: float = None
+    seed: int = 0
+
+    def check(self):
+        if self.vote_model not in VOTE_MODELS:
+            raise SettingsError(f"vote_model must be one of {VOTE_MODELS}, got"
+                                f" {self.vote_model!r}")
+        if self.indirect not in INDIRECT_MODES:
+            raise SettingsError(f"indirect must be one of {INDIRECT_MODES}, got"
+                                f" {self.indirect!r}")
+        if self.occlusion not in ("auto", True, False):
+            raise SettingsError(f"occlusion must be 'auto', true or false, got"
+                                f" {self.occlusion!r}")
+        for name in ("pixel_m", "dummy_spacing_m", "vote_strength"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
+                raise SettingsError(f"{name} must be a positive number, got {v!r}")
+        if self.votes_per_m2 is not None and not (np.isfinite(self.votes_per_m2)
+                                                  and self.votes_per_m2 > 0):
+            raise SettingsError(f"votes_per_m2 must be > 0, got {self.votes_per_m2!r}")
+        if not 0 <= self.threshold <= 254:
+            raise SettingsError(f"threshold must be in [0, 254], got {self.threshold!r}")
+        if not (np.isfinite(self.neighbourhood_m) and self.neighbourhood_m >= 0):
+            raise SettingsError(f"neighbourhood_m must be >= 0, got {self.neighbourhood_m!r}")
+        if not 0 <= self.min_gain < 1:
+            raise SettingsError(f"min_gain must be in [0, 1), got {self.min_gain!r}")
+        return self
+
+    @classmethod
+    def from_dict(cls, d):
+        known = set(cls.__dataclass_fields__)
+        unknown = set(d) - known
+        if unknown:
+            raise SettingsError(f"unknown locate setting(s): {', '.join(sorted(unknown))}")
+        return cls(**d).check()
+
+
+@dataclass
+class RoomRun:
+    """What one room's run keeps so that post-processing can be redone without voting."""
+
+    room: int
+    scene: object
+    points: object
+    canvas: object
+    votes: np.ndarray
+    problem: object
+    occluders: object
+    ambient_lux: float
+    indirect_model: object = None
+    peaks: list = field(default_factory=list)
+    lights: list = field(default_factory=list)
+    trace: list = field(default_factory=list)
+    cost: float = float("nan")
+
+
+@dataclass
+class LocateResult:
+    """Luminaires found, the settings used, timings and per-room state.
+
+    ``luminaires``: list of Luminaire (position, normal, flux_lm, room, score);
+    ``timings``: seconds per stage (summed over rooms) and in total.
+    """
+
+    luminaires: list
+    settings: dict
+    timings: dict
+    flux_lm: float
+    rooms: list = field(default_factory=list)
+    backend: str = "numpy"
+
+    def to_dict(self):
+        return {"luminaires": [l.to_dict() for l in self.luminaires],
+                "settings": self.settings, "timings": self.timings,
+                "flux_lm": self.flux_lm, "backend": self.backend,
+                "rooms": [{"room": int(r.room), "voting_points": len(r.points),
+                           "maps": len(r.canvas.maps), "peaks": len(r.peaks),
+                           "ambient_lux": r.ambient_lux, "cost": r.cost,
+                           "occluders": 0 if r.occluders is None else r.occluders.n_triangles}
+                          for r in self.rooms]}
+
+    def repeak(self, threshold=None, neighbourhood=None, progress=None):
+        """Post-process the stored votes again (new threshold/neighbourhood); no re-voting."""
+        s = LocateSettings(**self.settings)
+        if threshold is not None:
+            s.threshold = float(threshold)
+        if neighbourhood is not None:
+            s.neighbourhood_m = float(neighbourhood)
+        s.check()
+        t0 = time.time()
+        for run in self.rooms:
+            _postprocess(run, s, self.flux_lm, progress)
+        self.settings = asdict(s)
+        self.timings["repeak"] = time.time() - t0
+        self.luminaires = _collect(self.rooms, self.flux_lm)
+        return self
+
+    def save_vote_maps(self, folder):
+        """Write each map's votes (greyscale PNG, jointly scaled) and the raw EXR."""
+        from .votemap_images import save_vote_maps
+        return save_vote_maps(self, folder)
+
+
+def room_is_convex(scene, tol=1e-6):
+    """True if no plane of the (single-room) scene has room geometry behind it."""
+    return len(occluding_faces(scene, tol)) == 0
+
+
+def occluding_faces(scene, tol=1e-6):
+    """Faces of planes that have some of the room's vertices behind them.
+
+    Only these can block a segment between two points of the room: if all vertices lie in
+    front of a plane, so does every point of their convex hull.
+    """
+    real = ~scene.face_virtual
+    verts = scene.vertices[np.unique(scene.faces[real])]
+    size = float(np.max(verts.max(0) - verts.min(0)))
+    out = []
+    for p in scene.planes:
+        if p.is_virtual:
+            continue
+        if np.min(p.signed_distance(verts)) < -tol * max(size, 1.0) - 1e-6:
+            out.append(p.faces)
+    return np.concatenate(out) if out else np.zeros(0, dtype=np.int64)
+
+
+def _ambient_estimate(scene, points):
+    """Mean interreflected illuminance of a closed diffuse room: rho_mean * E_mean.
+
+    From flux balance: with mean incident illuminance E and mean reflectance rho, the
+    reflected flux rho E S comes back as interreflected light, so indirect ~ rho * E.
+    Only meaningful when the targets cover most of the room (complete illumination).
+    """
+    real = ~scene.face_virtual
+    area = scene.face_areas[real]
+    covered = float(np.sum(points.area))
+    if covered < 0.5 * area.sum() or len(points) == 0:
+        return 0.0
+    rho = float(np.average(scene.face_reflectance[real], weights=area))
+    return rho * float(np.average(points.lux, weights=points.area))
+
+
+def _visible_from_brightest(scene, points, canvas, top_fraction=0.95):
+    """Planes with a vertex in front of one of the brightest points (thesis 4.2.1)."""
+    lux = points.lux
+    bright = np.flatnonzero(lux >= top_fraction * lux.max())
+    keep = set()
+    for p in scene.planes:
+        if p.is_virtual:
+            continue
+        v = scene.vertices[scene.faces[p.faces]].reshape(-1, 3)
+        for b in bright[:64]:
+            d = v - points.positions[b]
+            if np.any(d @ points.normals[b] > 1e-6):
+                keep.add(p.index)
+                break
+    return keep
+
+
+def _light_from_peak(peak, canvas):
+    m = canvas.maps[peak.map_index]
+    if peak.kind == "surface":
+        return Light(kind="surface", position=peak.position.copy(), normal=peak.normal.copy(),
+                     map_index=peak.map_index, plane=peak.plane, peak_score=peak.score,
+                     origin=m.origin.copy(), u=m.u.copy(), v=m.v.copy())
+    return Light(kind="free", position=peak.position.copy(), normal=peak.normal.copy(),
+                 map_index=peak.map_index, peak_score=peak.score)
+
+
+def _make_inside(canvas):
+    def inside(light):
+        if light.kind == "surface":
+            return light if canvas.map_contains(light.map_index, light.position) else None
+        if canvas.grid is None:
+            return None
+        p = canvas.grid.clamp(light.position)
+        if p is None:
+            return None
+        if np.array_equal(p, light.position):
+            return light
+        q = light.copy()
+        q.position = p
+        return q
+    return inside
+
+
+def _snap_to_surfaces(lights, canvas, scene, tol=0.05):
+    """Mid-air luminaires within ``tol`` of a surface facing the same way become mounted."""
+    out = []
+    for L in lights:
+        if L.kind == "free":
+            for k, m in enumerate(canvas.maps):
+                if m.kind != "surface" or m.normal @ L.normal < 0.999:
+                    continue
+                dist = L.position @ m.normal + m.offset
+                if -1e-6 <= dist < tol:
+                    p = L.position - dist * m.normal
+                    if canvas.map_contains(k, p):
+                        L = Light(kind="surface", position=p, normal=m.normal.copy(),
+                                  map_index=k, plane=m.plane, peak_score=L.peak_score,
+                                  score=L.score, origin=m.origin.copy(), u=m.u.copy(),
+                                  v=m.v.copy())
+                        break
+        out.append(L)
+    return out
+
+
+class _Indirect:
+    """Interreflected light at the voting points for a set of luminaires (radiosity)."""
+
+    def __init__(self, scene, points, backend):
+        from .radiosity import RadiosityModel
+        self.scene = scene
+        self.backend = backend
+        self.model = RadiosityModel.for_scene(scene, backend=backend)
+        patch = self.model.face_patch[points.face]
+        self.gather = self.model.gather(points.positions, points.normals, patch)
+
+    def __call__(self, lights, flux):
+        from .direct import direct_illuminance
+        from .render import scene_bvh
+        lums = [Luminaire(L.position, L.normal, flux) for L in lights]
+        vdir = direct_illuminance(self.scene.vertices, self.scene.vertex_normals, lums,
+                                  bvh=scene_bvh(self.scene), backend=self.backend)
+        B = self.model.solve(self.model.patch_direct_from_vertices(vdir))
+        g = self.gather
+        return g(B) if callable(g) else g @ B
+
+
+def _postprocess(run, s, flux, progress=None, deadline=None):
+    peaks, _ = find_peaks(run.canvas, run.votes, threshold=s.threshold,
+                          neighbourhood=s.neighbourhood_m, max_peaks=s.max_candidates)
+    run.peaks = peaks
+    if not s.refine:
+        run.lights = [_light_from_peak(p, run.canvas) for p in peaks]
+        for L in run.lights:
+            L.score = L.peak_score / 255.0
+        return
+    prob = run.problem
+    cands = [_light_from_peak(p, run.canvas) for p in peaks]
+    lights, cost, trace = greedy_select(prob, cands, min_gain=s.min_gain,
+                                        optimiser=s.optimiser, progress=progress,
+                                        deadline=deadline)
+    if run.indirect_model is not None and lights:
+        # refresh the interreflected light for the luminaires found, refine again
+        for _round in range(2):
+            prob.indirect = run.indirect_model(lights, flux)
+            opt = prob.levenberg_marquardt if s.optimiser == "lm" else prob.evolution_strategy
+            lights, cost = opt(lights)
+            lights, cost, t2 = greedy_select(prob, lights + [c for c in cands],
+                                             min_gain=s.min_gain, optimiser=s.optimiser)
+            trace += t2
+    lights = _snap_to_surfaces(lights, run.canvas, run.scene)
+    run.lights, run.cost, run.trace = lights, cost, trace
+
+
+def _collect(rooms, flux):
+    out = []
+    for run in rooms:
+        for L in run.lights:
+            out.append(Luminaire(L.position, L.normal, flux, 0.0, room=int(run.room),
+                                 score=round(float(L.score), 4),
+                                 extra={"mount": "surface" if L.kind == "surface" else "pendant"}))
+    return out
+
+
+def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=None,
+           **overrides):
+    """Find luminaire positions that produce a scene's target illuminance.
+
+    Parameters
+    ----------
+    scene : Scene
+        With targets (per vertex, per face or texture).
+    flux_lm : float
+        Luminous flux of one luminaire (lm).
+    settings : LocateSettings or dict, optional
+    progress : callable(fraction, message) -> bool, optional
+        Return False to cancel (raises :class:`Cancelled`).
+    backend : 'auto', 'opencl' or 'numpy'
+    rooms : iterable of int, optional
+        Rooms to process (default: all).
+    **overrides :
+        Individual settings, e.g. ``pixel_m=0.05``.
+
+    Returns
+    -------
+    LocateResult
+    """
+    if settings is None:
+        settings = LocateSettings()
+    elif isinstance(settings, dict):
+        settings = LocateSettings.from_dict(settings)
+    if overrides:
+        settings = LocateSettings.from_dict({**asdict(settings), **overrides})
+    s = settings.check()
+    try:
+        flux = float(flux_lm)
+    except (TypeError, ValueError):
+        raise SettingsError(f"flux must be a number of lumens, got {flux_lm!r}")
+    if not np.isfinite(flux) or flux <= 0:
+        raise SettingsError(f"flux must be a positive number of lumens, got {flux_lm!r}")
+    if not scene.has_targets:
+        raise SceneError("the scene has no target illuminance (no 'lux' values)", scene.source)
+    backend = check_backend(backend)
+    room_ids = scene.rooms if rooms is None else np.asarray(list(rooms))
+    missing = set(int(r) for r in room_ids) - set(int(r) for r in scene.rooms)
+    if missing:
+        raise SceneError(f"no faces with room id(s) {sorted(missing)}", scene.source)
+    timings = {k: 0.0 for k in ("sampling", "maps", "votes", "postprocess", "radiosity")}
+    t_start = time.time()
+    runs = []
+
+    def report(frac, msg):
+        if progress is not None and progress(frac, msg) is False:
+            raise Cancelled(f"cancelled: {msg}")
+
+    for ri, room in enumerate(room_ids):
+        base = ri / len(room_ids)
+        step = 1.0 / len(room_ids)
+        report(base, f"room {int(room)}: voting points")
+        sub = scene.room_subset(int(room)) if len(scene.rooms) > 1 else scene
+        t = time.time()
+        density = s.votes_per_m2 or default_density(sub)
+        pts = voting_points(sub, density=density, seed=s.seed)
+        timings["sampling"] += time.time() - t
+        if len(pts) == 0 or not np.any(pts.lux > 0):
+            runs.append(RoomRun(room=int(room), scene=sub, points=pts,
+                                canvas=build_canvas(sub, int(room), s.pixel_m, dummy=False),
+                                votes=np.zeros(0, np.float32), problem=None, occluders=None,
+                                ambient_lux=0.0))
+            runs[-1].votes = np.zeros(runs[-1].canvas.size, np.float32)
+            continue
+        lit = pts.lux > 0
+        shade = pts.subset(pts.lux == 0)
+        # occluders
+        if s.occlusion is False:
+            occ = None
+        else:
+            faces = occluding_faces(sub) if s.occlusion == "auto" else sub.occluder_faces
+            occ = BVH(sub.triangles[faces]) if len(faces) else None
+        # interreflection
+        has_rho = bool(np.any(sub.face_reflectance[~sub.face_virtual] > 0))
+        ambient = _ambient_estimate(sub, pts) if (s.indirect != "none" and has_rho) else 0.0
+        report(base + 0.1 * step, f"room {int(room)}: vote maps")
+        t = time.time()
+        planes = None
+        if not s.all_planes:
+            planes = _visible_from_brightest(sub, pts.subset(lit), None)
+        canvas = build_canvas(sub, int(room), pixel=s.pixel_m, dummy=s.dummy_planes,
+                              dummy_spacing=s.dummy_spacing_m, dummy_count=s.dummy_count,
+                              dummy_lowest=s.dummy_lowest_m, two_sided=s.two_sided_dummies,
+                              planes=planes)
+        timings["maps"] += time.time() - t
+        report(base + 0.2 * step, f"room {int(room)}: votes")
+        t = time.time()
+        vote_lux = np.where(lit, np.maximum(pts.lux - ambient, 0.0), 0.0)
+        # a point barely above the ambient level carries no position information
+        vote_lux[vote_lux < 0.05 * pts.lux] = 0.0
+        W = vote_weights(canvas, pts, vote_lux, s.weighting, s.vote_strength)
+        shade_limit = s.shade_limit_lux
+        if shade_limit is None and len(shade):
+            shade_limit = max(1.0, 0.1 * float(np.median(pts.lux[lit])))
+        if s.vote_model == "exact":
+            cast = cast_exact_opencl if backend == "opencl" else cast_exact_numpy
+            votes = cast(canvas, pts, W, vote_lux, flux, bvh=occ, shade=shade,
+                         shade_limit_lux=shade_limit)
+        else:
+            from .votes_ellipse import cast_ellipse
+            votes = cast_ellipse(canvas, pts, W, vote_lux, flux, bvh=occ, shade=shade,
+                                 shade_limit_lux=shade_limit, backend=backend)
+        timings["votes"] += time.time() - t
+        # refinement problem
+        occluded_fn = None
+        if occ is not None and backend == "opencl":
+            from .occlusion import segments_occluded_opencl
+            occluded_fn = lambda p, q, _b=occ: segments_occluded_opencl(_b, p, q)
+        prob = RefineProblem(positions=pts.positions, normals=pts.normals, target=pts.lux,
+                             flux=flux, area=pts.area, bvh=occ, inside=_make_inside(canvas),
+                             occluded_fn=occluded_fn)
+        prob.indirect = np.full(len(pts), ambient)
+        indirect_model = None
+        if s.indirect == "radiosity" and has_rho:
+            t = time.time()
+            indirect_model = _Indirect(sub, pts, backend)
+            timings["radiosity"] += time.time() - t
+        run = RoomRun(room=int(room), scene=sub, points=pts, canvas=canvas, votes=votes,
+                      problem=prob, occluders=occ, ambient_lux=ambient,
+                      indirect_model=indirect_model)
+        report(base + 0.5 * step, f"room {int(room)}: peaks and refinement")
+        t = time.time()
+        _postprocess(run, s, flux,
+                     progress=lambda f, b=base, st=step: report(b + (0.5 + 0.5 * f) * st,
+                                                                f"room {int(room)}: refinement"))
+        timings["postprocess"] += time.time() - t
+        runs.append(run)
+    report(1.0, "done")
+    timings["total"] = time.time() - t_start
+    result = LocateResult(luminaires=_collect(runs, flux), settings=asdict(s),
+                          timings={k: round(v, 4) for k, v in timings.items()}, flux_lm=flux,
+                          rooms=runs, backend=backend)
+    return result

@@ -1,0 +1,34 @@
+"""Occlusion of arbitrary segments on the OpenCL device (``kernels/occlusion.cl``).
+
+Numpy twin: :func:`invrad_wb.core.bvh.segments_occluded_numpy` (and the brute-force
+reference :func:`invrad_wb.core.bvh.segments_occluded_bruteforce`).
+"""
+import numpy as np
+
+from .. import constants as C
+from .clenv import get_env, round_up
+
+
+def segments_occluded_opencl(bvh, p, q, eps=C.RAY_EPS_M):
+    """(k,) bool: whether a triangle of ``bvh`` crosses segment p[i] -> q[i] (metres)."""
+    p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
+    q = np.asarray(q, dtype=np.float64).reshape(-1, 3)
+    n = len(p)
+    if n == 0 or bvh.n_triangles == 0:
+        return np.zeros(n, dtype=bool)
+    env = get_env()
+    cl = env.cl
+    mf = cl.mem_flags
+    p4 = np.zeros((n, 4), np.float32)
+    q4 = np.zeros((n, 4), np.float32)
+    p4[:, :3] = p
+    q4[:, :3] = q
+    out = np.empty(n, np.uint8)
+    d_p = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=p4)
+    d_q = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=q4)
+    d_o = cl.Buffer(env.ctx, mf.WRITE_ONLY, out.nbytes)
+    knl = env.kernel("occlusion", "segments_occluded")
+    knl(env.queue, (round_up(n, 64),), None, np.int32(n), d_p, d_q, np.float32(eps),
+        *bvh.cl_buffers(env), d_o)
+    cl.enqueue_copy(env.queue, out, d_o)
+    return out.astype(bool)

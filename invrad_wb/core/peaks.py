@@ -1,0 +1,174 @@
+"""Post-processing of vote maps into candidate luminaire positions (thesis 4.2.4).
+
+1. Laplace filter to enhance local maxima: the maps are lightly smoothed (Gaussian, sigma
+   ``smooth_px`` pixels) and the negative Laplacian (3x3 kernel) is taken, computed only from
+   neighbours on the map's mask so that face borders make no false edges.
+2. Non-maxima suppression: a pixel survives if no pixel within ``neighbourhood`` metres is
+   higher (dummy layers of one side are treated as a 3-D stack: the layer above and below
+   count as neighbours, so a pendant's accumulation point is kept at its sharpest height).
+3. Joint scaling of all maps (planes and dummy planes together) to 0-255.
+4. Threshold (0-254): every surviving pixel above it is a candidate; candidates get a
+   sub-pixel position (parabola through the smoothed map), a 3-D position and the facing
+   normal of their map.
+
+Running this again with a new threshold or neighbourhood needs only the stored vote buffer
+(no new votes).
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import SettingsError
+
+
+@dataclass
+class Peak:
+    """A candidate luminaire position from the vote maps.
+
+    Attributes
+    ----------
+    map_index : int
+    ij : (2,) float64 continuous pixel coordinates (pixel centres at +0.5)
+    position : (3,) float64, metres
+    normal : (3,) float64, facing direction
+    score : float, 0-255 after joint scaling
+    votes : float, raw (smoothed) votes at the peak
+    kind : 'surface' or 'dummy'
+    plane : int (surface maps) or -1
+    room : int
+    """
+
+    map_index: int
+    ij: np.ndarray
+    position: np.ndarray
+    normal: np.ndarray
+    score: float
+    votes: float
+    kind: str
+    plane: int
+    room: int
+
+
+def _gauss_kernel(sigma):
+    r = max(1, int(np.ceil(3 * sigma)))
+    x = np.arange(-r, r + 1)
+    k = np.exp(-0.5 * (x / sigma) ** 2)
+    return k / k.sum()
+
+
+def _masked_blur(a, mask, sigma):
+    """Normalised convolution: Gaussian blur using only masked pixels."""
+    if sigma <= 0:
+        return np.where(mask, a, 0.0)
+    k = _gauss_kernel(sigma)
+    r = len(k) // 2
+
+    def sep(img):
+        p = np.pad(img, ((r, r), (0, 0)))
+        t = sum(k[i] * p[i:i + img.shape[0]] for i in range(len(k)))
+        p = np.pad(t, ((0, 0), (r, r)))
+        return sum(k[i] * p[:, i:i + img.shape[1]] for i in range(len(k)))
+
+    w = sep(mask.astype(np.float64))
+    num = sep(np.where(mask, a, 0.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = np.where(w > 1e-6, num / w, 0.0)
+    return np.where(mask, out, 0.0)
+
+
+def laplace_response(a, mask):
+    """Negative 3x3 Laplacian from masked neighbours only, clipped at 0 (peaks > 0)."""
+    p = np.pad(a, 1)
+    pm = np.pad(mask, 1)
+    acc = np.zeros_like(a)
+    cnt = np.zeros_like(a)
+    c = p[1:-1, 1:-1]
+    for di, dj in ((0, 1), (2, 1), (1, 0), (1, 2)):
+        nb = p[di:di + a.shape[0], dj:dj + a.shape[1]]
+        nm = pm[di:di + a.shape[0], dj:dj + a.shape[1]]
+        acc += np.where(nm, c - nb, 0.0)
+        cnt += nm
+    with np.errstate(invalid="ignore", divide="ignore"):
+        resp = np.where(cnt > 0, acc * (4.0 / np.maximum(cnt, 1)), 0.0)
+    return np.where(mask, np.maximum(resp, 0.0), 0.0)
+
+
+def _max_filter(a, r):
+    """Maximum over a disk of radius r pixels (r >= 1)."""
+    r = int(r)
+    out = a.copy()
+    p = np.pad(a, r, constant_values=-np.inf)
+    for di in range(-r, r + 1):
+        for dj in range(-r, r + 1):
+            if di * di + dj * dj > r * r + 1e-9 or (di == 0 and dj == 0):
+                continue
+            out = np.maximum(out, p[r + di:r + di + a.shape[0], r + dj:r + dj + a.shape[1]])
+    return out
+
+
+def _subpixel(s, i, j):
+    def par(m1, c0, p1):
+        den = m1 - 2 * c0 + p1
+        return 0.0 if den >= 0 else float(np.clip(0.5 * (m1 - p1) / den, -0.5, 0.5))
+    di = par(s[i - 1, j], s[i, j], s[i + 1, j]) if 0 < i < s.shape[0] - 1 else 0.0
+    dj = par(s[i, j - 1], s[i, j], s[i, j + 1]) if 0 < j < s.shape[1] - 1 else 0.0
+    return np.array([i + 0.5 + di, j + 0.5 + dj])
+
+
+def find_peaks(canvas, flat_votes, threshold=32.0, neighbourhood=0.3, smooth_px=1.0,
+               max_peaks=None):
+    """Candidate luminaire positions from a vote buffer.
+
+    Parameters
+    ----------
+    canvas : VoteCanvas
+    flat_votes : (canvas.size,) float32
+    threshold : float in [0, 254]
+        Keep peaks whose jointly scaled response exceeds this (254: only the best).
+    neighbourhood : float, metres
+        Non-maxima suppression radius.
+    smooth_px : float
+        Gaussian sigma (pixels) applied before the Laplace filter.
+
+    Returns
+    -------
+    peaks : list of Peak, best first
+    responses : list of (nu, nv) float64 scaled 0-255 responses (after NMS), per map
+    """
+    if not (0 <= threshold <= 254):
+        raise SettingsError(f"threshold must be in [0, 254], got {threshold!r}")
+    if not np.isfinite(neighbourhood) or neighbourhood < 0:
+        raise SettingsError(f"neighbourhood must be >= 0 metres, got {neighbourhood!r}")
+    maps = canvas.split(np.asarray(flat_votes, dtype=np.float64))
+    smooth, resp = [], []
+    for m, a in zip(canvas.maps, maps):
+        s = _masked_blur(a, m.mask, smooth_px)
+        smooth.append(s)
+        resp.append(laplace_response(s, m.mask))
+    r_px = max(1, int(round(neighbourhood / canvas.pixel)))
+    keep = []
+    for k, (m, r) in enumerate(zip(canvas.maps, resp)):
+        local = _max_filter(r, r_px)
+        if m.kind == "dummy":
+            # 3-D suppression across neighbouring layers of the same side
+            for k2, m2 in enumerate(canvas.maps):
+                if (k2 != k and m2.kind == "dummy" and abs(m2.layer - m.layer) == 1
+                        and np.allclose(m2.normal, m.normal) and m2.shape == m.shape):
+                    local = np.maximum(local, _max_filter(resp[k2], r_px))
+                    local = np.maximum(local, resp[k2])
+        keep.append((r >= local) & (r > 0) & m.mask)
+    top = max([float(r[kp].max()) for r, kp in zip(resp, keep) if kp.any()], default=0.0)
+    scaled = [np.where(kp, r * (255.0 / top), 0.0) if top > 0 else np.zeros_like(r)
+              for r, kp in zip(resp, keep)]
+    peaks = []
+    for k, (m, sc) in enumerate(zip(canvas.maps, scaled)):
+        for i, j in zip(*np.nonzero(sc > threshold)):
+            ij = _subpixel(smooth[k], i, j)
+            pos = m.to_world(ij[None])[0]
+            peaks.append(Peak(map_index=k, ij=ij, position=pos, normal=m.normal.copy(),
+                              score=float(sc[i, j]), votes=float(smooth[k][i, j]),
+                              kind=m.kind, plane=m.plane, room=m.room))
+    peaks.sort(key=lambda p: -p.score)
+    if max_peaks is not None:
+        peaks = peaks[:max_peaks]
+    return peaks, scaled

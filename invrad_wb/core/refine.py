@@ -1,0 +1,326 @@
+"""Joint refinement of luminaire positions (beyond the thesis).
+
+Vote peaks alone are biased where light overlaps: a point lit by two luminaires (and by
+interreflection) votes for the single luminaire that would explain all its light, so peaks
+move towards each other and phantom peaks appear between them. Here all luminaires' light is
+predicted *together* and the robust deviation of log illuminance over the voting points is
+minimised:
+
+    cost = mean_i rho(ln(E_pred_i + eps) - ln(E_target_i + eps)),
+    rho(r) = c^2/2 ln(1 + (r/c)^2)          (Cauchy, c = ``robust_scale``)
+    E_pred = sum_k F cos(theta_l) cos(theta_s) / (pi r^2) V_k + E_indirect
+
+by Levenberg-Marquardt with an analytic Jacobian (iteratively reweighted). Surface
+luminaires move in their plane (2 parameters, kept on the plane's faces), mid-air
+luminaires in 3-D (kept inside the room). ``E_indirect`` is a term supplied by the caller
+(constant ambient or the forward radiosity solve of the current luminaires), held fixed
+while positions move and refreshed between rounds.
+
+Candidates (vote peaks, best first) are added greedily and kept only if they lower the cost
+by a clear margin; afterwards each luminaire is removed again if the cost does not need it.
+The (1+1) evolution strategy of thesis 3.1.2.2 is available as an alternative optimiser.
+"""
+from dataclasses import dataclass, field
+import time
+
+import numpy as np
+
+from .. import constants as C
+from ..errors import Cancelled, SettingsError
+from .bvh import segments_occluded_numpy
+
+
+@dataclass
+class Light:
+    """A luminaire being refined.
+
+    kind : 'surface' (on map ``map_index``'s plane) or 'free' (mid-air, 3 parameters).
+    """
+
+    kind: str
+    position: np.ndarray
+    normal: np.ndarray
+    map_index: int
+    plane: int = -1
+    peak_score: float = 0.0
+    score: float = 0.0
+    origin: np.ndarray = None
+    u: np.ndarray = None
+    v: np.ndarray = None
+
+    def params(self):
+        if self.kind == "surface":
+            d = self.position - self.origin
+            return np.array([d @ self.u, d @ self.v])
+        return self.position.copy()
+
+    def with_params(self, p):
+        q = Light(**{**self.__dict__})
+        if self.kind == "surface":
+            q.position = self.origin + p[0] * self.u + p[1] * self.v
+        else:
+            q.position = np.asarray(p, dtype=np.float64).copy()
+        return q
+
+    def dpos(self):
+        """(n_params, 3) derivative of the position w.r.t. the parameters."""
+        return np.stack([self.u, self.v]) if self.kind == "surface" else np.eye(3)
+
+    def copy(self):
+        return Light(**{k: (v.copy() if isinstance(v, np.ndarray) else v)
+                        for k, v in self.__dict__.items()})
+
+
+@dataclass
+class RefineProblem:
+    """What the refinement fits.
+
+    Attributes
+    ----------
+    positions, normals : (k, 3) float64 voting points
+    target : (k,) float64 lux (0 = shade)
+    flux : float, lumens per luminaire
+    area : (k,) float64 weights (m^2 per point)
+    bvh : BVH or None (occluders; None = no occlusion)
+    inside : callable(Light) -> Light or None: the luminaire moved into the allowed region
+        (e.g. a mid-air luminaire clamped below the ceiling), or None if it cannot be
+    occluded_fn : callable(p (n,3), q (n,3)) -> (n,) bool, optional fast occlusion
+    """
+
+    positions: np.ndarray
+    normals: np.ndarray
+    target: np.ndarray
+    flux: float
+    area: np.ndarray
+    bvh: object = None
+    inside: object = None
+    occluded_fn: object = None
+    robust_scale: float = 0.15
+    eps_lux: float = None
+    indirect: np.ndarray = None
+    stats: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        pos = self.target[self.target > 0]
+        if self.eps_lux is None:
+            self.eps_lux = max(0.5, 0.02 * float(np.median(pos))) if len(pos) else 1.0
+        if self.indirect is None:
+            self.indirect = np.zeros(len(self.target))
+        self.w_area = self.area / self.area.sum()
+        self.log_target = np.log(self.target + self.eps_lux)
+        self.stats.setdefault("visibility_rays", 0)
+        self.stats.setdefault("evaluations", 0)
+
+    # ------------------------------------------------------------------ forward model
+    def visibility(self, light):
+        if self.bvh is None:
+            return np.ones(len(self.positions), dtype=bool)
+        d = light.position - self.positions
+        front = (d @ light.normal < 0) & (np.einsum("ij,ij->i", d, self.normals) > 0)
+        vis = np.zeros(len(self.positions), dtype=bool)
+        idx = np.flatnonzero(front)
+        if len(idx):
+            p = self.positions[idx] + self.normals[idx] * C.RAY_EPS_M
+            q = np.broadcast_to(light.position + light.normal * C.RAY_EPS_M, (len(idx), 3))
+            fn = self.occluded_fn or (lambda a, b: segments_occluded_numpy(self.bvh, a, b))
+            vis[idx] = ~fn(p, q)
+            self.stats["visibility_rays"] += len(idx)
+        return vis
+
+    def light_of(self, light, vis, with_grad=False):
+        """Illuminance (k,) of one luminaire at the points, and d E / d position (k, 3)."""
+        d = light.position - self.positions            # c - s
+        A = -(d @ light.normal)
+        B = np.einsum("ij,ij->i", d, self.normals)
+        r2 = np.einsum("ij,ij->i", d, d)
+        ok = (A > 1e-9) & (B > 1e-9) & vis
+        Ac, Bc = np.where(ok, A, 1.0), np.where(ok, B, 1.0)
+        E = np.where(ok, self.flux * Ac * Bc / (np.pi * r2 * r2), 0.0)
+        self.stats["evaluations"] += 1
+        if not with_grad:
+            return E, None
+        g = (-light.normal[None, :] / Ac[:, None] + self.normals / Bc[:, None]
+             - 4.0 * d / r2[:, None])
+        return E, E[:, None] * g
+
+    def residuals(self, lights, vis_list, with_jac=False):
+        E = self.indirect.copy()
+        jac_blocks = []
+        for L, vis in zip(lights, vis_list):
+            e, de = self.light_of(L, vis, with_jac)
+            E += e
+            if with_jac:
+                jac_blocks.append(de @ L.dpos().T)
+        Ep = E + self.eps_lux
+        r = np.log(Ep) - self.log_target
+        if not with_jac:
+            return r, None
+        J = np.concatenate(jac_blocks, axis=1) / Ep[:, None] if jac_blocks else \
+            np.zeros((len(r), 0))
+        return r, J
+
+    def cost_of(self, r):
+        c = self.robust_scale
+        return float(np.sum(self.w_area * 0.5 * c * c * np.log1p((r / c) ** 2)))
+
+    def cost(self, lights, vis_list=None):
+        if vis_list is None:
+            vis_list = [self.visibility(L) for L in lights]
+        r, _ = self.residuals(lights, vis_list)
+        return self.cost_of(r)
+
+    # ------------------------------------------------------------------ optimisers
+    def levenberg_marquardt(self, lights, iterations=25, tol=1e-7):
+        """Jointly refine all positions; returns (lights, cost)."""
+        lights = [L.copy() for L in lights]
+        if not lights:
+            return lights, self.cost([])
+        vis = [self.visibility(L) for L in lights]
+        vis_at = [L.position.copy() for L in lights]
+        r, J = self.residuals(lights, vis, True)
+        cost = self.cost_of(r)
+        lam = 1e-3
+        c = self.robust_scale
+        sizes = [len(L.params()) for L in lights]
+        for _ in range(iterations):
+            w = self.w_area / (1.0 + (r / c) ** 2)
+            JtW = J.T * w
+            H = JtW @ J
+            g = JtW @ r
+            improved = False
+            for _try in range(8):
+                A = H + lam * np.diag(np.maximum(np.diag(H), 1e-12))
+                try:
+                    step = -np.linalg.solve(A, g)
+                except np.linalg.LinAlgError:
+                    lam *= 10
+                    continue
+                new, k = [], 0
+                for L, sz in zip(lights, sizes):
+                    cand = L.with_params(L.params() + step[k:k + sz])
+                    if self.inside is not None:
+                        cand = self.inside(cand)
+                        # a luminaire that would leave its plane/room keeps its place
+                        cand = L if cand is None else cand
+                    new.append(cand)
+                    k += sz
+                r_new, _ = self.residuals(new, vis)
+                cost_new = self.cost_of(r_new)
+                if cost_new < cost:
+                    improved = True
+                    gain = cost - cost_new
+                    lights, cost = new, cost_new
+                    lam = max(lam / 3, 1e-9)
+                    break
+                lam *= 10
+            if not improved:
+                break
+            # refresh visibility where a luminaire moved noticeably
+            for i, L in enumerate(lights):
+                if np.linalg.norm(L.position - vis_at[i]) > 0.02:
+                    vis[i] = self.visibility(L)
+                    vis_at[i] = L.position.copy()
+            r, J = self.residuals(lights, vis, True)
+            cost = self.cost_of(r)
+            if gain < tol * max(cost, 1e-12) or np.linalg.norm(step) < 1e-5:
+                break
+        return lights, cost
+
+    def evolution_strategy(self, lights, iterations=400, sigma=0.1, seed=0):
+        """The thesis' (1+1) evolution strategy with the 1/5 success rule (factor 0.85)."""
+        rng = np.random.default_rng(seed)
+        lights = [L.copy() for L in lights]
+        if not lights:
+            return lights, self.cost([])
+        vis = [self.visibility(L) for L in lights]
+        cost = self.cost(lights, vis)
+        success, tried = 0, 0
+        for it in range(iterations):
+            new = [L.with_params(L.params() + sigma * rng.standard_normal(len(L.params())))
+                   for L in lights]
+            if self.inside is not None:
+                new = [self.inside(L) for L in new]
+            if any(L is None for L in new):
+                tried += 1
+            else:
+                c_new = self.cost(new, vis)
+                tried += 1
+                if c_new < cost:
+                    lights, cost = new, c_new
+                    success += 1
+            if tried == 20:
+                sigma = sigma / 0.85 if success / tried > 0.2 else sigma * 0.85
+                success = tried = 0
+                vis = [self.visibility(L) for L in lights]
+                cost = self.cost(lights, vis)
+            if sigma < 1e-4:
+                break
+        return lights, cost
+
+
+def greedy_select(problem, candidates, min_gain=0.05, max_lights=64, merge_distance=0.25,
+                  optimiser="lm", progress=None, deadline=None):
+    """Add candidates best first while they clearly lower the cost; then prune.
+
+    Parameters
+    ----------
+    problem : RefineProblem
+    candidates : list of Light (best first)
+    min_gain : float
+        A candidate is kept if it lowers the cost by at least this fraction; a luminaire is
+        pruned if removing it raises the cost by less than this fraction.
+    merge_distance : float, metres
+        Candidates this close to an accepted luminaire facing the same way are skipped.
+
+    Returns
+    -------
+    lights : list of Light, with ``score`` = relative cost increase without it
+    cost : float
+    trace : list of dict (what happened to each candidate)
+    """
+    if optimiser not in ("lm", "es"):
+        raise SettingsError(f"optimiser must be 'lm' or 'es', got {optimiser!r}")
+    opt = problem.levenberg_marquardt if optimiser == "lm" else problem.evolution_strategy
+    lights = []
+    cost = problem.cost([])
+    floor = 1e-5
+    trace = []
+    for ci, cand in enumerate(candidates):
+        if progress is not None and progress(ci / max(len(candidates), 1)) is False:
+            raise Cancelled("cancelled during refinement")
+        if len(lights) >= max_lights or cost < floor:
+            break
+        if deadline is not None and time.time() > deadline:
+            trace.append({"candidate": ci, "result": "time limit"})
+            break
+        near = [L for L in lights if np.linalg.norm(L.position - cand.position) < merge_distance
+                and L.normal @ cand.normal > 0.5]
+        if near:
+            trace.append({"candidate": ci, "result": "near accepted luminaire"})
+            continue
+        trial, c_trial = opt(lights + [cand])
+        if c_trial < cost * (1.0 - min_gain):
+            trace.append({"candidate": ci, "result": "kept", "cost_before": cost,
+                          "cost_after": c_trial})
+            lights, cost = trial, c_trial
+        else:
+            trace.append({"candidate": ci, "result": "rejected", "cost_before": cost,
+                          "cost_after": c_trial})
+    # prune luminaires the cost does not need (a later one may have taken over their job)
+    changed = True
+    while changed and len(lights) > 1:
+        changed = False
+        for i in range(len(lights)):
+            rest = lights[:i] + lights[i + 1:]
+            rest_opt, c_rest = opt(rest)
+            if c_rest < cost * (1.0 + min_gain):
+                trace.append({"pruned": i, "cost_before": cost, "cost_after": c_rest})
+                lights, cost = rest_opt, c_rest
+                changed = True
+                break
+    # score: how much each luminaire is needed
+    for i, L in enumerate(lights):
+        rest = lights[:i] + lights[i + 1:]
+        c_rest = problem.cost(rest)
+        L.score = float((c_rest - cost) / max(c_rest, 1e-12))
+    return lights, cost, trace

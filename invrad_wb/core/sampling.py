@@ -1,0 +1,159 @@
+"""Poisson-disk voting points on a room's surfaces (thesis 4.1.1.1 and 4.2.2).
+
+As in the thesis, the Poisson-disk pattern is precalculated (``tables/poisson_tile.npz``, a
+tileable pattern of a unit square made by ``tables/make_poisson_tile.py``) and looked up at
+run time. Unlike the thesis, which sampled each triangle on its own (so the minimum distance
+broke down at triangle borders and on finely meshed surfaces), the tile is laid over each
+*plane* in its (u, v) coordinates, scaled to the requested density, with a per-plane offset;
+points outside the plane's faces are dropped. Each point gets the face it lies on, its
+barycentric coordinates and the face's target illuminance there.
+"""
+from dataclasses import dataclass
+import functools
+import hashlib
+import json
+import os
+
+import numpy as np
+
+from .. import constants as C
+from ..errors import InvradError, SettingsError
+from .raster import locate_points, plane_triangles_2d
+
+
+@dataclass
+class VotingPoints:
+    """Voting points of a scene.
+
+    Attributes
+    ----------
+    positions : (k, 3) float64, metres
+    normals : (k, 3) float64, unit (the face's plane normal)
+    face : (k,) int64 scene face
+    plane : (k,) int64 scene plane
+    bary : (k, 3) float64 barycentric coordinates in the face
+    lux : (k,) float64 target illuminance (NaN = no target, 0 = shade)
+    area : (k,) float64, m^2 each point stands for (1 / density)
+    density : float, points per m^2
+    """
+
+    positions: np.ndarray
+    normals: np.ndarray
+    face: np.ndarray
+    plane: np.ndarray
+    bary: np.ndarray
+    lux: np.ndarray
+    area: np.ndarray
+    density: float
+
+    def __len__(self):
+        return len(self.positions)
+
+    def subset(self, mask):
+        return VotingPoints(self.positions[mask], self.normals[mask], self.face[mask],
+                            self.plane[mask], self.bary[mask], self.lux[mask],
+                            self.area[mask], self.density)
+
+
+@functools.lru_cache(maxsize=1)
+def poisson_tile():
+    """The precalculated tileable Poisson-disk pattern: points (N, 2) in [0, 1)^2.
+
+    Raises
+    ------
+    InvradError
+        If the file is missing or its checksum does not match.
+    """
+    path = os.path.join(C.TABLES_DIR, "poisson_tile.npz")
+    meta_path = os.path.join(C.TABLES_DIR, "poisson_tile.json")
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read()
+        with open(meta_path, "r", encoding="utf-8") as fh:
+            meta = json.load(fh)
+    except OSError as exc:
+        raise InvradError(f"{exc.filename}: missing ({exc.strerror}); regenerate it with"
+                          " 'python tables/make_poisson_tile.py'")
+    if hashlib.sha256(data).hexdigest() != meta.get("sha256"):
+        raise InvradError(f"{path}: checksum does not match {meta_path}; regenerate it with"
+                          " 'python tables/make_poisson_tile.py'")
+    import io
+    return np.load(io.BytesIO(data))["points"]
+
+
+def sample_plane(scene, plane, density, seed=0):
+    """Poisson-disk points on one plane's faces.
+
+    Returns
+    -------
+    positions (k, 3), face (k,), bary (k, 3)
+    """
+    tile = poisson_tile()
+    side = np.sqrt(len(tile) / density)  # metres covered by one tile
+    rng = np.random.default_rng([seed, plane.index])
+    offset = rng.random(2) * side
+    nu = int(np.ceil((plane.size[0] + side) / side))
+    nv = int(np.ceil((plane.size[1] + side) / side))
+    gi, gj = np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij")
+    shifts = np.stack([gi.reshape(-1), gj.reshape(-1)], axis=1) * side - offset
+    uv = (tile[None, :, :] * side + shifts[:, None, :]).reshape(-1, 2)
+    keep = ((uv[:, 0] >= -1e-9) & (uv[:, 0] <= plane.size[0] + 1e-9)
+            & (uv[:, 1] >= -1e-9) & (uv[:, 1] <= plane.size[1] + 1e-9))
+    uv = uv[keep]
+    tri_idx, bary = locate_points(plane_triangles_2d(scene, plane), uv)
+    ok = tri_idx >= 0
+    faces = plane.faces[tri_idx[ok]]
+    bary = bary[ok]
+    pos = np.einsum("kj,kjc->kc", bary, scene.vertices[scene.faces[faces]])
+    return pos, faces, bary
+
+
+def default_density(scene, target_points=3000, lo=2.0, hi=400.0):
+    """Votes per m^2 giving about ``target_points`` points per room (the largest room)."""
+    areas = np.bincount(scene.face_room, weights=scene.face_areas)
+    largest = float(areas.max())
+    return float(np.clip(target_points / max(largest, 1e-9), lo, hi))
+
+
+def voting_points(scene, density=None, planes=None, seed=0, keep_untargeted=False):
+    """Poisson-disk voting points over a scene's planes.
+
+    Parameters
+    ----------
+    scene : Scene
+    density : float, optional
+        Votes per square metre (the thesis' "votes per square meter"); default
+        :func:`default_density`.
+    planes : iterable of int, optional
+        Planes to sample (default: all).
+    seed : int
+        Seed of the per-plane tile offsets (results are deterministic).
+    keep_untargeted : bool
+        Keep points whose target is NaN (no target).
+
+    Returns
+    -------
+    VotingPoints
+    """
+    if density is None:
+        density = default_density(scene)
+    density = float(density)
+    if not np.isfinite(density) or density <= 0:
+        raise SettingsError(f"votes per m^2 must be a positive number, got {density!r}")
+    plane_ids = range(len(scene.planes)) if planes is None else planes
+    pos, fac, bar = [], [], []
+    for pi in plane_ids:
+        p, f, b = sample_plane(scene, scene.planes[pi], density, seed)
+        pos.append(p)
+        fac.append(f)
+        bar.append(b)
+    pos = np.concatenate(pos) if pos else np.zeros((0, 3))
+    fac = np.concatenate(fac).astype(np.int64) if fac else np.zeros(0, np.int64)
+    bar = np.concatenate(bar) if bar else np.zeros((0, 3))
+    lux = scene.target_lux(fac, bar)
+    pts = VotingPoints(positions=pos, normals=scene.face_normals[fac].copy(), face=fac,
+                       plane=scene.face_plane[fac], bary=bar, lux=lux,
+                       area=np.full(len(pos), 1.0 / density), density=density)
+    if not keep_untargeted:
+        pts = pts.subset(np.isfinite(lux))
+    return pts

@@ -1,0 +1,312 @@
+"""Vote maps: one raster per plane a luminaire may sit on, plus the dummy planes.
+
+Each map is a grid of candidate luminaire positions at ``pixel`` metres on a plane:
+
+* a *surface* map for every real plane of a room (the luminaire is mounted on it and faces
+  along the plane's normal); pixels off the plane's faces are masked out;
+* *dummy* maps (thesis 3.2.5): horizontal layers from the ceiling down, for luminaires in
+  mid-air (pendants). One-sided layers (the thesis) hold downward-facing luminaires;
+  two-sided layers (its future work) add an upward-facing map at the same height. Pixels
+  outside the room's footprint or too close to the ceiling/floor are masked out.
+
+All maps live in one flat float32 buffer (``offsets``) so that a kernel can write any of them.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import SettingsError
+from .raster import locate_points, plane_triangles_2d
+from .scene import plane_basis
+
+
+@dataclass
+class VoteMap:
+    """One candidate-position raster.
+
+    Attributes
+    ----------
+    kind : {'surface', 'dummy'}
+    plane : int
+        Scene plane index (surface maps) or -1.
+    layer : int
+        Dummy layer index (dummy maps) or -1.
+    room : int
+    normal : (3,) float64
+        Facing direction of a luminaire on this map (surface maps: the plane's normal).
+    offset : float
+        The map's plane: ``normal . x + offset = 0``; points in front have positive
+        ``normal . x + offset`` (metres).
+    origin, u, v : (3,) float64
+        Pixel (i, j) has its centre at ``origin + (i + 0.5) * pixel * u + (j + 0.5) * pixel * v``.
+    shape : (nu, nv)
+    pixel : float, metres
+    mask : (nu, nv) bool
+        Pixels where a luminaire may be placed.
+    start : int
+        Offset of this map in the flat buffer (row-major over (i, j); rows padded to
+        ``stride`` pixels).
+    stride : int
+        Padded row length (multiple of 16) of the flat buffer layout, rows along j.
+    """
+
+    kind: str
+    plane: int
+    layer: int
+    room: int
+    normal: np.ndarray
+    offset: float
+    origin: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    shape: tuple
+    pixel: float
+    mask: np.ndarray
+    start: int = 0
+    stride: int = 0
+    height: float = float("nan")
+
+    @property
+    def name(self):
+        if self.kind == "surface":
+            return f"plane{self.plane:03d}"
+        side = "down" if self.normal[2] < 0 else "up"
+        return f"dummy{self.layer:02d}_{side}_z{self.height:.2f}m"
+
+    def pixel_centres(self):
+        """(nu, nv, 3) float64 world positions of the pixel centres."""
+        nu, nv = self.shape
+        i = (np.arange(nu) + 0.5) * self.pixel
+        j = (np.arange(nv) + 0.5) * self.pixel
+        return (self.origin + i[:, None, None] * self.u + j[None, :, None] * self.v)
+
+    def to_world(self, ij):
+        """Continuous pixel coordinates (k, 2) (pixel centres at +0.5) -> (k, 3) positions."""
+        ij = np.asarray(ij, dtype=np.float64)
+        return (self.origin + ij[:, :1] * self.pixel * self.u
+                + ij[:, 1:2] * self.pixel * self.v)
+
+
+def _align(n, m=16):
+    return ((n + m - 1) // m) * m
+
+
+@dataclass
+class DummyGrid:
+    """The room's footprint raster used for dummy planes and to keep luminaires inside.
+
+    ``footprint[i, j]``: the vertical line through pixel (i, j) meets a floor-like face;
+    ``ceiling_z[i, j]``: height of the ceiling-like face above it (-inf if none).
+    """
+
+    origin: np.ndarray
+    pixel: float
+    footprint: np.ndarray
+    ceiling_z: np.ndarray
+    floor_z: float
+
+    def clamp(self, p, margin=1e-3):
+        """The point with its height clamped into the room, or None outside the footprint."""
+        i = int(np.floor((p[0] - self.origin[0]) / self.pixel))
+        j = int(np.floor((p[1] - self.origin[1]) / self.pixel))
+        if not (0 <= i < self.footprint.shape[0] and 0 <= j < self.footprint.shape[1]):
+            return None
+        if not self.footprint[i, j] or self.ceiling_z[i, j] - margin <= self.floor_z + margin:
+            return None
+        z = min(max(p[2], self.floor_z + margin), self.ceiling_z[i, j] - margin)
+        if z == p[2]:
+            return p
+        return np.array([p[0], p[1], z])
+
+    def contains(self, p, margin=1e-3):
+        """Whether the point (3,) lies inside the room (below its ceiling, above its floor)."""
+        i = int(np.floor((p[0] - self.origin[0]) / self.pixel))
+        j = int(np.floor((p[1] - self.origin[1]) / self.pixel))
+        if not (0 <= i < self.footprint.shape[0] and 0 <= j < self.footprint.shape[1]):
+            return False
+        return bool(self.footprint[i, j] and self.floor_z + margin < p[2]
+                    < self.ceiling_z[i, j] - margin)
+
+
+@dataclass
+class VoteCanvas:
+    """All vote maps of one room and their flat layout.
+
+    Attributes
+    ----------
+    maps : list of VoteMap
+    size : int
+        Length of the flat buffer (pixels, padded).
+    """
+
+    maps: list
+    size: int
+    pixel: float
+    room: int
+    dummy_heights: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    grid: DummyGrid = None
+
+    def map_contains(self, map_index, p):
+        """Whether point p (3,) projects onto a valid pixel of a surface map."""
+        m = self.maps[map_index]
+        d = np.asarray(p) - m.origin
+        i = int(np.floor(d @ m.u / m.pixel))
+        j = int(np.floor(d @ m.v / m.pixel))
+        return bool(0 <= i < m.shape[0] and 0 <= j < m.shape[1] and m.mask[i, j])
+
+    def split(self, flat):
+        """Flat buffer (size,) -> list of (nu, nv) arrays, one per map (views)."""
+        out = []
+        for m in self.maps:
+            nu, nv = m.shape
+            out.append(flat[m.start:m.start + nu * m.stride].reshape(nu, m.stride)[:, :nv])
+        return out
+
+    def mask_flat(self):
+        flat = np.zeros(self.size, dtype=bool)
+        for m, view in zip(self.maps, self.split(flat)):
+            view[...] = m.mask
+        return flat
+
+
+def _surface_map(scene, plane, pixel):
+    nu = max(1, int(np.ceil(plane.size[0] / pixel - 1e-9)))
+    nv = max(1, int(np.ceil(plane.size[1] / pixel - 1e-9)))
+    # centre the grid on the plane's extent
+    extra = (np.array([nu, nv]) * pixel - plane.size) / 2
+    origin = plane.origin - extra[0] * plane.u - extra[1] * plane.v
+    i = (np.arange(nu) + 0.5) * pixel - extra[0]
+    j = (np.arange(nv) + 0.5) * pixel - extra[1]
+    I, J = np.meshgrid(i, j, indexing="ij")
+    tri, _ = locate_points(plane_triangles_2d(scene, plane),
+                           np.stack([I.reshape(-1), J.reshape(-1)], axis=1))
+    mask = (tri >= 0).reshape(nu, nv)
+    return VoteMap(kind="surface", plane=plane.index, layer=-1, room=plane.room,
+                   normal=plane.normal.copy(), offset=plane.offset, origin=origin,
+                   u=plane.u.copy(), v=plane.v.copy(), shape=(nu, nv), pixel=pixel, mask=mask)
+
+
+def dummy_layer_heights(scene, room, spacing, count=None, lowest=None):
+    """Heights (z, metres) of dummy layers from just below the ceiling downwards.
+
+    Parameters
+    ----------
+    spacing : float
+        Distance between layers (metres); the first layer is one spacing below the
+        highest ceiling point.
+    count : int, optional
+        Number of layers; default: down to ``lowest``.
+    lowest : float, optional
+        Lowest layer height above the floor (default 1.5 m, the lowest a pendant usually
+        hangs above a floor; tables are lower).
+    """
+    sel = (scene.face_room == room) & ~scene.face_virtual
+    n = scene.face_normals[sel]
+    z = scene.face_centroids[sel][:, 2]
+    tri = scene.triangles[sel]
+    up, down = n[:, 2] > 0.3, n[:, 2] < -0.3
+    if not up.any() or not down.any():
+        return np.zeros(0)
+    floor = float(tri[up][:, :, 2].min())
+    ceiling = float(tri[down][:, :, 2].max())
+    lowest = 1.5 if lowest is None else float(lowest)
+    top = ceiling - spacing
+    if count is None:
+        bottom = floor + min(lowest, 0.5 * (ceiling - floor))
+        count = int(np.floor((top - bottom) / spacing + 1e-9)) + 1
+    heights = top - spacing * np.arange(max(0, int(count)))
+    return heights[heights > floor + 0.1]
+
+
+def _dummy_maps(scene, room, heights, pixel, two_sided, clearance):
+    sel = np.flatnonzero((scene.face_room == room) & ~scene.face_virtual)
+    n = scene.face_normals[sel]
+    tri = scene.triangles[sel]
+    up = tri[n[:, 2] > 0.3]
+    down = tri[n[:, 2] < -0.3]
+    lo = tri.reshape(-1, 3).min(0)
+    hi = tri.reshape(-1, 3).max(0)
+    nu = max(1, int(np.ceil((hi[0] - lo[0]) / pixel - 1e-9)))
+    nv = max(1, int(np.ceil((hi[1] - lo[1]) / pixel - 1e-9)))
+    extra = (np.array([nu, nv]) * pixel - (hi[:2] - lo[:2])) / 2
+    x = lo[0] - extra[0] + (np.arange(nu) + 0.5) * pixel
+    y = lo[1] - extra[1] + (np.arange(nv) + 0.5) * pixel
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    xy = np.stack([X.reshape(-1), Y.reshape(-1)], axis=1)
+    t_up, _ = locate_points(up[:, :, :2], xy)
+    t_dn, b_dn = locate_points(down[:, :, :2], xy)
+    ceil_z = np.full(len(xy), -np.inf)
+    ok = t_dn >= 0
+    ceil_z[ok] = np.einsum("kj,kj->k", b_dn[ok], down[t_dn[ok]][:, :, 2])
+    footprint = t_up >= 0
+    grid = DummyGrid(origin=np.array([lo[0] - extra[0], lo[1] - extra[1]]), pixel=pixel,
+                     footprint=footprint.reshape(nu, nv), ceiling_z=ceil_z.reshape(nu, nv),
+                     floor_z=float(up[:, :, 2].min()) if len(up) else float(lo[2]))
+    maps = []
+    sides = [np.array([0.0, 0.0, -1.0])] + ([np.array([0.0, 0.0, 1.0])] if two_sided else [])
+    for k, z in enumerate(heights):
+        mask = (footprint & (ceil_z > z + clearance)).reshape(nu, nv)
+        for nrm in sides:
+            u, v = plane_basis(nrm)
+            # pixel (i, j) centre must be (x_i, y_j): choose u = +x, v = +y on both sides
+            u = np.array([1.0, 0.0, 0.0])
+            v = np.array([0.0, 1.0, 0.0])
+            origin = np.array([lo[0] - extra[0], lo[1] - extra[1], z])
+            maps.append(VoteMap(kind="dummy", plane=-1, layer=k, room=room, normal=nrm,
+                                offset=float(-nrm @ origin), origin=origin, u=u, v=v,
+                                shape=(nu, nv), pixel=pixel, mask=mask.copy(), height=float(z)))
+    return maps, grid
+
+
+def build_canvas(scene, room, pixel=0.1, dummy=True, dummy_spacing=0.15, dummy_count=None,
+                 dummy_lowest=None, two_sided=False, planes=None):
+    """Vote maps of one room.
+
+    Parameters
+    ----------
+    scene : Scene
+    room : int
+    pixel : float
+        Vote-map resolution in metres per pixel.
+    dummy : bool
+        Add dummy planes (the thesis' "midair vote").
+    dummy_spacing, dummy_count, dummy_lowest :
+        Layers from one spacing below the ceiling downwards (see :func:`dummy_layer_heights`).
+    two_sided : bool
+        Dummy layers also hold upward-facing luminaires.
+    planes : iterable of int, optional
+        Restrict surface maps to these planes (default: every real plane of the room).
+
+    Returns
+    -------
+    VoteCanvas
+    """
+    pixel = float(pixel)
+    if not np.isfinite(pixel) or pixel <= 0:
+        raise SettingsError(f"vote-map resolution must be a positive number of metres, got"
+                            f" {pixel!r}")
+    maps = []
+    plane_ids = [p.index for p in scene.planes if p.room == room and not p.is_virtual]
+    if planes is not None:
+        allowed = set(int(p) for p in planes)
+        plane_ids = [p for p in plane_ids if p in allowed]
+    for pi in plane_ids:
+        m = _surface_map(scene, scene.planes[pi], pixel)
+        if m.mask.any():
+            maps.append(m)
+    heights = np.zeros(0)
+    if dummy:
+        if dummy_spacing <= 0:
+            raise SettingsError(f"dummy plane spacing must be > 0 m, got {dummy_spacing!r}")
+        heights = dummy_layer_heights(scene, room, dummy_spacing, dummy_count, dummy_lowest)
+    # the footprint grid is always built: it also keeps refined luminaires inside the room
+    dmaps, grid = _dummy_maps(scene, room, heights, pixel, two_sided,
+                              clearance=0.5 * dummy_spacing if dummy else 0.0)
+    maps += dmaps
+    start = 0
+    for m in maps:
+        m.stride = _align(m.shape[1])
+        m.start = start
+        start += m.shape[0] * m.stride
+    return VoteCanvas(maps=maps, size=start, pixel=pixel, room=room, dummy_heights=heights,
+                      grid=grid)

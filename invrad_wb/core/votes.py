@@ -1,0 +1,265 @@
+"""Vote casting: voting points vote for the luminaire positions that explain their light.
+
+A point ``s`` with normal ``m`` and vote illuminance ``E`` votes, on every map (plane or
+dummy plane, luminaire normal ``n``), for the contour of candidate positions ``c`` where a
+lambertian luminaire of flux ``F`` gives exactly ``E`` (thesis 3.2.5). Two vote models:
+
+* ``exact``: the true iso-illuminance contour evaluated per pixel (``kernels/votes_exact.cl``
+  and :func:`cast_exact_numpy`); no ellipse-fit error, any plane orientation.
+* ``ellipse``: the thesis' deformed ellipse from the precomputed voting table, sampled and
+  rasterised (:mod:`invrad_wb.core.votes_ellipse`).
+
+Weights per (map, point), :func:`vote_weights`: the declining tests of thesis 4.2.3 (no
+vote to the point's own plane, to planes it lies behind, from points with no light), the
+weighting option (``illumination``: E / E_max; ``distance``: the normalised form factor,
+i.e. the maximum a luminaire on that map can give the point relative to the best map;
+``both``; ``none``) and the vote strength.
+"""
+import numpy as np
+
+from .. import constants as C
+from ..errors import SettingsError
+from .bvh import segments_occluded_numpy
+from .clenv import get_env, round_up
+
+WEIGHTINGS = ("illumination", "distance", "both", "none")
+
+
+def emax_per_lumen(h, cos_alpha):
+    """Maximum illuminance per lumen a luminaire on a plane can give a point (closed form).
+
+    The point lies ``h`` metres in front of the plane (luminaire normal n) and its normal m
+    makes the angle alpha with n. On the line of symmetry, with h = 1,
+    ``e(x) = (x sin(alpha) - cos(alpha)) / (pi (x^2 + 1)^2)``, maximal where
+    ``3 sin(alpha) x^2 - 4 cos(alpha) x - sin(alpha) = 0``; and e scales as 1 / h^2.
+
+    Parameters
+    ----------
+    h : array, metres (> 0)
+    cos_alpha : array, cos of the angle between receiver normal m and luminaire normal n
+
+    Returns
+    -------
+    e_max : array, lux per lumen
+    x_max : array, metres: offset of the maximum from the foot point, towards where the
+        receiver faces
+    """
+    c = np.clip(np.asarray(cos_alpha, dtype=np.float64), -1.0, 1.0)
+    s = np.sqrt(np.maximum(1.0 - c * c, 0.0))
+    h = np.asarray(h, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = np.where(s > 1e-9, (4 * c + np.sqrt(16 * c * c + 12 * s * s)) / (6 * np.maximum(s, 1e-300)),
+                     0.0)
+        e = np.where(s > 1e-9, (x * s - c) / (np.pi * (x * x + 1) ** 2), np.where(c < 0, 1 / np.pi, 0.0))
+    e = np.maximum(e, 0.0)
+    return e / np.maximum(h, 1e-300) ** 2, x * h
+
+
+def vote_weights(canvas, points, vote_lux, weighting="illumination", strength=1.0):
+    """Per (map, point) vote weights, 0 where a vote is declined.
+
+    Parameters
+    ----------
+    canvas : VoteCanvas
+    points : VotingPoints
+    vote_lux : (k,) float64
+        Illuminance each point votes with (its target minus the ambient estimate), lux.
+    weighting : {'illumination', 'distance', 'both', 'none'}
+    strength : float
+        Basic weight of each vote.
+
+    Returns
+    -------
+    (n_maps, k) float32
+    """
+    if weighting not in WEIGHTINGS:
+        raise SettingsError(f"weighting must be one of {WEIGHTINGS}, got {weighting!r}")
+    if not np.isfinite(strength) or strength <= 0:
+        raise SettingsError(f"vote strength must be > 0, got {strength!r}")
+    nm, k = len(canvas.maps), len(points)
+    W = np.zeros((nm, k))
+    if nm == 0 or k == 0:
+        return W.astype(np.float32)
+    normals = np.array([m.normal for m in canvas.maps])
+    offsets = np.array([m.offset for m in canvas.maps])
+    h = normals @ points.positions.T + offsets[:, None]          # (maps, k) metres in front
+    cos_a = normals @ points.normals.T                            # (maps, k)
+    emax, _ = emax_per_lumen(np.maximum(h, 1e-9), cos_a)
+    ok = (h > 1e-3) & (cos_a < 1.0 - 1e-6) & (emax > 0)
+    ok &= (vote_lux > 0)[None, :]
+    own = np.array([m.plane for m in canvas.maps])[:, None] == points.plane[None, :]
+    ok &= ~own
+    W[ok] = strength
+    if weighting in ("illumination", "both"):
+        W *= (vote_lux / max(float(np.max(vote_lux)), 1e-12))[None, :]
+    if weighting in ("distance", "both"):
+        em = np.where(ok, emax, 0.0)
+        best = em.max(axis=0, keepdims=True)
+        W *= np.where(best > 0, em / np.maximum(best, 1e-300), 0.0)
+    return W.astype(np.float32)
+
+
+def _tent_numpy(c, n, s, m, lnE, w, pixel):
+    """Exact-vote tent weights for candidates c (p, 3) and points s (k, 3): (p, k)."""
+    d = c[:, None, :] - s[None, :, :]
+    A = -(d @ n)
+    B = np.einsum("pkc,kc->pk", d, m)
+    r2 = np.einsum("pkc,pkc->pk", d, d)
+    ok = (A > 1e-6) & (B > 1e-6)
+    Ac = np.where(ok, A, 1.0)
+    Bc = np.where(ok, B, 1.0)
+    lne = np.log(Ac * Bc / (r2 * r2)) - np.log(np.pi)
+    L = lne - lnE[None, :]
+    g = (-n[None, None, :] / Ac[..., None] + m[None, :, :] / Bc[..., None]
+         - 4.0 * d / r2[..., None])
+    g = g - (g @ n)[..., None] * n
+    gt = np.linalg.norm(g, axis=2)
+    delta = np.abs(L) / np.maximum(gt, 1e-12)
+    tent = np.maximum(1.0 - delta / pixel, 0.0) * w[None, :]
+    return np.where(ok, tent, 0.0), np.where(ok, lne, -np.inf)
+
+
+def cast_exact_numpy(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
+                     shade_limit_lux=None, chunk_pairs=2_000_000):
+    """Exact votes, numpy twin of ``kernels/votes_exact.cl``.
+
+    Parameters
+    ----------
+    canvas : VoteCanvas
+    points : VotingPoints
+    W : (n_maps, k) float32 weights from :func:`vote_weights`
+    vote_lux : (k,) float64, lux
+    flux : float, lumens of the luminaire searched for
+    bvh : BVH, optional
+        Occluders; votes whose segment is blocked are dropped.
+    shade : VotingPoints, optional
+        Points that must stay dark; pixels whose luminaire would give any of them more than
+        ``shade_limit_lux`` (unoccluded) get no votes.
+
+    Returns
+    -------
+    (canvas.size,) float32 flat vote buffer
+    """
+    out = np.zeros(canvas.size, np.float32)
+    views = canvas.split(out)
+    with np.errstate(divide="ignore"):
+        lnE = np.log(np.maximum(vote_lux, 1e-30) / flux)
+    for mi, (mp, view) in enumerate(zip(canvas.maps, views)):
+        active = np.flatnonzero(W[mi] > 0)
+        cent = mp.pixel_centres().reshape(-1, 3)
+        acc = np.zeros(len(cent))
+        if len(active):
+            s, m = points.positions[active], points.normals[active]
+            step = max(1, chunk_pairs // len(active))
+            for a in range(0, len(cent), step):
+                c = cent[a:a + step]
+                tent, _ = _tent_numpy(c, mp.normal, s, m, lnE[active],
+                                      W[mi, active].astype(np.float64), mp.pixel)
+                if bvh is not None:
+                    pi, ki = np.nonzero(tent > 0)
+                    if len(pi):
+                        occ = segments_occluded_numpy(
+                            bvh, s[ki] + m[ki] * C.RAY_EPS_M,
+                            c[pi] + mp.normal * C.RAY_EPS_M)
+                        tent[pi[occ], ki[occ]] = 0.0
+                acc[a:a + step] = tent.sum(axis=1)
+        if shade is not None and len(shade) and shade_limit_lux is not None:
+            ln_lim = np.log(shade_limit_lux / flux)
+            forbid = np.zeros(len(cent), dtype=bool)
+            step = max(1, chunk_pairs // len(shade))
+            for a in range(0, len(cent), step):
+                c = cent[a:a + step]
+                _, lne = _tent_numpy(c, mp.normal, shade.positions, shade.normals,
+                                     np.zeros(len(shade)), np.ones(len(shade)), mp.pixel)
+                hot = lne > ln_lim
+                if bvh is not None:
+                    pi, ki = np.nonzero(hot)
+                    if len(pi):
+                        occ = segments_occluded_numpy(
+                            bvh, shade.positions[ki] + shade.normals[ki] * C.RAY_EPS_M,
+                            c[pi] + mp.normal * C.RAY_EPS_M)
+                        hot[pi[occ], ki[occ]] = False
+                forbid[a:a + step] = hot.any(axis=1)
+            acc[forbid] = 0.0
+        view[...] = np.where(mp.mask, acc.reshape(mp.shape), 0.0)
+    return out
+
+
+def _f4(a, w=None):
+    a = np.asarray(a, dtype=np.float64).reshape(-1, 3)
+    out = np.zeros((len(a), 4), np.float32)
+    out[:, :3] = a
+    if w is not None:
+        out[:, 3] = w
+    return out
+
+
+def canvas_device_arrays(canvas):
+    """Per-map arrays and 16-pixel work blocks for the vote kernels."""
+    maps = canvas.maps
+    origin = _f4([m.origin for m in maps])
+    u = _f4([m.u for m in maps])
+    v = _f4([m.v for m in maps])
+    n = _f4([m.normal for m in maps], [m.offset for m in maps])
+    info = np.array([[m.start, m.stride, m.shape[1], m.shape[0]] for m in maps], np.int32)
+    blocks = []
+    for mi, m in enumerate(maps):
+        nu, nv = m.shape
+        i, j = np.meshgrid(np.arange(nu), np.arange(0, m.stride, 16), indexing="ij")
+        # skip blocks whose 16 pixels are all masked out
+        mk = np.zeros((nu, m.stride), bool)
+        mk[:, :nv] = m.mask
+        keep = mk.reshape(nu, m.stride // 16, 16).any(axis=2).reshape(-1)
+        b = np.stack([np.full(i.size, mi), i.reshape(-1), j.reshape(-1),
+                      np.zeros(i.size, int)], axis=1)[keep]
+        blocks.append(b)
+    blocks = np.concatenate(blocks).astype(np.int32) if blocks else np.zeros((0, 4), np.int32)
+    return origin, u, v, n, info, blocks
+
+
+def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
+                      shade_limit_lux=None):
+    """Exact votes on the OpenCL device; same contract as :func:`cast_exact_numpy`."""
+    env = get_env()
+    cl = env.cl
+    mf = cl.mem_flags
+    out = np.zeros(canvas.size, np.float32)
+    if canvas.size == 0 or len(points) == 0:
+        return out
+    occlusion = bvh is not None and bvh.n_triangles > 0
+    use_shade = shade is not None and len(shade) > 0 and shade_limit_lux is not None
+    knl = env.kernel("votes_exact", "exact_votes",
+                     [f"-D OCCLUSION={int(occlusion)}", f"-D SHADE={int(use_shade)}"])
+    origin, u, v, n, info, blocks = canvas_device_arrays(canvas)
+    with np.errstate(divide="ignore"):
+        lnE = np.log(np.maximum(vote_lux, 1e-30) / flux)
+
+    def buf(a):
+        a = np.ascontiguousarray(a)
+        if a.size == 0:
+            a = np.zeros(4, a.dtype)
+        return cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
+
+    if occlusion:
+        bvh_bufs = bvh.cl_buffers(env)
+    else:
+        from .bvh import BVH
+        bvh_bufs = BVH(np.zeros((0, 3, 3))).cl_buffers(env)
+    if use_shade:
+        sp, sn = _f4(shade.positions), _f4(shade.normals)
+        ln_lim = float(np.log(shade_limit_lux / flux))
+        ns = len(shade)
+    else:
+        sp = sn = np.zeros((1, 4), np.float32)
+        ln_lim, ns = 0.0, 0
+    d_out = cl.Buffer(env.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=out)
+    nb = len(blocks)
+    knl(env.queue, (round_up(max(nb, 1), 32),), None, np.int32(nb), buf(blocks),
+        buf(origin), buf(u), buf(v), buf(n), buf(info), np.float32(canvas.pixel),
+        np.int32(len(points)), buf(_f4(points.positions, lnE)), buf(_f4(points.normals)),
+        buf(np.ascontiguousarray(W, np.float32)), np.int32(ns), buf(sp), buf(sn),
+        np.float32(ln_lim), np.float32(C.RAY_EPS_M), *bvh_bufs, d_out)
+    cl.enqueue_copy(env.queue, out, d_out)
+    # blocks skipped as fully masked stay 0; masked pixels inside blocks are zeroed here
+    out[~canvas.mask_flat()] = 0.0
+    return out

@@ -1,0 +1,130 @@
+/* Exact vote model: every vote-map pixel gathers the votes of all voting points.
+ *
+ * A point s (normal m) with vote illuminance E votes for the candidate luminaire positions c
+ * on a map (luminaire normal n) where a lambertian luminaire of flux F gives exactly E:
+ *     F * e(c) = E,   e(c) = A * B / (pi * r^4),  A = -n.d,  B = m.d,  d = c - s, r = |d|.
+ * The contour's distance from a pixel centre is estimated to first order from the log:
+ *     delta = |ln(F e(c)) - ln E| / |grad_t ln e(c)|,   grad ln e = -n/A + m/B - 4 d / r^2
+ * (grad_t: component in the map's plane), and the pixel receives the tent weight
+ * W * max(0, 1 - delta / pixel): one pixel's width of vote per unit contour length.
+ * No ellipse fit: exact for any plane orientation.
+ *
+ * Work-item = 16 consecutive pixels of one map row (float16 vectors, structure of arrays;
+ * PoCL vectorises explicit vectors only). Pixels gather, so no atomics are needed.
+ * Optional: occlusion of (point, pixel) segments that vote (-D OCCLUSION=1) and shade
+ * points that forbid pixels whose luminaire would light them above a limit (-D SHADE=1).
+ * Numpy twin: invrad_wb.core.votes.cast_exact_numpy.
+ */
+#include "bvh.h"
+
+#define LN_PI 1.1447298858494002f
+
+inline float16 tent_votes(const float16 cx, const float16 cy, const float16 cz,
+                          const float3 n, const float3 s, const float3 m,
+                          const float lnE, const float w, const float pixel,
+                          float16 *lnF)
+{
+    const float16 dx = cx - s.x, dy = cy - s.y, dz = cz - s.z;
+    const float16 A = -(n.x * dx + n.y * dy + n.z * dz);
+    const float16 B = m.x * dx + m.y * dy + m.z * dz;
+    const float16 r2 = dx * dx + dy * dy + dz * dz;
+    const int16 ok = (A > 1e-6f) & (B > 1e-6f);
+    const float16 Ac = select((float16)(1.0f), A, ok);
+    const float16 Bc = select((float16)(1.0f), B, ok);
+    const float16 inv_r2 = 1.0f / r2;
+    const float16 lne = log(Ac * Bc * inv_r2 * inv_r2) - LN_PI;
+    *lnF = lne;
+    const float16 L = lne - lnE;
+    const float16 iA = 1.0f / Ac, iB = 1.0f / Bc;
+    const float16 gx = -n.x * iA + m.x * iB - 4.0f * dx * inv_r2;
+    const float16 gy = -n.y * iA + m.y * iB - 4.0f * dy * inv_r2;
+    const float16 gz = -n.z * iA + m.z * iB - 4.0f * dz * inv_r2;
+    const float16 gn = gx * n.x + gy * n.y + gz * n.z;
+    const float16 tx = gx - gn * n.x, ty = gy - gn * n.y, tz = gz - gn * n.z;
+    const float16 gt = sqrt(tx * tx + ty * ty + tz * tz);
+    const float16 delta = fabs(L) / fmax(gt, 1e-12f);
+    const float16 tent = fmax(1.0f - delta / pixel, 0.0f) * w;
+    return select((float16)(0.0f), tent, ok);
+}
+
+__kernel void exact_votes(const int nblocks, __global const int4 *blocks,
+                          __global const float4 *map_origin, __global const float4 *map_u,
+                          __global const float4 *map_v, __global const float4 *map_n,
+                          __global const int4 *map_info, const float pixel,
+                          const int npts, __global const float4 *pts,
+                          __global const float4 *pnrm, __global const float *W,
+                          const int nshade, __global const float4 *shade_pts,
+                          __global const float4 *shade_nrm, const float ln_shade_limit,
+                          const float eps,
+                          __global const float4 *lo, __global const float4 *hi,
+                          __global const int2 *info, __global const float16 *tris,
+                          __global float *out)
+{
+    const int g = get_global_id(0);
+    if (g >= nblocks) return;
+    const int4 b = blocks[g];
+    const int map = b.x;
+    const int4 mi = map_info[map];
+    const float3 n = map_n[map].xyz;
+    const float3 o = map_origin[map].xyz + ((float)b.y + 0.5f) * pixel * map_u[map].xyz;
+    const float3 V = map_v[map].xyz * pixel;
+    const float16 jj = (float16)(0.5f, 1.5f, 2.5f, 3.5f, 4.5f, 5.5f, 6.5f, 7.5f, 8.5f, 9.5f,
+                                 10.5f, 11.5f, 12.5f, 13.5f, 14.5f, 15.5f) + (float)b.z;
+    const float16 cx = o.x + jj * V.x, cy = o.y + jj * V.y, cz = o.z + jj * V.z;
+    float16 acc = (float16)(0.0f);
+    float16 lne;
+    __global const float *Wm = W + (size_t)map * npts;
+    for (int p = 0; p < npts; ++p) {
+        const float w = Wm[p];
+        if (w <= 0.0f) continue;
+        const float4 sp = pts[p];
+        const float3 s = sp.xyz, m = pnrm[p].xyz;
+        float16 v = tent_votes(cx, cy, cz, n, s, m, sp.w, w, pixel, &lne);
+#if OCCLUSION
+        if (any(v > 0.0f)) {
+            float va[16], xa[16], ya[16], za[16];
+            vstore16(v, 0, va); vstore16(cx, 0, xa); vstore16(cy, 0, ya); vstore16(cz, 0, za);
+            const float3 s_off = s + m * eps;
+            for (int l = 0; l < 16; ++l) {
+                if (va[l] > 0.0f) {
+                    const float3 c = (float3)(xa[l], ya[l], za[l]) + n * eps;
+                    if (segment_occluded(s_off, c, eps, lo, hi, info, tris)) va[l] = 0.0f;
+                }
+            }
+            v = vload16(0, va);
+        }
+#endif
+        acc += v;
+    }
+#if SHADE
+    /* forbid pixels whose luminaire would put more than the limit on a shade point */
+    int16 forbid = (int16)(0);
+    for (int p = 0; p < nshade && !all(forbid); ++p) {
+        const float3 s = shade_pts[p].xyz, m = shade_nrm[p].xyz;
+        const float16 dx = cx - s.x, dy = cy - s.y, dz = cz - s.z;
+        const float16 A = -(n.x * dx + n.y * dy + n.z * dz);
+        const float16 B = m.x * dx + m.y * dy + m.z * dz;
+        const float16 r2 = dx * dx + dy * dy + dz * dz;
+        const int16 ok = (A > 1e-6f) & (B > 1e-6f);
+        const float16 lnev = log(select((float16)(1e-30f), A * B / (r2 * r2), ok)) - LN_PI;
+        int16 hot = ok & (lnev > ln_shade_limit) & !forbid;
+#if OCCLUSION
+        if (any(hot)) {
+            int ha[16]; float xa[16], ya[16], za[16];
+            vstore16(hot, 0, ha); vstore16(cx, 0, xa); vstore16(cy, 0, ya); vstore16(cz, 0, za);
+            const float3 s_off = s + m * eps;
+            for (int l = 0; l < 16; ++l) {
+                if (ha[l]) {
+                    const float3 c = (float3)(xa[l], ya[l], za[l]) + n * eps;
+                    if (segment_occluded(s_off, c, eps, lo, hi, info, tris)) ha[l] = 0;
+                }
+            }
+            hot = vload16(0, ha);
+        }
+#endif
+        forbid |= hot;
+    }
+    acc = select(acc, (float16)(0.0f), forbid);
+#endif
+    vstore16(acc, 0, out + mi.x + b.y * mi.y + b.z);
+}
