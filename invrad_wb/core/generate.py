@@ -158,12 +158,16 @@ def sloped_room(size=(6.0, 4.0), low=2.5, high=4.0, cell=0.2, reflectance=0.5, r
 
 def pillar_room(size=(6.0, 4.0, 3.0), pillar=((2.8, 1.8), (3.2, 2.2)), cell=0.2,
                 reflectance=0.5, room=0):
-    """A box room with a floor-to-ceiling pillar (x0, y0) - (x1, y1)."""
+    """A box room with a floor-to-ceiling pillar (x0, y0) - (x1, y1).
+
+    The floor and ceiling have a hole where the pillar stands (no hidden faces).
+    """
     w, d, h = size
-    mb = MeshBuilder(cell)
-    add_prism_room(mb, [(0, 0), (w, 0), (w, d), (0, d)], [(0, 0, w, d)], height=h,
-                   room=room, reflectance=reflectance)
     (x0, y0), (x1, y1) = pillar
+    mb = MeshBuilder(cell)
+    rects = [(0, 0, x0, d), (x1, 0, w, d), (x0, 0, x1, y0), (x0, y1, x1, d)]
+    add_prism_room(mb, [(0, 0), (w, 0), (w, d), (0, d)], rects, height=h,
+                   room=room, reflectance=reflectance)
     add_box_occluder(mb, (x0, y0, 0), (x1, y1, h), room=room, reflectance=reflectance,
                      skip_bottom=True, skip_top=True)
     return mb.scene()

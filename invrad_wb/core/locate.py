@@ -337,8 +337,8 @@ def _postprocess(run, s, flux, progress=None, deadline=None):
             prob.indirect = run.indirect_model(lights, flux)
             opt = prob.levenberg_marquardt if s.optimiser == "lm" else prob.evolution_strategy
             lights, cost = opt(lights)
-            lights, cost, t2 = greedy_select(prob, lights + [c for c in cands],
-                                             min_gain=s.min_gain, optimiser=s.optimiser)
+            lights, cost, t2 = greedy_select(prob, cands, min_gain=s.min_gain,
+                                             optimiser=s.optimiser, initial=lights)
             trace += t2
     lights = _snap_to_surfaces(lights, run.canvas, run.scene)
     run.lights, run.cost, run.trace = lights, cost, trace

@@ -143,8 +143,15 @@ class RefineProblem:
              - 4.0 * d / r2[:, None])
         return E, E[:, None] * g
 
-    def residuals(self, lights, vis_list, with_jac=False):
-        E = self.indirect.copy()
+    def fixed_light(self, lights):
+        """(k,) illuminance of luminaires that stay where they are."""
+        E = np.zeros(len(self.positions))
+        for L in lights:
+            E += self.light_of(L, self.visibility(L))[0]
+        return E
+
+    def residuals(self, lights, vis_list, with_jac=False, extra=None):
+        E = self.indirect.copy() if extra is None else self.indirect + extra
         jac_blocks = []
         for L, vis in zip(lights, vis_list):
             e, de = self.light_of(L, vis, with_jac)
@@ -163,21 +170,24 @@ class RefineProblem:
         c = self.robust_scale
         return float(np.sum(self.w_area * 0.5 * c * c * np.log1p((r / c) ** 2)))
 
-    def cost(self, lights, vis_list=None):
+    def cost(self, lights, vis_list=None, extra=None):
         if vis_list is None:
             vis_list = [self.visibility(L) for L in lights]
-        r, _ = self.residuals(lights, vis_list)
+        r, _ = self.residuals(lights, vis_list, extra=extra)
         return self.cost_of(r)
 
     # ------------------------------------------------------------------ optimisers
-    def levenberg_marquardt(self, lights, iterations=25, tol=1e-7):
-        """Jointly refine all positions; returns (lights, cost)."""
+    def levenberg_marquardt(self, lights, iterations=25, tol=1e-7, fixed=None):
+        """Jointly refine all positions; returns (lights, cost).
+
+        ``fixed``: (k,) illuminance of other luminaires that do not move (optional).
+        """
         lights = [L.copy() for L in lights]
         if not lights:
-            return lights, self.cost([])
+            return lights, self.cost([], extra=fixed)
         vis = [self.visibility(L) for L in lights]
         vis_at = [L.position.copy() for L in lights]
-        r, J = self.residuals(lights, vis, True)
+        r, J = self.residuals(lights, vis, True, extra=fixed)
         cost = self.cost_of(r)
         lam = 1e-3
         c = self.robust_scale
@@ -204,7 +214,7 @@ class RefineProblem:
                         cand = L if cand is None else cand
                     new.append(cand)
                     k += sz
-                r_new, _ = self.residuals(new, vis)
+                r_new, _ = self.residuals(new, vis, extra=fixed)
                 cost_new = self.cost_of(r_new)
                 if cost_new < cost:
                     improved = True
@@ -220,20 +230,20 @@ class RefineProblem:
                 if np.linalg.norm(L.position - vis_at[i]) > 0.02:
                     vis[i] = self.visibility(L)
                     vis_at[i] = L.position.copy()
-            r, J = self.residuals(lights, vis, True)
+            r, J = self.residuals(lights, vis, True, extra=fixed)
             cost = self.cost_of(r)
             if gain < tol * max(cost, 1e-12) or np.linalg.norm(step) < 1e-5:
                 break
         return lights, cost
 
-    def evolution_strategy(self, lights, iterations=400, sigma=0.1, seed=0):
+    def evolution_strategy(self, lights, iterations=400, sigma=0.1, seed=0, fixed=None):
         """The thesis' (1+1) evolution strategy with the 1/5 success rule (factor 0.85)."""
         rng = np.random.default_rng(seed)
         lights = [L.copy() for L in lights]
         if not lights:
-            return lights, self.cost([])
+            return lights, self.cost([], extra=fixed)
         vis = [self.visibility(L) for L in lights]
-        cost = self.cost(lights, vis)
+        cost = self.cost(lights, vis, extra=fixed)
         success, tried = 0, 0
         for it in range(iterations):
             new = [L.with_params(L.params() + sigma * rng.standard_normal(len(L.params())))
@@ -243,7 +253,7 @@ class RefineProblem:
             if any(L is None for L in new):
                 tried += 1
             else:
-                c_new = self.cost(new, vis)
+                c_new = self.cost(new, vis, extra=fixed)
                 tried += 1
                 if c_new < cost:
                     lights, cost = new, c_new
@@ -252,25 +262,35 @@ class RefineProblem:
                 sigma = sigma / 0.85 if success / tried > 0.2 else sigma * 0.85
                 success = tried = 0
                 vis = [self.visibility(L) for L in lights]
-                cost = self.cost(lights, vis)
+                cost = self.cost(lights, vis, extra=fixed)
             if sigma < 1e-4:
                 break
         return lights, cost
 
 
-def greedy_select(problem, candidates, min_gain=0.05, max_lights=64, merge_distance=0.25,
-                  optimiser="lm", progress=None, deadline=None):
+def greedy_select(problem, candidates, min_gain=0.03, min_gain_total=0.005, max_lights=64,
+                  merge_distance=0.25, optimiser="lm", patience=10, progress=None,
+                  deadline=None, initial=None):
     """Add candidates best first while they clearly lower the cost; then prune.
+
+    Each candidate is first optimised alone with the accepted luminaires held in place; only
+    if that already lowers the cost enough are all luminaires refined jointly and the
+    candidate kept.
 
     Parameters
     ----------
     problem : RefineProblem
     candidates : list of Light (best first)
     min_gain : float
-        A candidate is kept if it lowers the cost by at least this fraction; a luminaire is
-        pruned if removing it raises the cost by less than this fraction.
+        A candidate is kept if it lowers the cost by at least this fraction of the current
+        cost and by ``min_gain_total`` of the cost without any luminaire; a luminaire is
+        pruned if removing it raises the cost by less than these.
     merge_distance : float, metres
         Candidates this close to an accepted luminaire facing the same way are skipped.
+    patience : int
+        Stop after this many candidates in a row were rejected.
+    initial : list of Light, optional
+        Luminaires already accepted (e.g. from an earlier round).
 
     Returns
     -------
@@ -281,14 +301,19 @@ def greedy_select(problem, candidates, min_gain=0.05, max_lights=64, merge_dista
     if optimiser not in ("lm", "es"):
         raise SettingsError(f"optimiser must be 'lm' or 'es', got {optimiser!r}")
     opt = problem.levenberg_marquardt if optimiser == "lm" else problem.evolution_strategy
-    lights = []
-    cost = problem.cost([])
-    floor = 1e-5
+    cost0 = problem.cost([])
+    lights = [L.copy() for L in (initial or [])]
+    cost = problem.cost(lights) if lights else cost0
     trace = []
+    misses = 0
+
+    def enough(before, after):
+        return after < before * (1.0 - min_gain) and before - after > min_gain_total * cost0
+
     for ci, cand in enumerate(candidates):
         if progress is not None and progress(ci / max(len(candidates), 1)) is False:
             raise Cancelled("cancelled during refinement")
-        if len(lights) >= max_lights or cost < floor:
+        if len(lights) >= max_lights or cost < 1e-4 * cost0 or misses >= patience:
             break
         if deadline is not None and time.time() > deadline:
             trace.append({"candidate": ci, "result": "time limit"})
@@ -298,12 +323,21 @@ def greedy_select(problem, candidates, min_gain=0.05, max_lights=64, merge_dista
         if near:
             trace.append({"candidate": ci, "result": "near accepted luminaire"})
             continue
-        trial, c_trial = opt(lights + [cand])
-        if c_trial < cost * (1.0 - min_gain):
+        fixed = problem.fixed_light(lights)
+        alone, c_alone = opt([cand], fixed=fixed)
+        if not enough(cost, c_alone):
+            misses += 1
+            trace.append({"candidate": ci, "result": "rejected", "cost_before": cost,
+                          "cost_after": c_alone})
+            continue
+        trial, c_trial = opt(lights + alone)
+        if enough(cost, c_trial):
+            misses = 0
             trace.append({"candidate": ci, "result": "kept", "cost_before": cost,
                           "cost_after": c_trial})
             lights, cost = trial, c_trial
         else:
+            misses += 1
             trace.append({"candidate": ci, "result": "rejected", "cost_before": cost,
                           "cost_after": c_trial})
     # prune luminaires the cost does not need (a later one may have taken over their job)
@@ -313,7 +347,7 @@ def greedy_select(problem, candidates, min_gain=0.05, max_lights=64, merge_dista
         for i in range(len(lights)):
             rest = lights[:i] + lights[i + 1:]
             rest_opt, c_rest = opt(rest)
-            if c_rest < cost * (1.0 + min_gain):
+            if not enough(c_rest, cost):
                 trace.append({"pruned": i, "cost_before": cost, "cost_after": c_rest})
                 lights, cost = rest_opt, c_rest
                 changed = True

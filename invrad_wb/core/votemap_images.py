@@ -1,0 +1,104 @@
+"""Vote maps as images for a person to look at (the thesis saved its vote textures too).
+
+For each room: one greyscale PNG per map, all maps scaled jointly to 0-255 (planes and dummy
+planes together, so their brightness compares), the raw float votes as EXR, a contact sheet
+with every map side by side and the found luminaires marked in red (peaks that the
+refinement rejected in blue), and ``maps.json`` describing each map's geometry (origin, u, v,
+metres per pixel) so a pixel can be turned into a position.
+
+Image rows are the map's first index (u), columns its second (v).
+"""
+import json
+import os
+
+import numpy as np
+
+from .atomic import atomic_path, atomic_write_text
+
+
+def _write(path, pixels):
+    """Write an (h, w) or (h, w, c) array with OpenImageIO, atomically."""
+    import OpenImageIO as oiio
+    pixels = np.ascontiguousarray(pixels)
+    if pixels.ndim == 2:
+        pixels = pixels[:, :, None]
+    h, w, c = pixels.shape
+    fmt = oiio.UINT8 if pixels.dtype == np.uint8 else oiio.FLOAT
+    with atomic_path(path) as tmp:
+        out = oiio.ImageOutput.create(tmp)
+        if out is None:
+            raise OSError(f"cannot write {path}: {oiio.geterror()}")
+        try:
+            if not out.open(tmp, oiio.ImageSpec(w, h, c, fmt)):
+                raise OSError(f"cannot write {path}: {out.geterror()}")
+            if not out.write_image(pixels):
+                raise OSError(f"cannot write {path}: {out.geterror()}")
+        finally:
+            out.close()
+
+
+def _mark(rgb, i, j, colour, r=2):
+    h, w, _ = rgb.shape
+    for di in range(-r, r + 1):
+        for dj in range(-r, r + 1):
+            if abs(abs(di) - r) < 1 or abs(abs(dj) - r) < 1:
+                ii, jj = int(i) + di, int(j) + dj
+                if 0 <= ii < h and 0 <= jj < w:
+                    rgb[ii, jj] = colour
+
+
+def save_vote_maps(result, folder):
+    """Write the vote maps of a :class:`LocateResult`; returns the list of files written."""
+    os.makedirs(folder, exist_ok=True)
+    written = []
+    for run in result.rooms:
+        canvas = run.canvas
+        maps = canvas.split(run.votes)
+        top = max([float(a.max()) for a in maps if a.size], default=0.0)
+        scale = 255.0 / top if top > 0 else 0.0
+        room_dir = os.path.join(folder, f"room{run.room}")
+        os.makedirs(room_dir, exist_ok=True)
+        meta = []
+        tiles = []
+        found = {}
+        for L in run.lights:
+            found.setdefault(L.map_index, []).append(L.position)
+        for k, (m, a) in enumerate(zip(canvas.maps, maps)):
+            grey = np.clip(a * scale, 0, 255).astype(np.uint8)
+            grey[~m.mask] = 0
+            p = os.path.join(room_dir, f"{m.name}.png")
+            _write(p, grey)
+            e = os.path.join(room_dir, f"{m.name}.exr")
+            _write(e, a.astype(np.float32))
+            written += [p, e]
+            rgb = np.repeat(grey[:, :, None], 3, axis=2)
+            rgb[~m.mask] = (40, 40, 60)
+            for pk in run.peaks:
+                if pk.map_index == k:
+                    _mark(rgb, pk.ij[0] - 0.5, pk.ij[1] - 0.5, (60, 120, 255), r=1)
+            for pos in found.get(k, []):
+                d = pos - m.origin
+                _mark(rgb, d @ m.u / m.pixel, d @ m.v / m.pixel, (255, 0, 0), r=3)
+            tiles.append(rgb)
+            meta.append({"file": os.path.basename(p), "kind": m.kind, "plane": m.plane,
+                         "layer": m.layer, "height_m": None if np.isnan(m.height) else m.height,
+                         "shape": list(m.shape), "pixel_m": m.pixel,
+                         "origin": m.origin.tolist(), "u": m.u.tolist(), "v": m.v.tolist(),
+                         "normal": m.normal.tolist(), "max_votes": float(a.max())})
+        if tiles:
+            hmax = max(t.shape[0] for t in tiles)
+            gap = np.full((hmax, 3, 3), 255, np.uint8)
+            row = []
+            for t in tiles:
+                pad = np.full((hmax, t.shape[1], 3), 255, np.uint8)
+                pad[:t.shape[0]] = t
+                row += [pad, gap]
+            sheet = np.concatenate(row[:-1], axis=1)
+            p = os.path.join(room_dir, "contact_sheet.png")
+            _write(p, sheet)
+            written.append(p)
+        j = os.path.join(room_dir, "maps.json")
+        atomic_write_text(j, json.dumps({"room": run.room, "joint_scale_max_votes": top,
+                                         "maps": meta}, indent=1) + "\n")
+        written.append(j)
+    return written
