@@ -1,4 +1,8 @@
-"""Shared fixtures: skip OpenCL tests when no device exists (CI machines have PoCL)."""
+"""Shared pytest set-up for the core tests.
+
+``@pytest.mark.opencl`` marks tests that need an OpenCL device; they are skipped (with the
+reason) where none exists. FreeCAD's tests live in tests/freecad and run under freecadcmd.
+"""
 import os
 import sys
 
@@ -7,10 +11,19 @@ import pytest
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from invrad_wb.core import clenv  # noqa: E402
 
-HAVE_OPENCL = clenv.opencl_available()
-requires_opencl = pytest.mark.skipif(not HAVE_OPENCL, reason="no OpenCL device")
+def pytest_configure(config):
+    config.addinivalue_line("markers", "opencl: needs an OpenCL device")
+
+
+def pytest_collection_modifyitems(config, items):
+    from invrad_wb.core import clenv
+    if clenv.opencl_available():
+        return
+    skip = pytest.mark.skip(reason="no OpenCL device")
+    for item in items:
+        if "opencl" in item.keywords:
+            item.add_marker(skip)
 
 
 @pytest.fixture

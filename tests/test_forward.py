@@ -2,7 +2,6 @@
 import numpy as np
 import pytest
 
-from conftest import requires_opencl
 from invrad_wb.core import generate as g
 from invrad_wb.core.bvh import BVH, segments_occluded_bruteforce, segments_occluded_numpy
 from invrad_wb.core.direct import direct_illuminance_numpy, direct_illuminance_opencl
@@ -11,7 +10,7 @@ from invrad_wb.core.render import render
 from invrad_wb.errors import LuminaireError
 
 BACKENDS = [direct_illuminance_numpy, pytest.param(direct_illuminance_opencl,
-                                                   marks=requires_opencl)]
+                                                   marks=pytest.mark.opencl)]
 
 
 @pytest.mark.parametrize("fn", BACKENDS)
@@ -65,7 +64,7 @@ def test_bvh_numpy_matches_bruteforce(rng):
     assert np.array_equal(segments_occluded_numpy(bvh, p, q), ref)
 
 
-@requires_opencl
+@pytest.mark.opencl
 def test_bvh_opencl_matches_bruteforce(rng):
     from invrad_wb.core.occlusion import segments_occluded_opencl
     s = g.pillar_room(cell=0.3)
@@ -90,7 +89,7 @@ def test_pillar_casts_a_shadow():
     assert e[1] == pytest.approx(e0[1])
 
 
-@requires_opencl
+@pytest.mark.opencl
 def test_direct_opencl_matches_numpy_with_occlusion():
     s = g.pillar_room(cell=0.2)
     lums = [Luminaire([1.5, 2.0, 2.99], [0, 0, -1], 3000, 0.25),

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from conftest import requires_opencl, HAVE_OPENCL
+from invrad_wb.core.clenv import opencl_available
 from invrad_wb.core import generate as g
 from invrad_wb.core.bvh import BVH
 from invrad_wb.core.locate import locate, LocateSettings, occluding_faces, room_is_convex
@@ -16,7 +16,7 @@ from invrad_wb.core.votes import (vote_weights, cast_exact_numpy, cast_exact_ope
                                   emax_per_lumen)
 from invrad_wb.errors import Cancelled, SettingsError, SceneError
 
-BACKEND = "opencl" if HAVE_OPENCL else "numpy"
+BACKEND = "opencl" if opencl_available() else "numpy"
 
 
 def test_emax_closed_form_matches_grid_search():
@@ -45,7 +45,7 @@ def _small_case():
     return s.with_vertex_lux(lux)
 
 
-@requires_opencl
+@pytest.mark.opencl
 def test_exact_votes_opencl_matches_numpy_twin():
     s = _small_case()
     pts = voting_points(s, density=40)
