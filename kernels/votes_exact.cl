@@ -55,7 +55,7 @@ __kernel void exact_votes(const int nblocks, __global const int4 *blocks,
                           __global const float4 *pnrm, __global const float *W,
                           const int nshade, __global const float4 *shade_pts,
                           __global const float4 *shade_nrm, const float ln_shade_limit,
-                          const float eps,
+                          const float eps, const float baseline,
                           __global const float4 *lo, __global const float4 *hi,
                           __global const int2 *info, __global const float16 *tris,
                           __global float *out)
@@ -71,7 +71,7 @@ __kernel void exact_votes(const int nblocks, __global const int4 *blocks,
     const float16 jj = (float16)(0.5f, 1.5f, 2.5f, 3.5f, 4.5f, 5.5f, 6.5f, 7.5f, 8.5f, 9.5f,
                                  10.5f, 11.5f, 12.5f, 13.5f, 14.5f, 15.5f) + (float)b.z;
     const float16 cx = o.x + jj * V.x, cy = o.y + jj * V.y, cz = o.z + jj * V.z;
-    float16 acc = (float16)(0.0f);
+    float16 acc = (float16)(baseline);
     float16 lne;
     __global const float *Wm = W + (size_t)map * npts;
     for (int p = 0; p < npts; ++p) {

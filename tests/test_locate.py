@@ -187,3 +187,51 @@ def test_progress_can_cancel():
         return len(seen) < 2
     with pytest.raises(Cancelled):
         locate(scene, 3000, backend=BACKEND, progress=progress)
+
+
+@pytest.mark.opencl
+def test_ellipse_votes_opencl_matches_numpy_twin():
+    from invrad_wb.core.votes_ellipse import cast_ellipse_numpy, cast_ellipse_opencl
+    s = _small_case()
+    pts = voting_points(s, density=30)
+    canvas = build_canvas(s, 0, pixel=0.15, dummy_spacing=0.3)
+    W = vote_weights(canvas, pts, pts.lux, "illumination")
+    occ = BVH(s.triangles[occluding_faces(s)])
+    a = cast_ellipse_numpy(canvas, pts, W, pts.lux, 2000.0, bvh=occ)
+    b = cast_ellipse_opencl(canvas, pts, W, pts.lux, 2000.0, bvh=occ)
+    assert a.sum() > 100
+    # identical except samples within float32 rounding of a pixel border
+    assert abs(a.sum() - b.sum()) < 1e-3 * a.sum()
+    assert np.mean(np.abs(a - b) > 1e-3) < 1e-3
+
+
+def test_ellipse_votes_lie_on_the_true_contour():
+    # every vote of one point lies where a luminaire gives that point its illuminance
+    from invrad_wb.core.votes_ellipse import cast_ellipse_numpy
+    from invrad_wb.core.sampling import VotingPoints
+    s = g.box_room((6, 6, 3), cell=1.0)
+    canvas = build_canvas(s, 0, pixel=0.05, dummy=False)
+    k = next(i for i, m in enumerate(canvas.maps) if m.normal[2] < -0.9)
+    z = np.zeros((1, 3))
+    pt = VotingPoints(np.array([[3.0, 3.0, 0.0]]), np.array([[0, 0, 1.0]]),
+                      np.zeros(1, int), np.full(1, -1), z, np.array([40.0]), np.ones(1), 1.0)
+    W = np.zeros((len(canvas.maps), 1), np.float32)
+    W[k] = 1.0
+    votes = canvas.split(cast_ellipse_numpy(canvas, pt, W, pt.lux, 3000.0))[k]
+    m = canvas.maps[k]
+    ij = np.argwhere(votes > 0) + 0.5
+    c = m.to_world(ij)
+    d = c - pt.positions[0]
+    r2 = (d ** 2).sum(1)
+    E = 3000.0 * 3.0 * 3.0 / (np.pi * r2 ** 2)
+    # within a pixel of the contour: illuminance within a few percent of 40 lx
+    assert len(ij) > 50
+    assert np.median(np.abs(E / 40.0 - 1)) < 0.03
+
+
+@pytest.mark.parametrize("name", ["two_ceiling", "wall_light", "pendant", "pillar"])
+def test_locate_with_the_ellipse_model(name):
+    scene, true = known_scene(name, reflectance=0.0, backend=BACKEND)
+    r = locate(scene, true[0].flux_lm, backend=BACKEND, vote_model="ellipse")
+    m = match(r.luminaires, true)
+    assert m["found"] == m["true"] and m["spurious"] == 0 and m["max_error_cm"] < 10, m

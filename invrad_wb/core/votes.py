@@ -21,6 +21,7 @@ from .. import constants as C
 from ..errors import SettingsError
 from .bvh import segments_occluded_numpy
 from .clenv import get_env, round_up
+from .formfactor import _g1, _x_max_unit
 
 WEIGHTINGS = ("illumination", "distance", "both", "none")
 
@@ -28,31 +29,21 @@ WEIGHTINGS = ("illumination", "distance", "both", "none")
 def emax_per_lumen(h, cos_alpha):
     """Maximum illuminance per lumen a luminaire on a plane can give a point (closed form).
 
-    The point lies ``h`` metres in front of the plane (luminaire normal n) and its normal m
-    makes the angle alpha with n. On the line of symmetry, with h = 1,
-    ``e(x) = (x sin(alpha) - cos(alpha)) / (pi (x^2 + 1)^2)``, maximal where
-    ``3 sin(alpha) x^2 - 4 cos(alpha) x - sin(alpha) = 0``; and e scales as 1 / h^2.
-
-    Parameters
-    ----------
-    h : array, metres (> 0)
-    cos_alpha : array, cos of the angle between receiver normal m and luminaire normal n
+    The point lies ``h`` metres in front of the plane and its normal makes the angle alpha
+    with the luminaire normal (see :func:`invrad_wb.core.formfactor.maximum_closed_form`).
 
     Returns
     -------
     e_max : array, lux per lumen
-    x_max : array, metres: offset of the maximum from the foot point, towards where the
-        receiver faces
+    x_max : array, metres from the foot point towards where the receiver faces
     """
-    c = np.clip(np.asarray(cos_alpha, dtype=np.float64), -1.0, 1.0)
-    s = np.sqrt(np.maximum(1.0 - c * c, 0.0))
-    h = np.asarray(h, dtype=np.float64)
+    alpha = np.arccos(np.clip(np.asarray(cos_alpha, dtype=np.float64), -1.0, 1.0))
+    h = np.maximum(np.asarray(h, dtype=np.float64), 1e-300)
     with np.errstate(divide="ignore", invalid="ignore"):
-        x = np.where(s > 1e-9, (4 * c + np.sqrt(16 * c * c + 12 * s * s)) / (6 * np.maximum(s, 1e-300)),
-                     0.0)
-        e = np.where(s > 1e-9, (x * s - c) / (np.pi * (x * x + 1) ** 2), np.where(c < 0, 1 / np.pi, 0.0))
-    e = np.maximum(e, 0.0)
-    return e / np.maximum(h, 1e-300) ** 2, x * h
+        X = np.where(alpha > 1e-9, _x_max_unit(np.maximum(alpha, 1e-9)), 0.0)
+        e = np.maximum(_g1(np.cos(alpha), np.sin(alpha), X, 0.0), 0.0)
+    e = np.where(np.isfinite(e), e, 0.0)
+    return e / (h * h), np.where(np.isfinite(X), X, 0.0) * h
 
 
 def vote_weights(canvas, points, vote_lux, weighting="illumination", strength=1.0):
@@ -120,7 +111,7 @@ def _tent_numpy(c, n, s, m, lnE, w, pixel):
 
 
 def cast_exact_numpy(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
-                     shade_limit_lux=None, chunk_pairs=2_000_000):
+                     shade_limit_lux=None, baseline=0.0, chunk_pairs=2_000_000):
     """Exact votes, numpy twin of ``kernels/votes_exact.cl``.
 
     Parameters
@@ -135,6 +126,8 @@ def cast_exact_numpy(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
     shade : VotingPoints, optional
         Points that must stay dark; pixels whose luminaire would give any of them more than
         ``shade_limit_lux`` (unoccluded) get no votes.
+    baseline : float
+        Added to every pixel before shade forbids it (1 gives the allowed-pixel mask).
 
     Returns
     -------
@@ -147,7 +140,7 @@ def cast_exact_numpy(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
     for mi, (mp, view) in enumerate(zip(canvas.maps, views)):
         active = np.flatnonzero(W[mi] > 0)
         cent = mp.pixel_centres().reshape(-1, 3)
-        acc = np.zeros(len(cent))
+        acc = np.full(len(cent), float(baseline))
         if len(active):
             s, m = points.positions[active], points.normals[active]
             step = max(1, chunk_pairs // len(active))
@@ -162,7 +155,7 @@ def cast_exact_numpy(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
                             bvh, s[ki] + m[ki] * C.RAY_EPS_M,
                             c[pi] + mp.normal * C.RAY_EPS_M)
                         tent[pi[occ], ki[occ]] = 0.0
-                acc[a:a + step] = tent.sum(axis=1)
+                acc[a:a + step] += tent.sum(axis=1)
         if shade is not None and len(shade) and shade_limit_lux is not None:
             ln_lim = np.log(shade_limit_lux / flux)
             forbid = np.zeros(len(cent), dtype=bool)
@@ -218,13 +211,13 @@ def canvas_device_arrays(canvas):
 
 
 def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
-                      shade_limit_lux=None):
+                      shade_limit_lux=None, baseline=0.0):
     """Exact votes on the OpenCL device; same contract as :func:`cast_exact_numpy`."""
     env = get_env()
     cl = env.cl
     mf = cl.mem_flags
     out = np.zeros(canvas.size, np.float32)
-    if canvas.size == 0 or len(points) == 0:
+    if canvas.size == 0 or (len(points) == 0 and baseline == 0):
         return out
     occlusion = bvh is not None and bvh.n_triangles > 0
     use_shade = shade is not None and len(shade) > 0 and shade_limit_lux is not None
@@ -258,7 +251,7 @@ def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
         buf(origin), buf(u), buf(v), buf(n), buf(info), np.float32(canvas.pixel),
         np.int32(len(points)), buf(_f4(points.positions, lnE)), buf(_f4(points.normals)),
         buf(np.ascontiguousarray(W, np.float32)), np.int32(ns), buf(sp), buf(sn),
-        np.float32(ln_lim), np.float32(C.RAY_EPS_M), *bvh_bufs, d_out)
+        np.float32(ln_lim), np.float32(C.RAY_EPS_M), np.float32(baseline), *bvh_bufs, d_out)
     cl.enqueue_copy(env.queue, out, d_out)
     # blocks skipped as fully masked stay 0; masked pixels inside blocks are zeroed here
     out[~canvas.mask_flat()] = 0.0
