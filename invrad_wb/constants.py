@@ -39,3 +39,17 @@ RADIOSITY_TOL = 1e-5
 
 #: Default reflectance of faces without one.
 DEFAULT_REFLECTANCE = 0.5
+
+#: Radiosity patch matrix: each patch's form factors are the area-weighted mean over
+#: q x q sub-cell sample points of it (1 = its representative point only).
+RADIOSITY_RECEIVER_SUBDIV = 2
+#: Receiver x patch gather matrices (float32) larger than this are not stored but
+#: recomputed at each application (MiB).
+RADIOSITY_GATHER_MAX_MB = 1024
+#: Work units per numpy chunk (receiver-patch or receiver-triangle pairs, segments).
+RADIOSITY_NUMPY_CHUNK = 400_000
+#: Device output buffer per OpenCL form-factor launch (MiB).
+RADIOSITY_CL_CHUNK_MB = 64
+#: Width (patch radii) of the zone beyond the near field where exact and far-field form
+#: factors are blended (continuous form factors).
+RADIOSITY_NEAR_BLEND = 0.5
