@@ -235,3 +235,24 @@ def test_locate_with_the_ellipse_model(name):
     r = locate(scene, true[0].flux_lm, backend=BACKEND, vote_model="ellipse")
     m = match(r.luminaires, true)
     assert m["found"] == m["true"] and m["spurious"] == 0 and m["max_error_cm"] < 10, m
+
+
+@pytest.mark.parametrize("name", SCENARIOS)
+def test_locate_with_interreflected_light(name):
+    # targets include interreflection (reflectance 0.6): the ambient estimate and the
+    # radiosity model in the refinement keep every luminaire within 10 cm
+    scene, true = known_scene(name, reflectance=0.6, backend=BACKEND)
+    r = locate(scene, true[0].flux_lm, backend=BACKEND)
+    m = match(r.luminaires, true)
+    assert m["found"] == m["true"] and m["spurious"] == 0, (m, [l.to_dict() for l in r.luminaires])
+    assert m["max_error_cm"] < 10.0, m
+    assert r.rooms[0].ambient_lux > 0
+
+
+def test_radiosity_model_beats_constant_ambient_with_interreflection():
+    scene, true = known_scene("two_ceiling", reflectance=0.7, backend=BACKEND)
+    full = match(locate(scene, 3000.0, backend=BACKEND).luminaires, true)
+    amb = match(locate(scene, 3000.0, backend=BACKEND, indirect="ambient").luminaires, true)
+    assert full["found"] == 2 and full["spurious"] == 0
+    if amb["found"] == 2:
+        assert full["max_error_cm"] <= amb["max_error_cm"]

@@ -274,6 +274,43 @@ def _make_inside(canvas):
     return inside
 
 
+def _prefer_mounted(prob, lights, canvas, optimiser, reach=0.6, tolerance=0.02):
+    """Try each mid-air luminaire as mounted on a nearby surface; keep that if not worse.
+
+    A pendant a few centimetres from a ceiling explains the light almost as well as a
+    luminaire on it (and a tilted ceiling's luminaire almost like a pendant facing down);
+    a mounted luminaire is the simpler, more common answer, so it wins unless the pendant
+    lowers the cost by more than ``tolerance``.
+    """
+    opt = prob.levenberg_marquardt if optimiser == "lm" else prob.evolution_strategy
+    out = list(lights)
+    for i, L in enumerate(out):
+        if L.kind != "free":
+            continue
+        others = out[:i] + out[i + 1:]
+        fixed = prob.fixed_light(others)
+        c_free = prob.cost([L], extra=fixed)
+        best = None
+        for k, m in enumerate(canvas.maps):
+            if m.kind != "surface" or m.normal @ L.normal < 0.5:
+                continue
+            dist = L.position @ m.normal + m.offset
+            if not (-1e-6 <= dist <= reach):
+                continue
+            p = L.position - dist * m.normal
+            if not canvas.map_contains(k, p):
+                continue
+            cand = Light(kind="surface", position=p, normal=m.normal.copy(), map_index=k,
+                         plane=m.plane, peak_score=L.peak_score, origin=m.origin.copy(),
+                         u=m.u.copy(), v=m.v.copy())
+            got, c = opt([cand], fixed=fixed)
+            if c <= c_free * (1 + tolerance) and (best is None or c < best[1]):
+                best = (got[0], c)
+        if best is not None:
+            out[i] = best[0]
+    return out
+
+
 def _snap_to_surfaces(lights, canvas, scene, tol=0.05):
     """Mid-air luminaires within ``tol`` of a surface facing the same way become mounted."""
     out = []
@@ -327,20 +364,35 @@ def _postprocess(run, s, flux, progress=None, deadline=None):
             L.score = L.peak_score / 255.0
         return
     prob = run.problem
+    prob.indirect = np.full(len(run.points), run.ambient_lux)
     cands = [_light_from_peak(p, run.canvas) for p in peaks]
+    opt = prob.levenberg_marquardt if s.optimiser == "lm" else prob.evolution_strategy
+
+    def tidy(lights, cost):
+        lights = _snap_to_surfaces(lights, run.canvas, run.scene)
+        if any(L.kind == "free" for L in lights):
+            lights = _prefer_mounted(prob, lights, run.canvas, s.optimiser)
+            lights, cost = opt(lights)
+        return lights, cost
+
     lights, cost, trace = greedy_select(prob, cands, min_gain=s.min_gain,
                                         optimiser=s.optimiser, progress=progress,
                                         deadline=deadline)
+    lights, cost = tidy(lights, cost)
     if run.indirect_model is not None and lights:
-        # refresh the interreflected light for the luminaires found, refine again
-        for _round in range(2):
+        # interreflected light of the luminaires found replaces the ambient estimate;
+        # repeat until the positions settle (each round: new indirect, refit, new peaks)
+        for _round in range(4):
+            before = np.array([L.position for L in lights])
             prob.indirect = run.indirect_model(lights, flux)
-            opt = prob.levenberg_marquardt if s.optimiser == "lm" else prob.evolution_strategy
             lights, cost = opt(lights)
             lights, cost, t2 = greedy_select(prob, cands, min_gain=s.min_gain,
                                              optimiser=s.optimiser, initial=lights)
             trace += t2
-    lights = _snap_to_surfaces(lights, run.canvas, run.scene)
+            lights, cost = tidy(lights, cost)
+            after = np.array([L.position for L in lights])
+            if before.shape == after.shape and np.max(np.abs(before - after)) < 2e-3:
+                break
     run.lights, run.cost, run.trace = lights, cost, trace
 
 
