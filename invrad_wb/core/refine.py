@@ -107,6 +107,7 @@ class RefineProblem:
         if self.indirect is None:
             self.indirect = np.zeros(len(self.target))
         self.w_area = self.area / self.area.sum()
+        self._s_dot_m = np.einsum("ij,ij->i", self.positions, self.normals)
         self.log_target = np.log(self.target + self.eps_lux)
         self.stats.setdefault("visibility_rays", 0)
         self.stats.setdefault("evaluations", 0)
@@ -131,8 +132,8 @@ class RefineProblem:
         """Illuminance (k,) of one luminaire at the points, and d E / d position (k, 3)."""
         d = light.position - self.positions            # c - s
         A = -(d @ light.normal)
-        B = np.einsum("ij,ij->i", d, self.normals)
-        r2 = np.einsum("ij,ij->i", d, d)
+        B = (light.position @ self.normals.T) - self._s_dot_m
+        r2 = (d * d).sum(axis=1)
         ok = (A > 1e-9) & (B > 1e-9) & vis
         Ac, Bc = np.where(ok, A, 1.0), np.where(ok, B, 1.0)
         E = np.where(ok, self.flux * Ac * Bc / (np.pi * r2 * r2), 0.0)
@@ -324,7 +325,7 @@ def greedy_select(problem, candidates, min_gain=0.03, min_gain_total=0.005, max_
             trace.append({"candidate": ci, "result": "near accepted luminaire"})
             continue
         fixed = problem.fixed_light(lights)
-        alone, c_alone = opt([cand], fixed=fixed)
+        alone, c_alone = opt([cand], fixed=fixed, iterations=12)
         if not enough(cost, c_alone):
             misses += 1
             trace.append({"candidate": ci, "result": "rejected", "cost_before": cost,
@@ -346,6 +347,9 @@ def greedy_select(problem, candidates, min_gain=0.03, min_gain_total=0.005, max_
         changed = False
         for i in range(len(lights)):
             rest = lights[:i] + lights[i + 1:]
+            # clearly needed (removing it triples the cost): no refit of the others
+            if problem.cost(rest) > 3.0 * cost + min_gain_total * cost0:
+                continue
             rest_opt, c_rest = opt(rest)
             if not enough(c_rest, cost):
                 trace.append({"pruned": i, "cost_before": cost, "cost_after": c_rest})

@@ -1,0 +1,41 @@
+# invrad: the two commands a newcomer needs
+#   make demo   set up (first time: Debian packages + venv) and locate the luminaires of the
+#               bundled example, with vote maps and a verification report under out/
+#   make test   set up and run every test: pytest on the core, then FreeCAD's under freecadcmd
+# Other targets: make setup, make bench, make examples (regenerate examples/), make clean.
+
+VENV   := .venv
+PY     := $(VENV)/bin/python
+SITE    = $(shell $(PY) -c 'import site; print(site.getsitepackages()[0])')
+FCPATH  = PYTHONPATH=$(SITE):$(CURDIR) QT_QPA_PLATFORM=offscreen
+OUT    := out
+
+.PHONY: setup demo test test-core test-freecad bench examples clean
+
+setup:
+	@./.ci/setup.sh
+
+demo: setup
+	$(PY) -m invrad_wb locate examples/office.ply --flux 3000 -o $(OUT)/office/result.json \
+	    --vote-maps $(OUT)/office/votes
+	$(PY) -m invrad_wb verify examples/office.ply --luminaires $(OUT)/office/result.json \
+	    --report $(OUT)/office/report
+	@echo "true luminaires: examples/office_true.json; report: $(OUT)/office/report/index.html"
+
+test: setup test-core test-freecad
+
+test-core:
+	$(PY) -m pytest -q tests
+
+test-freecad:
+	$(FCPATH) freecadcmd tests/freecad/run.py
+
+bench: setup
+	$(PY) bench/bench_render.py
+	$(PY) bench/bench_locate.py
+
+examples: setup
+	$(PY) examples/make_examples.py
+
+clean:
+	rm -rf $(OUT) .pytest_cache

@@ -1,0 +1,70 @@
+#!/usr/bin/env python3
+"""Forward-solve benchmark: a 6 x 4 x 3 m room meshed at 8 cm, direct light and with
+interreflection, OpenCL vs numpy, in one run (machines are noisy: compare ratios).
+
+Usage: python bench/bench_render.py [--cell 0.08] [--repeat 3]
+"""
+import argparse
+import os
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+import numpy as np  # noqa: E402
+
+from invrad_wb.core import generate as g  # noqa: E402
+from invrad_wb.core.clenv import opencl_available, get_env  # noqa: E402
+from invrad_wb.core.luminaires import Luminaire  # noqa: E402
+from invrad_wb.core.render import render  # noqa: E402
+
+
+def best_of(fn, repeat):
+    times = []
+    out = None
+    for _ in range(repeat):
+        t = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t)
+    return min(times), out
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--cell", type=float, default=0.08)
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args()
+    lums = [Luminaire([x, y, 3.0], [0, 0, -1], 3000.0) for x in (1.5, 4.5) for y in (1.0, 3.0)]
+    backends = ["numpy"] + (["opencl"] if opencl_available() else [])
+    if "opencl" in backends:
+        print(f"OpenCL device: {get_env().description}")
+    print(f"room 6 x 4 x 3 m, mesh {args.cell * 100:.0f} cm, {len(lums)} point luminaires")
+    scene = g.box_room((6, 4, 3), cell=args.cell, reflectance=0.6)
+    rows = []
+    for backend in backends:
+        for inter in (False, True):
+            def run():
+                # drop the per-scene caches: the BVH and the radiosity model are part of
+                # the time of a first render
+                scene.__dict__.pop("_bvh", None)
+                scene.__dict__.pop("_radiosity", None)
+                return render(scene, lums, interreflection=inter, backend=backend), scene
+            run()  # builds the kernels
+            t, (lux, s) = best_of(run, args.repeat)
+            rows.append((backend, inter, t, len(s.vertices), lux))
+    print(f"{'backend':8s} {'light':16s} {'seconds':>8s} {'vertices':>9s}  mean lux")
+    for backend, inter, t, nv, lux in rows:
+        print(f"{backend:8s} {'+ interreflection' if inter else 'direct':16s} {t:8.3f}"
+              f" {nv:9d}  {lux.mean():8.2f}")
+    if len(backends) == 2:
+        for inter in (False, True):
+            tn = [r[2] for r in rows if r[0] == "numpy" and r[1] == inter][0]
+            tc = [r[2] for r in rows if r[0] == "opencl" and r[1] == inter][0]
+            ln = [r[4] for r in rows if r[0] == "numpy" and r[1] == inter][0]
+            lc = [r[4] for r in rows if r[0] == "opencl" and r[1] == inter][0]
+            print(f"{'interreflection' if inter else 'direct'}: OpenCL {tn / tc:.1f}x faster"
+                  f" than numpy; max difference {np.abs(ln - lc).max():.3g} lx")
+
+
+if __name__ == "__main__":
+    main()
