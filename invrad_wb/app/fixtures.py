@@ -1,0 +1,228 @@
+"""Found luminaires -> real BIM light fixtures in the document (and back).
+
+Each luminaire becomes an Arch Equipment with ``IfcType = "Light Fixture"``:
+
+* **Placement**: its origin is the luminaire's position (the point found by locate on
+  the mounting surface); its **local -Z axis is the light direction**, i.e. the found
+  normal pointing into the room (a ceiling luminaire has the identity rotation; a wall
+  washer's -Z is horizontal). ``LightDirection`` repeats it as a global unit vector.
+* **Body**: a disk of the luminaire's radius (``settings.FIXTURE_RADIUS_M`` for point
+  emitters) and ``settings.FIXTURE_THICKNESS_M`` thick, from local z = -thickness to 0,
+  i.e. hanging from the mounting surface into the room. The shape is the Equipment's own
+  (no base object), so a document stays light with hundreds of fixtures.
+* **Photometry**: ``LuminousFlux`` (lm), ``EmitterRadius`` (0 = point emitter) and the
+  locate ``Score`` as properties, mirrored in ``IfcProperties`` so that FreeCAD's IFC
+  exporter writes them as the custom property set ``InvRad_Luminaire`` (IFC has no
+  standard fixture flux; Pset_LightFixtureTypeCommon gets NumberOfSources = 1).
+* **Room**: fixtures are put inside their Space (``Space.Group``: Arch's "objects that
+  are included inside this space, such as furniture"), and ``Room`` links back to it. The
+  link is an ``App::PropertyLinkHidden``: a plain link would close a dependency cycle with
+  the Space's Group ("The graph must be a DAG").
+
+:func:`insert_fixtures` makes all of it ONE undoable transaction and, by default, first
+removes the fixtures a previous invrad run put into the same rooms (``Generator`` tag).
+"""
+import numpy as np
+
+from ..core.luminaires import Luminaire
+from ..errors import LuminaireError, SceneError
+from . import settings as S
+from .document import describe, object_type, transaction
+from .units import direction, m_to_mm, mm_to_m, vector_mm
+
+LIGHT_FIXTURE = "Light Fixture"
+
+
+def new_guid():
+    """A new IFC GlobalId (22 characters), or '' without ifcopenshell."""
+    try:
+        import ifcopenshell.guid
+    except ImportError:
+        return ""
+    return ifcopenshell.guid.new()
+
+
+def fixture_rotation(normal):
+    """FreeCAD Rotation taking local -Z to the unit ``normal`` (the light direction)."""
+    import FreeCAD
+    n = np.asarray(normal, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    if n[2] < -1 + 1e-12:
+        return FreeCAD.Rotation()
+    if n[2] > 1 - 1e-12:          # facing up: turn half around X (keeps +X along +X)
+        return FreeCAD.Rotation(FreeCAD.Vector(1, 0, 0), 180)
+    return FreeCAD.Rotation(FreeCAD.Vector(0, 0, -1), direction(n))
+
+
+def fixture_shape(radius_m, thickness_m=S.FIXTURE_THICKNESS_M):
+    """The fixture body in local coordinates (mm): a disk from z = -thickness to 0."""
+    import FreeCAD
+    import Part
+    r = m_to_mm(radius_m if radius_m > 0 else S.FIXTURE_RADIUS_M)
+    t = m_to_mm(thickness_m)
+    return Part.makeCylinder(r, t, FreeCAD.Vector(0, 0, -t), FreeCAD.Vector(0, 0, 1))
+
+
+def is_fixture(obj, generated_only=False):
+    if object_type(obj) != "Equipment" or getattr(obj, "IfcType", "") != LIGHT_FIXTURE:
+        return False
+    return not generated_only or getattr(obj, "Generator", "") == S.GENERATOR_TAG
+
+
+def room_fixtures(space, generated_only=True):
+    """Light fixtures inside a Space (those made by invrad only, by default)."""
+    return [o for o in space.Group if is_fixture(o, generated_only)]
+
+
+def all_fixtures(doc, generated_only=True):
+    return [o for o in doc.Objects if is_fixture(o, generated_only)]
+
+
+def fixture_room(obj):
+    """The Space of a fixture: its Room link, else the Space whose Group holds it."""
+    room = getattr(obj, "Room", None)
+    if room is not None:
+        return room
+    for parent in obj.InList:
+        if object_type(parent) == "Space" and obj in parent.Group:
+            return parent
+    return None
+
+
+def _add_properties(obj):
+    props = [
+        ("App::PropertyFloat", "LuminousFlux", "Light", "Luminous flux of the luminaire (lm)"),
+        ("App::PropertyLength", "EmitterRadius", "Light", "Radius of the emitting disk"
+                                                          " (0 = point emitter)"),
+        ("App::PropertyVector", "LightDirection", "Light", "Light direction (global unit"
+                                                           " vector, the local -Z axis)"),
+        ("App::PropertyFloat", "Score", "Light", "How much this luminaire lowered the"
+                                                 " locate cost"),
+        ("App::PropertyLinkHidden", "Room", "Light", "The room (Space) this fixture lights"),
+        ("App::PropertyString", "Generator", "Light", "Tool that placed this fixture"),
+    ]
+    for ptype, name, group, doc in props:
+        if name not in obj.PropertiesList:
+            obj.addProperty(ptype, name, group, doc)
+
+
+def _ifc_properties(lum):
+    p = {"LuminousFlux;;" + S.IFC_LUMINAIRE_PSET: f"IfcLuminousFluxMeasure;;{float(lum.flux_lm)!r}",
+         "Generator;;" + S.IFC_LUMINAIRE_PSET: f"IfcLabel;;{S.GENERATOR_TAG}",
+         "NumberOfSources;;Pset_LightFixtureTypeCommon": "IfcInteger;;1"}
+    if lum.radius_m > 0:
+        p["EmitterRadius;;" + S.IFC_LUMINAIRE_PSET] = f"IfcLengthMeasure;;{float(lum.radius_m)!r}"
+    if lum.score is not None and np.isfinite(lum.score) and lum.score > 0:
+        p["Score;;" + S.IFC_LUMINAIRE_PSET] = f"IfcReal;;{float(lum.score)!r}"
+    return p
+
+
+def check_luminaire(lum, where):
+    if not isinstance(lum, Luminaire):
+        raise LuminaireError(f"{where}: not a Luminaire: {lum!r}")
+    if not (np.all(np.isfinite(lum.position)) and np.all(np.isfinite(lum.normal))):
+        raise LuminaireError(f"{where}: position/normal are not finite")
+    if not (np.isfinite(lum.flux_lm) and lum.flux_lm > 0):
+        raise LuminaireError(f"{where}: flux {lum.flux_lm!r} lm must be > 0")
+
+
+def make_fixture(space, lum, label):
+    """Create one fixture (no transaction of its own: use :func:`insert_fixtures`)."""
+    import Arch
+    obj = Arch.makeEquipment(name=label)
+    obj.Label = label
+    obj.IfcType = LIGHT_FIXTURE
+    _add_properties(obj)
+    obj.Shape = fixture_shape(lum.radius_m)
+    obj.Placement = _placement(lum)
+    obj.LuminousFlux = float(lum.flux_lm)
+    obj.EmitterRadius = m_to_mm(lum.radius_m)
+    obj.LightDirection = direction(lum.normal)
+    obj.Score = float(lum.score) if lum.score is not None and np.isfinite(lum.score) else 0.0
+    obj.Generator = S.GENERATOR_TAG
+    obj.Description = f"invrad luminaire, {lum.flux_lm:.0f} lm"
+    props = dict(obj.IfcProperties)
+    props.update(_ifc_properties(lum))
+    obj.IfcProperties = props
+    uid = new_guid()
+    if uid:
+        data = dict(obj.IfcData)
+        data["IfcUID"] = uid
+        obj.IfcData = data
+    obj.Room = space
+    space.Proxy.addObject(space, obj)
+    return obj
+
+
+def _placement(lum):
+    import FreeCAD
+    return FreeCAD.Placement(vector_mm(lum.position), fixture_rotation(lum.normal))
+
+
+def _ensure_space_uid(space):
+    data = dict(getattr(space, "IfcData", {}) or {})
+    if not data.get("IfcUID"):
+        uid = new_guid()
+        if uid:
+            data["IfcUID"] = uid
+            space.IfcData = data
+
+
+def insert_fixtures(doc, per_room, replace=True, name="Insert luminaires"):
+    """Insert luminaires as light fixtures, room by room, as ONE undoable transaction.
+
+    Parameters
+    ----------
+    doc : FreeCAD document
+    per_room : list of (Space, list of Luminaire)
+    replace : bool
+        First remove the fixtures that invrad put into these rooms before.
+
+    Returns
+    -------
+    list of the new fixture objects, in the order given.
+
+    Raises
+    ------
+    LuminaireError, SceneError
+        Bad luminaire or room; the document is left unchanged.
+    """
+    for space, lums in per_room:
+        if object_type(space) != "Space":
+            raise SceneError(f"{describe(space)} is not a room (Arch Space)", doc.Label)
+        for i, lum in enumerate(lums):
+            check_luminaire(lum, f"luminaire {i + 1} of room {describe(space)}")
+    out = []
+    with transaction(doc, name):
+        for space, lums in per_room:
+            if replace:
+                for old in room_fixtures(space):
+                    doc.removeObject(old.Name)
+            _ensure_space_uid(space)
+            for i, lum in enumerate(lums):
+                out.append(make_fixture(space, lum, f"Luminaire {space.Label} {i + 1}"))
+    return out
+
+
+def remove_fixtures(doc, spaces=None):
+    """Remove the invrad fixtures of some rooms (all rooms if None), one undoable step."""
+    from .rooms import find_spaces
+    spaces = find_spaces(doc) if spaces is None else spaces
+    with transaction(doc, "Remove luminaires"):
+        n = 0
+        for space in spaces:
+            for old in room_fixtures(space):
+                doc.removeObject(old.Name)
+                n += 1
+    return n
+
+
+def fixture_luminaire(obj):
+    """The Luminaire a fixture stands for (position, direction, flux, radius, score)."""
+    pl = obj.getGlobalPlacement() if hasattr(obj, "getGlobalPlacement") else obj.Placement
+    import FreeCAD
+    d = pl.Rotation.multVec(FreeCAD.Vector(0, 0, -1))
+    flux = float(getattr(obj, "LuminousFlux", 0.0))
+    return Luminaire(mm_to_m(pl.Base), [d.x, d.y, d.z], flux,
+                     mm_to_m(getattr(obj, "EmitterRadius", 0.0)),
+                     score=float(getattr(obj, "Score", 0.0)) or None)

@@ -1,0 +1,342 @@
+"""The headless pipeline over a whole building: targets -> locate -> fixtures -> report.
+
+:func:`run` takes a FreeCAD document and, for every room with lighting targets (or the
+rooms asked for):
+
+1. meshes the room's boundary surfaces (metres, inward normals, per-surface reflectance)
+   and evaluates its targets into lux per vertex (:mod:`invrad_wb.core.targets`); the
+   work plane joins as virtual faces (transparent, non-reflecting, never a mounting
+   plane: ``Scene(face_virtual=...)``);
+2. builds ONE :class:`~invrad_wb.core.scene.Scene` of the building with a room id per
+   room, and lets the core's ``locate`` find the luminaires room by room;
+3. verifies them with a forward render (with interreflection by default);
+4. writes a report (:func:`invrad_wb.core.report.build_report`, plus ``summary.json``);
+5. inserts the luminaires as light fixtures, as one undoable transaction.
+
+Nothing in the document changes before step 5, and step 5 is all-or-nothing: a failed or
+cancelled run (``progress`` returning False raises :class:`~invrad_wb.errors.Cancelled`)
+leaves the document exactly as it was.
+
+GUI commands call :func:`run` (or :func:`prepare` to preview meshes and targets).
+"""
+from dataclasses import dataclass, field, asdict
+import json
+import os
+import time
+
+import numpy as np
+
+from ..core import targets as CT
+from ..errors import Cancelled, SceneError, SettingsError
+from . import settings as S
+from .document import describe
+from .rooms import find_spaces, get_space, mesh_room, room_shape
+from .targets import has_targets, room_specs
+
+
+@dataclass
+class PipelineSettings:
+    """Options of a pipeline run (SI units).
+
+    Attributes
+    ----------
+    flux_lm : luminous flux of one luminaire (lm), > 0
+    resolution_m : longest triangle edge of the room meshes (m)
+    interreflection : verify with interreflected light (radiosity)
+    locate : LocateSettings, dict or None (core defaults)
+    backend : 'auto', 'opencl' or 'numpy'
+    replace : remove the fixtures of a previous invrad run in the processed rooms
+    rooms : names, labels or GlobalIds of the rooms to process (None: rooms with targets)
+    report_dir : folder for the report (None: no report)
+    base_dir : folder that relative image paths of texture targets are relative to
+    insert : insert the fixtures into the document (False: only compute and report)
+    """
+    flux_lm: float
+    resolution_m: float = S.RESOLUTION_M
+    interreflection: bool = True
+    locate: object = None
+    backend: str = "auto"
+    replace: bool = True
+    rooms: list = None
+    report_dir: str = None
+    base_dir: str = None
+    insert: bool = True
+
+
+@dataclass
+class RoomPlan:
+    """One room of the building scene."""
+    room_id: int
+    space: object
+    mesh: object
+    targets: list
+    work_plane: object
+    faces: slice = None          # its faces in the building scene (before vertex split)
+    n_work_plane: int = 0
+
+
+@dataclass
+class BuildingScene:
+    scene: object
+    rooms: list
+    seconds: float = 0.0
+
+    @property
+    def room_names(self):
+        return [r.space.Label for r in self.rooms]
+
+
+@dataclass
+class PipelineResult:
+    """What a run found and did."""
+    building: BuildingScene
+    luminaires: list
+    fixtures: list
+    target: np.ndarray
+    achieved: np.ndarray
+    locate_result: object = None
+    report: object = None
+    summary: dict = field(default_factory=dict)
+    timings: dict = field(default_factory=dict)
+
+
+def check_flux(flux_lm):
+    try:
+        f = float(flux_lm)
+    except (TypeError, ValueError):
+        raise SettingsError(f"flux {flux_lm!r} is not a number of lumens")
+    if not np.isfinite(f) or f <= 0:
+        raise SettingsError(f"flux is {flux_lm!r} lm: the luminous flux of a luminaire must"
+                            " be a positive number of lumens")
+    return f
+
+
+def _progress(progress, lo, hi):
+    """A sub-range [lo, hi] of a progress callback; cancelling raises Cancelled."""
+    def report(frac, msg):
+        if progress is not None:
+            if progress(lo + (hi - lo) * min(max(float(frac), 0.0), 1.0), msg) is False:
+                raise Cancelled(f"cancelled: {msg}")
+        return True
+    return report
+
+
+def select_rooms(doc, rooms=None):
+    """The Spaces to process: those named, or all Spaces that have targets."""
+    spaces = find_spaces(doc)
+    if not spaces:
+        raise SceneError("the document has no rooms (Arch Spaces); make Spaces from walls"
+                         " and slabs, or import an IFC file with IfcSpaces", doc.Label)
+    if rooms:
+        chosen = []
+        for key in rooms:
+            sp = key if hasattr(key, "TypeId") else get_space(doc, key)
+            if sp not in chosen:
+                chosen.append(sp)
+        for sp in chosen:
+            if not has_targets(sp):
+                raise SceneError(f"room {describe(sp)} has no lighting targets", doc.Label)
+        return chosen
+    chosen = [sp for sp in spaces if has_targets(sp)]
+    if not chosen:
+        raise SceneError(f"none of the {len(spaces)} rooms has lighting targets (uniform,"
+                         " spot, texture, shade or a work-plane illuminance)", doc.Label)
+    return chosen
+
+
+def prepare(doc, settings, progress=None):
+    """Mesh the rooms and evaluate their targets into one building Scene (no doc change).
+
+    Returns
+    -------
+    BuildingScene
+
+    Raises
+    ------
+    SceneError, SettingsError
+        No rooms, an open room, a target on a missing face, a bad lux value... naming the
+        object at fault.
+    """
+    from ..core.scene import Scene
+    t0 = time.perf_counter()
+    report = _progress(progress, 0.0, 1.0)
+    spaces = select_rooms(doc, settings.rooms)
+    verts, faces, lux, room, rho, virtual = [], [], [], [], [], []
+    plans = []
+    nv = nf = 0
+    for k, space in enumerate(spaces):
+        report(k / len(spaces), f"room {space.Label}: mesh and targets")
+        n_faces = len(room_shape(space).Faces)
+        specs, reflectance, wp = room_specs(space, n_faces, base_dir=settings.base_dir)
+        mesh = mesh_room(space, settings.resolution_m, reflectance)
+        vl = CT.evaluate(mesh.vertices, mesh.triangles, mesh.triangle_face, specs,
+                         source=space.Label, label=mesh.face_label,
+                         base_dir=settings.base_dir)
+        plan = RoomPlan(k, space, mesh, specs, wp)
+        parts = [(mesh.vertices, mesh.triangles, vl, mesh.triangle_reflectance, False)]
+        if wp is not None:
+            wv, wt, wl = CT.work_plane(mesh.vertices, mesh.triangles, mesh.floor_triangles,
+                                       wp, source=space.Label, surface=mesh.coarse)
+            parts.append((wv, wt, wl, np.zeros(len(wt)), True))
+            plan.n_work_plane = len(wt)
+        start = nf
+        for v, t, l, r, virt in parts:
+            verts.append(v)
+            faces.append(t + nv)
+            lux.append(l)
+            room.append(np.full(len(t), k))
+            rho.append(r)
+            virtual.append(np.full(len(t), virt))
+            nv += len(v)
+            nf += len(t)
+        plan.faces = slice(start, nf)
+        if not np.isfinite(np.concatenate([p[2] for p in parts])).any():
+            raise SceneError(f"room {describe(space)}: its targets give no illuminance"
+                             " anywhere (all 'no target')", space.Label)
+        plans.append(plan)
+    scene = Scene(np.concatenate(verts), np.concatenate(faces),
+                  vertex_lux=np.concatenate(lux), face_room=np.concatenate(room),
+                  face_reflectance=np.concatenate(rho),
+                  face_virtual=np.concatenate(virtual), source=doc.Label)
+    report(1.0, "scene ready")
+    return BuildingScene(scene, plans, time.perf_counter() - t0)
+
+
+def _room_stats(scene, target, achieved, plans):
+    out = []
+    vr = np.full(len(scene.vertices), -1)
+    vr[scene.faces.reshape(-1)] = np.repeat(scene.face_room, 3)
+    vvirt = np.zeros(len(scene.vertices), bool)
+    vvirt[scene.faces[scene.face_virtual].reshape(-1)] = True
+    for p in plans:
+        sel = vr == p.room_id
+        d = {"room": p.space.Label, "space": p.space.Name,
+             "triangles": int(len(p.mesh.triangles)), "work_plane_triangles": p.n_work_plane}
+        for name, mask in (("surfaces", sel & ~vvirt), ("work_plane", sel & vvirt)):
+            t = target[mask]
+            a = achieved[mask]
+            lit = np.isfinite(t) & (t > 0)
+            dark = np.isfinite(t) & (t == 0)
+            if lit.any():
+                rel = (a[lit] - t[lit]) / t[lit]
+                d[name] = {"targets": int(lit.sum()), "mean_target_lux": float(t[lit].mean()),
+                           "mean_achieved_lux": float(a[lit].mean()),
+                           "rms_relative_error": float(np.sqrt(np.mean(rel ** 2))),
+                           "median_relative_error": float(np.median(np.abs(rel))),
+                           "min_achieved_lux": float(a[lit].min())}
+            if dark.any():
+                d.setdefault(name, {})["shade_max_lux"] = float(a[dark].max())
+        out.append(d)
+    return out
+
+
+def run(doc, settings, progress=None, locate=None):
+    """The whole pipeline (see the module docstring).
+
+    Parameters
+    ----------
+    doc : FreeCAD document
+    settings : PipelineSettings
+    progress : callable(fraction, message) -> bool, optional
+        Return False to cancel: raises Cancelled and leaves the document unchanged.
+    locate : callable, optional
+        ``locate(scene, flux_lm=..., settings=..., progress=..., backend=...)`` returning an
+        object with ``.luminaires``; default :func:`invrad_wb.core.locate.locate`.
+
+    Returns
+    -------
+    PipelineResult
+    """
+    flux = check_flux(settings.flux_lm)
+    timings = {}
+    t0 = time.perf_counter()
+    building = prepare(doc, settings, _progress(progress, 0.0, 0.1))
+    timings["prepare"] = building.seconds
+    scene = building.scene
+    if locate is None:
+        from ..core.locate import locate
+    t = time.perf_counter()
+    result = locate(scene, flux_lm=flux, settings=settings.locate,
+                    progress=_progress(progress, 0.1, 0.75), backend=settings.backend)
+    timings["locate"] = time.perf_counter() - t
+    lums = list(result.luminaires)
+    per_room = {p.room_id: [] for p in building.rooms}
+    for lum in lums:
+        if lum.room not in per_room:
+            raise SceneError(f"locate returned a luminaire for unknown room id {lum.room!r}")
+        per_room[lum.room].append(lum)
+    step = _progress(progress, 0.75, 0.9)
+    step(0.0, f"verify {len(lums)} luminaire(s)")
+    t = time.perf_counter()
+    from ..core.render import render
+    achieved = render(scene, lums, interreflection=settings.interreflection,
+                      backend=settings.backend)
+    timings["verify"] = time.perf_counter() - t
+    target = scene.vertex_lux.copy() if scene.vertex_lux is not None else scene.vertex_targets()
+    summary = {
+        "document": doc.Label, "flux_lm": flux, "resolution_m": settings.resolution_m,
+        "interreflection": bool(settings.interreflection),
+        "rooms": _room_stats(scene, target, achieved, building.rooms),
+        "luminaires": [],
+    }
+    for p in building.rooms:
+        for i, lum in enumerate(per_room[p.room_id]):
+            d = lum.to_dict()
+            d["room_name"] = p.space.Label
+            d["fixture"] = f"Luminaire {p.space.Label} {i + 1}"
+            summary["luminaires"].append(d)
+    report_out = None
+    if settings.report_dir:
+        step = _progress(progress, 0.9, 0.97)
+        step(0.0, "report")
+        t = time.perf_counter()
+        report_out = write_report(settings.report_dir, building, target, achieved, lums,
+                                  summary)
+        timings["report"] = time.perf_counter() - t
+    _progress(progress, 0.97, 1.0)(0.0, "insert fixtures")
+    fixtures = []
+    if settings.insert:
+        from .fixtures import insert_fixtures
+        t = time.perf_counter()
+        fixtures = insert_fixtures(doc, [(p.space, per_room[p.room_id])
+                                         for p in building.rooms],
+                                   replace=settings.replace,
+                                   name=f"invrad: {len(lums)} luminaire(s)")
+        timings["insert"] = time.perf_counter() - t
+    timings["total"] = time.perf_counter() - t0
+    summary["timings"] = timings
+    if settings.report_dir:
+        _write_json(os.path.join(settings.report_dir, "summary.json"), summary)
+    if progress is not None:
+        progress(1.0, f"{len(lums)} luminaire(s) in {len(building.rooms)} room(s)")
+    return PipelineResult(building, lums, [f.Name for f in fixtures], target, achieved,
+                          locate_result=result, report=report_out, summary=summary,
+                          timings=timings)
+
+
+def _write_json(path, data):
+    from ..core.atomic import atomic_write_text
+
+    def default(o):
+        if isinstance(o, np.ndarray):
+            return o.tolist()
+        if isinstance(o, (np.floating, np.integer, np.bool_)):
+            return o.item()
+        return str(o)
+    atomic_write_text(path, json.dumps(data, indent=2, default=default) + "\n")
+
+
+def write_report(out_dir, building, target, achieved, luminaires, summary):
+    """The core's HTML/CSV report if it is available, and ``summary.json`` always."""
+    os.makedirs(out_dir, exist_ok=True)
+    out = None
+    try:
+        from ..core.report import build_report
+    except ImportError as exc:
+        summary["report"] = f"no HTML report: invrad_wb.core.report is not available ({exc})"
+    else:
+        out = build_report(building.scene, target, achieved, luminaires, out_dir,
+                           room_names=building.room_names)
+        summary["report"] = str(getattr(out, "html", out))
+    _write_json(os.path.join(out_dir, "summary.json"), summary)
+    return out

@@ -1,0 +1,357 @@
+"""Rooms of a FreeCAD document: Arch Spaces -> closed solids -> sampling meshes in metres.
+
+A room is an Arch Space, whether built from wall/slab boundaries (``Boundaries``), from a
+solid (``Base``) or imported from an IfcSpace (:mod:`.ifcrooms`). Its boundary surfaces
+are the faces of the Space's solid; targets refer to them as ``FaceN`` (1-based, FreeCAD's
+sub-element names), meshes carry the 0-based face index per triangle.
+
+:func:`mesh_room` tessellates each face on its own (FreeCAD), then refines the triangles
+until no edge is longer than the resolution (:func:`invrad_wb.app.meshing.refine`); every
+new vertex lies on a parent edge, so a planar face stays exactly planar. Vertices are not
+shared between faces (a target on the floor must not leak up the walls). A Space's solid
+has outward normals: triangles are wound so that their normals point INTO the room, and the
+whole mesh is checked by its signed volume. Coordinates are converted from FreeCAD's mm to
+metres here, and nowhere else.
+"""
+from dataclasses import dataclass, field
+import time
+
+import numpy as np
+
+from ..errors import SceneError, SettingsError
+from . import settings as S
+from .document import describe, object_type
+from .meshing import refine, signed_volume, triangle_normals
+from .units import mm_to_m, points_mm_to_m
+
+SURFACE_KINDS = ("floor", "wall", "ceiling")
+
+
+@dataclass
+class RoomMesh:
+    """The sampling mesh of one room.
+
+    Attributes
+    ----------
+    space : str
+        Internal name of the Arch Space (``doc.getObject(space)``).
+    label : str
+        The Space's label (the room name shown to the user).
+    vertices : (n, 3) float64, metres
+    triangles : (m, 3) int64, counter-clockwise seen from the room (normals inward)
+    triangle_face : (m,) int64, 0-based index of the Space face of each triangle
+    face_kind : list of str, per face: 'floor', 'wall' or 'ceiling'
+    face_normal : (k, 3) float64, inward unit normal of each face (area-weighted)
+    face_area : (k,) float64, m^2
+    face_reflectance : (k,) float64 in [0, 1)
+    volume : float, m^3
+    seconds : float, time taken to mesh
+    coarse : ((k, 3), (j, 3)): FreeCAD's own (unrefined) tessellation, inward, metres
+    """
+    space: str
+    label: str
+    vertices: np.ndarray
+    triangles: np.ndarray
+    triangle_face: np.ndarray
+    face_kind: list
+    face_normal: np.ndarray
+    face_area: np.ndarray
+    face_reflectance: np.ndarray
+    volume: float
+    seconds: float = 0.0
+    coarse: tuple = None
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def n_faces(self):
+        return len(self.face_kind)
+
+    @staticmethod
+    def face_label(i):
+        """FreeCAD sub-element name of the 0-based face ``i``."""
+        return f"Face{int(i) + 1}"
+
+    @property
+    def triangle_reflectance(self):
+        return self.face_reflectance[self.triangle_face]
+
+    @property
+    def floor_triangles(self):
+        """(m,) bool: triangles on floor faces."""
+        kinds = np.array([k == "floor" for k in self.face_kind])
+        return kinds[self.triangle_face]
+
+    def faces_of_kind(self, kind):
+        """0-based indices of the faces of one kind ('floor', 'wall', 'ceiling')."""
+        return [i for i, k in enumerate(self.face_kind) if k == kind]
+
+
+# --------------------------------------------------------------------------- spaces
+def is_space(obj):
+    return object_type(obj) == "Space"
+
+
+def find_spaces(doc):
+    """All Arch Spaces of a document, in document order."""
+    return [o for o in doc.Objects if is_space(o)]
+
+
+def space_uid(space):
+    """The IFC GlobalId stored on a Space (``IfcData['IfcUID']``) or ''."""
+    data = getattr(space, "IfcData", None) or {}
+    return str(data.get("IfcUID", "")) if hasattr(data, "get") else ""
+
+
+def get_space(doc, key):
+    """The Space whose Name, Label or IFC GlobalId is ``key``; SceneError if none/ambiguous."""
+    spaces = find_spaces(doc)
+    if not spaces:
+        raise SceneError("the document has no rooms (Arch Spaces)", doc.Label)
+    for attr in ("Name", "Label"):
+        hit = [s for s in spaces if getattr(s, attr) == key]
+        if len(hit) == 1:
+            return hit[0]
+        if len(hit) > 1:
+            raise SceneError(f"{len(hit)} rooms are labelled {key!r}: use their names"
+                             f" ({', '.join(s.Name for s in hit)})", doc.Label)
+    hit = [s for s in spaces if space_uid(s) == key]
+    if hit:
+        return hit[0]
+    raise SceneError(f"no room {key!r}; the rooms are: "
+                     + ", ".join(describe(s) for s in spaces), doc.Label)
+
+
+def _free_edges(shape):
+    import Part
+    n = 0
+    for e in shape.Edges:
+        if len(shape.ancestorsOfType(e, Part.Face)) < 2:
+            n += 1
+    return n
+
+
+def room_shape(space):
+    """The Space's closed solid, in global coordinates (mm), checked.
+
+    Raises
+    ------
+    SceneError
+        Naming the Space when it has no geometry, its boundaries enclose no volume or its
+        surface is not closed.
+    """
+    who = f"room {describe(space)}"
+    base = getattr(space, "Base", None)
+    if base is not None and hasattr(base, "Shape") and not base.Shape.isNull():
+        # Arch keeps a Space's previous shape when its base stops being a solid: check it
+        bs = base.Shape
+        if not bs.Solids or not all(sh.isClosed() for so in bs.Solids for sh in so.Shells):
+            raise SceneError(f"{who} is not closed: its base {describe(base)} is an open"
+                             f" surface ({len(bs.Faces)} faces, {_free_edges(bs)} free"
+                             " edges), not a closed solid; close it (e.g. Part > Shape"
+                             " builder > solid from shell)", space.Label)
+    shape = getattr(space, "Shape", None)
+    if shape is None or shape.isNull() or not shape.Faces:
+        if getattr(space, "Boundaries", None):
+            raise SceneError(f"{who} has no geometry: its {len(space.Boundaries)} boundary"
+                             " objects do not enclose a volume (check that the walls, floor"
+                             " and ceiling faces close the room)", space.Label)
+        raise SceneError(f"{who} has no geometry (no base solid and no boundaries)",
+                         space.Label)
+    if not shape.Solids:
+        raise SceneError(f"{who} is not closed: its shape has no solid ({len(shape.Faces)}"
+                         f" faces, {_free_edges(shape)} free edges)", space.Label)
+    for solid in shape.Solids:
+        for shell in solid.Shells:
+            if not shell.isClosed():
+                raise SceneError(f"{who} is not closed: its solid has"
+                                 f" {_free_edges(shell)} free edges", space.Label)
+    shape = shape.copy()
+    gp = space.getGlobalPlacement()
+    own = space.Placement
+    if not gp.toMatrix() == own.toMatrix():
+        shape.Placement = gp.multiply(own.inverse()).multiply(shape.Placement)
+    return shape
+
+
+def check_resolution(resolution_m):
+    try:
+        r = float(resolution_m)
+    except (TypeError, ValueError):
+        raise SettingsError(f"resolution {resolution_m!r} is not a length in metres")
+    if not np.isfinite(r) or r < S.MIN_RESOLUTION_M:
+        raise SettingsError(f"resolution {resolution_m!r} m: must be a finite length of at"
+                            f" least {S.MIN_RESOLUTION_M} m")
+    if r > 100:
+        raise SettingsError(f"resolution {r} m is larger than any room; the resolution is in"
+                            " metres (e.g. 0.3)")
+    return r
+
+
+def _face_outward_normals(face, points_m, tris):
+    """Outward normal per triangle of one face (FreeCAD's normalAt honours orientation)."""
+    import FreeCAD
+    surf = face.Surface
+    if "Plane" in type(surf).__name__:
+        u0, u1, v0, v1 = face.ParameterRange
+        n = face.normalAt(0.5 * (u0 + u1), 0.5 * (v0 + v1))
+        return np.tile([n.x, n.y, n.z], (len(tris), 1))
+    out = np.empty((len(tris), 3))
+    cent = points_m[tris].mean(axis=1) * 1000.0
+    for i, c in enumerate(cent):
+        u, v = face.Surface.parameter(FreeCAD.Vector(*c))
+        n = face.normalAt(u, v)
+        out[i] = (n.x, n.y, n.z)
+    return out
+
+
+def classify(normal_in):
+    """Surface kind from an inward unit normal: floor (faces up), ceiling, or wall."""
+    nz = float(normal_in[2])
+    if nz > S.FLOOR_CEILING_NZ:
+        return "floor"
+    if nz < -S.FLOOR_CEILING_NZ:
+        return "ceiling"
+    return "wall"
+
+
+def _check_reflectance(value, what, source):
+    try:
+        r = float(value)
+    except (TypeError, ValueError):
+        raise SceneError(f"{what} is {value!r}: reflectance must be a number in [0, 1)",
+                         source)
+    if not np.isfinite(r) or r < 0 or r >= 1:
+        raise SceneError(f"{what} is {value!r}: reflectance must be in [0, 1) (a fraction,"
+                         " not a percentage)", source)
+    return r
+
+
+def mesh_room(space, resolution_m=S.RESOLUTION_M, reflectance=None):
+    """Mesh the boundary surfaces of a Space for sampling.
+
+    Parameters
+    ----------
+    space : Arch Space
+    resolution_m : float
+        Longest triangle edge, metres.
+    reflectance : dict, optional
+        Overrides of the default reflectance: keys 'floor', 'wall', 'ceiling' (per kind)
+        and/or int (0-based face index); values in [0, 1).
+
+    Returns
+    -------
+    RoomMesh
+    """
+    t0 = time.perf_counter()
+    res = check_resolution(resolution_m)
+    shape = room_shape(space)
+    verts, tris, tface = [], [], []
+    coarse_v, coarse_t = [], []
+    n_v = n_cv = 0
+    face_normal, face_area, kinds = [], [], []
+    for i, face in enumerate(shape.Faces):
+        pts, ftris = face.tessellate(S.TESSELLATION_TOL_MM)
+        if not ftris:
+            face_normal.append(np.zeros(3))
+            face_area.append(0.0)
+            kinds.append("wall")
+            continue
+        p = points_mm_to_m(pts)
+        t = np.asarray(ftris, dtype=np.int64).reshape(-1, 3)
+        out = _face_outward_normals(face, p, t)
+        tn = triangle_normals(p, t)
+        flip = np.einsum("ij,ij->i", tn, out) > 0       # facing out: wind the other way
+        t[flip] = t[flip][:, [0, 2, 1]]
+        coarse_v.append(p)
+        coarse_t.append(t + n_cv)
+        n_cv += len(p)
+        p, t, _ = refine(p, t, res)
+        tn = triangle_normals(p, t)
+        area2 = np.linalg.norm(tn, axis=1)
+        keep = area2 > 1e-14
+        t = t[keep]
+        n = tn[keep].sum(0)
+        nn = np.linalg.norm(n)
+        n = n / nn if nn > 0 else n
+        face_normal.append(n)
+        face_area.append(0.5 * float(area2[keep].sum()))
+        kinds.append(classify(n))
+        verts.append(p)
+        tris.append(t + n_v)
+        tface.append(np.full(len(t), i, dtype=np.int64))
+        n_v += len(p)
+    if not tris:
+        raise SceneError(f"room {describe(space)}: its surfaces could not be tessellated",
+                         space.Label)
+    v = np.concatenate(verts)
+    t = np.concatenate(tris)
+    tf = np.concatenate(tface)
+    vol = signed_volume(v, t)
+    coarse = (np.concatenate(coarse_v), np.concatenate(coarse_t))
+    if vol > 0:         # the solid was inside out: its "outward" normals pointed in
+        t = t[:, [0, 2, 1]]
+        coarse = (coarse[0], coarse[1][:, [0, 2, 1]])
+        face_normal = [-n for n in face_normal]
+        kinds = [classify(n) for n in face_normal]
+        vol = -vol
+    expected = abs(shape.Volume) / 1e9
+    if expected > 0 and abs(-vol - expected) > 0.01 * expected + 1e-6:
+        raise SceneError(f"room {describe(space)}: its mesh encloses {-vol:.3f} m^3 but the"
+                         f" solid {expected:.3f} m^3; the surface is not a valid closed"
+                         " solid", space.Label)
+    rho = np.array([S.REFLECTANCE[k] for k in kinds], dtype=np.float64)
+    for key, value in (reflectance or {}).items():
+        if isinstance(key, str):
+            if key not in SURFACE_KINDS:
+                raise SceneError(f"unknown surface kind {key!r} for reflectance; use one of"
+                                 f" {', '.join(SURFACE_KINDS)}", space.Label)
+            r = _check_reflectance(value, f"{key} reflectance", space.Label)
+            rho[[k == key for k in kinds]] = r
+    for key, value in (reflectance or {}).items():
+        if not isinstance(key, str):
+            k = int(key)
+            if not 0 <= k < len(kinds):
+                raise SceneError(f"reflectance given for Face{k + 1}, but the room has"
+                                 f" {len(kinds)} faces", space.Label)
+            rho[k] = _check_reflectance(value, f"reflectance of Face{k + 1}", space.Label)
+    return RoomMesh(space=space.Name, label=space.Label, vertices=v, triangles=t,
+                    triangle_face=tf, face_kind=kinds, face_normal=np.array(face_normal),
+                    face_area=np.array(face_area), face_reflectance=rho, volume=-vol,
+                    seconds=time.perf_counter() - t0, coarse=coarse)
+
+
+def face_count(space):
+    """Number of faces of a Space's shape (0 without geometry)."""
+    shape = getattr(space, "Shape", None)
+    if shape is None or shape.isNull():
+        return 0
+    return len(shape.Faces)
+
+
+def faces_by_kind(space, kind):
+    """``['FaceN', ...]`` of a Space's faces of one kind ('floor', 'wall'/'walls',
+    'ceiling', 'all'), from their outward normals."""
+    kind = {"walls": "wall", "floors": "floor", "ceilings": "ceiling"}.get(kind, kind)
+    shape = room_shape(space)
+    out = []
+    for i, f in enumerate(shape.Faces):
+        if kind == "all":
+            out.append(f"Face{i + 1}")
+            continue
+        u0, u1, v0, v1 = f.ParameterRange
+        n = f.normalAt(0.5 * (u0 + u1), 0.5 * (v0 + v1))
+        if classify((-n.x, -n.y, -n.z)) == kind:
+            out.append(f"Face{i + 1}")
+    if kind not in SURFACE_KINDS and kind != "all":
+        raise SceneError(f"unknown surface kind {kind!r}; use floor, walls, ceiling or all",
+                         space.Label)
+    return out
+
+
+def point_on_face(space, face_index, point_m, tol_m=0.01):
+    """Distance check: is ``point_m`` on the 0-based face (within ``tol_m``)?"""
+    import FreeCAD
+    import Part
+    face = room_shape(space).Faces[face_index]
+    v = Part.Vertex(FreeCAD.Vector(*(np.asarray(point_m, dtype=float) * 1000.0)))
+    return mm_to_m(face.distToShape(v)[0]) <= tol_m

@@ -1,0 +1,348 @@
+"""``python -m invrad_wb freecad``: the FreeCAD pipeline from the command line.
+
+::
+
+    python -m invrad_wb freecad IN.FCStd|IN.ifc [--targets T.json] --out OUT.FCStd|OUT.ifc
+                                --report DIR [--flux LM] [--resolution M] ...
+
+Opens a FreeCAD document (or imports an IFC file's rooms with ifcopenshell), adds the
+targets of ``T.json`` (format: :data:`invrad_wb.app.targets.TARGETS_JSON_DOC`), runs the
+pipeline over every room with targets (:mod:`invrad_wb.app.pipeline`), and writes the lit
+model: ``.FCStd`` (FreeCAD document) or ``.ifc`` (merged into the input IFC file when the
+input is one, else FreeCAD's exporter; light fixtures inside their IfcSpace).
+
+Run outside FreeCAD, the command re-launches itself under ``freecadcmd`` (found on the
+PATH, or ``--freecadcmd`` / ``$INVRAD_FREECADCMD``) with this interpreter's site-packages
+and the checkout on ``PYTHONPATH``; the job travels as a JSON file named by
+``$INVRAD_FREECAD_JOB`` and its outcome comes back the same way, so errors are reported as
+one line and the exit status is right (freecadcmd itself exits 0 after an uncaught
+exception in a script; the child ends with ``os._exit``).
+"""
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+
+from invrad_wb.errors import Cancelled, InvradError, SettingsError
+
+ENV_JOB = "INVRAD_FREECAD_JOB"
+#: Printed by the child before its own output; what comes before is FreeCAD's banner.
+SENTINEL = "--8<-- invrad --8<--"
+
+
+class FreeCADError(InvradError, RuntimeError):
+    """FreeCAD (freecadcmd) is missing or the FreeCAD run failed."""
+
+
+def add_parser(subparsers):
+    """Add the ``freecad`` command to the main CLI's subparsers."""
+    p = subparsers.add_parser(
+        "freecad", help="run the pipeline on a FreeCAD document or IFC file (via freecadcmd)",
+        description="Find luminaires for the lighting targets of a FreeCAD document or an"
+                    " IFC file's rooms, insert them as light fixtures and report how close"
+                    " they come (runs under freecadcmd).",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=_epilog())
+    add_arguments(p)
+    p.set_defaults(func=main)
+    return p
+
+
+def _epilog():
+    try:
+        from invrad_wb.app.targets import TARGETS_JSON_DOC
+    except Exception:
+        return None
+    return TARGETS_JSON_DOC
+
+
+def add_arguments(p):
+    p.add_argument("input", help="FreeCAD document (.FCStd) or IFC file (.ifc) with rooms")
+    p.add_argument("--targets", help="JSON file with lighting targets per room")
+    p.add_argument("--out", required=True, help="output .FCStd or .ifc")
+    p.add_argument("--report", required=True, help="folder for the verification report")
+    p.add_argument("--flux", type=float, help="luminous flux of one luminaire, lm (or"
+                                              " flux_lm in the targets file)")
+    p.add_argument("--resolution", type=float, help="room mesh resolution, metres (0.3)")
+    p.add_argument("--rooms", nargs="+", help="only these rooms (labels, names or GlobalIds)")
+    p.add_argument("--no-interreflection", action="store_true",
+                   help="verify with direct light only")
+    p.add_argument("--keep", action="store_true",
+                   help="keep fixtures of earlier invrad runs in the processed rooms")
+    p.add_argument("--settings", help="JSON file with locate settings")
+    p.add_argument("--elements", action="store_true",
+                   help="IFC input: also import walls, slabs, windows... (for a .FCStd output)")
+    p.add_argument("--backend", default="auto", choices=("auto", "opencl", "numpy"))
+    p.add_argument("--freecadcmd", help="path of freecadcmd (default: $INVRAD_FREECADCMD or"
+                                        " the PATH)")
+    p.add_argument("-v", "--verbose", action="store_true", help="print progress")
+
+
+# --------------------------------------------------------------------------- parent side
+def in_freecad():
+    """True when running inside FreeCAD (freecadcmd or the GUI)."""
+    fc = sys.modules.get("FreeCAD")
+    return fc is not None and hasattr(fc, "newDocument")
+
+
+def _options(args):
+    opts = {k: v for k, v in vars(args).items() if k not in ("func", "command")}
+    for k in ("input", "targets", "out", "report", "settings"):
+        if opts.get(k):
+            opts[k] = os.path.abspath(opts[k])
+    return opts
+
+
+def main(args):
+    """Run the ``freecad`` command (parsed ``args``); returns 0 or raises InvradError."""
+    opts = _options(args)
+    if in_freecad():
+        run_job(opts)
+        return 0
+    return relaunch(opts)
+
+
+def find_freecadcmd(explicit=None):
+    for cand in (explicit, os.environ.get("INVRAD_FREECADCMD"), "freecadcmd", "FreeCADCmd"):
+        if cand:
+            path = shutil.which(cand)
+            if path:
+                return path
+    raise FreeCADError("freecadcmd was not found: install FreeCAD (Debian: apt-get install"
+                       " freecad-python3) or give its path with --freecadcmd or"
+                       " $INVRAD_FREECADCMD")
+
+
+def child_environment():
+    """Environment for freecadcmd: this interpreter's packages and the checkout in front."""
+    import site
+    import sysconfig
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    paths = [sysconfig.get_paths()["purelib"]]
+    try:
+        paths += site.getsitepackages()
+    except AttributeError:
+        pass
+    paths.append(root)
+    env = os.environ.copy()
+    if env.get("PYTHONPATH"):
+        paths.append(env["PYTHONPATH"])
+    seen, out = set(), []
+    for p in paths:
+        if p and p not in seen:
+            seen.add(p)
+            out.append(p)
+    env["PYTHONPATH"] = os.pathsep.join(out)
+    env.setdefault("QT_QPA_PLATFORM", "offscreen")
+    return env
+
+
+def relaunch(opts):
+    """Run the job under freecadcmd; stream its output; raise on failure."""
+    exe = find_freecadcmd(opts.get("freecadcmd"))
+    tmp = tempfile.mkdtemp(prefix="invrad-freecad-")
+    try:
+        job = os.path.join(tmp, "job.json")
+        status_path = os.path.join(tmp, "status.json")
+        with open(job, "w", encoding="utf-8") as fh:
+            json.dump({"options": opts, "status": status_path}, fh)
+        env = child_environment()
+        env[ENV_JOB] = job
+        proc = subprocess.Popen([exe, os.path.abspath(__file__)], stdout=subprocess.PIPE,
+                                env=env, text=True, bufsize=1, errors="replace")
+        before = []
+        started = False
+        try:
+            for line in proc.stdout:
+                if not started:
+                    if SENTINEL in line:
+                        started = True
+                    else:
+                        before.append(line)
+                    continue
+                sys.stdout.write(line)
+                sys.stdout.flush()
+        except KeyboardInterrupt:
+            proc.terminate()
+            raise
+        rc = proc.wait()
+        status = None
+        if os.path.isfile(status_path):
+            with open(status_path, "r", encoding="utf-8") as fh:
+                status = json.load(fh)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    if status is None:
+        tail = "".join(before[-20:]).strip()
+        raise FreeCADError(f"freecadcmd ({exe}) exited with status {rc} before the job"
+                           f" finished{': ' + tail if tail else ''}")
+    if status.get("ok"):
+        return 0
+    if status.get("traceback"):
+        sys.stderr.write(status["traceback"])
+    cls = Cancelled if status.get("type") == "Cancelled" else FreeCADError
+    raise cls(status.get("error", f"FreeCAD run failed (status {rc})"))
+
+
+# --------------------------------------------------------------------------- child side
+def child_main():
+    """Entry point under freecadcmd: run the job named by $INVRAD_FREECAD_JOB, then exit."""
+    import traceback
+    with open(os.environ[ENV_JOB], "r", encoding="utf-8") as fh:
+        job = json.load(fh)
+    out = os.fdopen(os.dup(1), "w", buffering=1, encoding="utf-8", errors="replace")
+    out.write(SENTINEL + "\n")
+    out.flush()
+    # FreeCAD's C++ console writes recompute progress bars to fd 1: silence them
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)
+    sys.stdout = out
+    rc = 3
+    try:
+        summary = run_job(job["options"], out)
+        status = {"ok": True, "summary": summary}
+        rc = 0
+    except InvradError as exc:
+        status = {"ok": False, "error": str(exc), "type": type(exc).__name__}
+        rc = 130 if isinstance(exc, Cancelled) else 2
+    except BaseException as exc:         # an internal error: keep the traceback
+        status = {"ok": False, "error": f"internal error: {type(exc).__name__}: {exc}",
+                  "type": "internal", "traceback": traceback.format_exc()}
+    try:
+        with open(job["status"], "w", encoding="utf-8") as fh:
+            json.dump(status, fh, default=str)
+    finally:
+        out.flush()
+        sys.stderr.flush()
+        os._exit(rc)
+
+
+def run_job(opts, out=None):
+    """Run the pipeline in this (FreeCAD) process; returns the run's summary dict."""
+    import FreeCAD
+    from invrad_wb.app import ifcexport, ifcrooms, pipeline, targets
+    from invrad_wb.app.pipeline import PipelineSettings, check_flux
+    from invrad_wb.errors import SceneError
+    out = out or sys.stdout
+
+    def say(msg):
+        out.write(msg + "\n")
+        out.flush()
+
+    src = opts["input"]
+    ext = os.path.splitext(src)[1].lower()
+    if ext not in (".fcstd", ".ifc"):
+        raise SettingsError(f"{src}: input must be a FreeCAD document (.FCStd) or an IFC"
+                            " file (.ifc)")
+    if not os.path.isfile(src):
+        raise SceneError("file does not exist", src)
+    dst = opts["out"]
+    dext = os.path.splitext(dst)[1].lower()
+    if dext not in (".fcstd", ".ifc"):
+        raise SettingsError(f"{dst}: output must end in .FCStd or .ifc")
+    from_file = {}
+    if opts.get("targets"):
+        import json as _json
+        try:
+            with open(opts["targets"], "r", encoding="utf-8") as fh:
+                head = _json.load(fh)
+            from_file = {k: head[k] for k in ("flux_lm", "resolution_m")
+                         if isinstance(head, dict) and k in head}
+        except (OSError, ValueError):
+            pass      # reported properly when the targets are applied
+    flux = opts.get("flux") if opts.get("flux") is not None else from_file.get("flux_lm")
+    if flux is None:
+        raise SettingsError("give the flux of one luminaire with --flux LM (or flux_lm in"
+                            " the targets file)")
+    flux = check_flux(flux)
+    resolution = opts.get("resolution") or from_file.get("resolution_m")
+    locate_settings = None
+    if opts.get("settings"):
+        try:
+            with open(opts["settings"], "r", encoding="utf-8") as fh:
+                locate_settings = json.load(fh)
+        except (OSError, ValueError) as exc:
+            raise SettingsError(f"{opts['settings']}: cannot read locate settings: {exc}")
+
+    if ext == ".ifc":
+        imp = ifcrooms.import_ifc(src, elements=bool(opts.get("elements")))
+        doc = imp.doc
+        say(f"imported {len(imp.spaces)} room(s) from {os.path.basename(src)}:"
+            f" {', '.join(s.Label for s in imp.spaces)}")
+        for w in imp.warnings:
+            say(f"  warning: {w}")
+    else:
+        try:
+            doc = FreeCAD.openDocument(src)
+        except Exception as exc:
+            raise SceneError(f"FreeCAD cannot open it: {exc}", src)
+    if opts.get("targets"):
+        targets.apply_targets_file(doc, opts["targets"])
+    last = [None]
+
+    def progress(frac, msg):
+        if opts.get("verbose") and msg != last[0]:
+            say(f"  {100 * frac:5.1f} %  {msg}")
+            last[0] = msg
+        return True
+
+    settings = PipelineSettings(
+        flux_lm=flux, interreflection=not opts.get("no_interreflection"),
+        locate=locate_settings, backend=opts.get("backend") or "auto",
+        replace=not opts.get("keep"), rooms=opts.get("rooms"), report_dir=opts["report"],
+        base_dir=os.path.dirname(opts["targets"]) if opts.get("targets") else
+        os.path.dirname(src))
+    if resolution:
+        settings.resolution_m = float(resolution)
+    result = pipeline.run(doc, settings, progress=progress)
+    for room in result.summary["rooms"]:
+        n = sum(1 for l in result.summary["luminaires"] if l["room_name"] == room["room"])
+        line = f"room {room['room']}: {n} luminaire(s)"
+        for part in ("work_plane", "surfaces"):
+            st = room.get(part, {})
+            if "mean_target_lux" in st:
+                line += (f"; {part.replace('_', ' ')} {st['mean_achieved_lux']:.0f} lx for"
+                         f" {st['mean_target_lux']:.0f} lx")
+        say(line)
+    for l in result.summary["luminaires"]:
+        p = ", ".join(f"{x:.3f}" for x in l["position"])
+        n = ", ".join(f"{x:.2f}" for x in l["normal"])
+        say(f"  {l['fixture']}: ({p}) m facing ({n})")
+    os.makedirs(os.path.dirname(os.path.abspath(dst)) or ".", exist_ok=True)
+    if dext == ".fcstd":
+        doc.saveAs(dst)
+        say(f"{len(result.fixtures)} fixture(s) -> {dst}")
+    else:
+        info = ifcexport.export_ifc(doc, dst, base_ifc=src if ext == ".ifc" else False)
+        say(f"{info.fixtures} light fixture(s) -> {dst} ({info.mode} export)")
+        for w in info.warnings:
+            say(f"  warning: {w}")
+    summary_json = os.path.join(opts["report"], "summary.json")
+    if result.report is not None:
+        say(f"report -> {result.summary.get('report')} (and {summary_json})")
+    else:
+        say(f"report -> {summary_json} ({result.summary.get('report', 'no HTML report')})")
+    return result.summary
+
+
+def _standalone(argv=None):
+    """``python -m invrad_wb.freecad_cli ...`` without the main CLI."""
+    ap = argparse.ArgumentParser(prog="python -m invrad_wb freecad")
+    add_arguments(ap)
+    args = ap.parse_args(argv)
+    try:
+        return main(args)
+    except InvradError as exc:
+        print(f"invrad: error: {exc}", file=sys.stderr)
+        return 130 if isinstance(exc, Cancelled) else 2
+
+
+if __name__ == "freecad_cli" and os.environ.get(ENV_JOB):
+    # executed as a script by freecadcmd (which names the module after the file)
+    from invrad_wb import freecad_cli as _this
+    _this.child_main()
+elif __name__ == "__main__":
+    sys.exit(_standalone())

@@ -1,0 +1,106 @@
+"""Run invrad's FreeCAD tests (``tests/freecad/test_*.py``, unittest) under freecadcmd.
+
+Two ways to start it::
+
+    PYTHONPATH=<venv site-packages>:<checkout> freecadcmd tests/freecad/run.py
+    .venv/bin/python tests/freecad/run.py [-k PATTERN] [-v]   # re-launches under freecadcmd
+
+``INVRAD_FC_TESTS=PATTERN`` (or ``-k``) keeps only tests whose id contains PATTERN.
+FreeCAD's recompute progress bars, which its C++ console writes to stdout, are silenced
+unless ``INVRAD_FC_NOISE=1``.
+
+Exit status: 0 when every test passed, 1 otherwise. freecadcmd exits 0 even after an
+uncaught exception in a script, so the runner ends with ``os._exit(status)``.
+"""
+import os
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+
+
+def _inside_freecad():
+    fc = sys.modules.get("FreeCAD")
+    return fc is not None and hasattr(fc, "newDocument")
+
+
+def _selected(suite, pattern):
+    import unittest
+    out = unittest.TestSuite()
+    for t in suite:
+        if isinstance(t, unittest.TestSuite):
+            out.addTests(_selected(t, pattern))
+        elif not pattern or pattern in t.id():
+            out.addTest(t)
+    return out
+
+
+def run_inside():
+    import unittest
+    out = sys.stdout
+    if not os.environ.get("INVRAD_FC_NOISE"):
+        out = os.fdopen(os.dup(1), "w", buffering=1, encoding="utf-8", errors="replace")
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, 1)
+        sys.stdout = out
+    status = 1
+    try:
+        for p in (ROOT, HERE):
+            if p not in sys.path:
+                sys.path.insert(0, p)
+        import FreeCAD
+        out.write(f"invrad FreeCAD tests: FreeCAD {'.'.join(FreeCAD.Version()[:3])},"
+                  f" Python {sys.version.split()[0]}\n")
+        loader = unittest.TestLoader()
+        suite = loader.discover(HERE, pattern="test_*.py", top_level_dir=HERE)
+        suite = _selected(suite, os.environ.get("INVRAD_FC_TESTS", ""))
+        verbosity = 2 if os.environ.get("INVRAD_FC_VERBOSE", "1") != "0" else 1
+        t0 = time.time()
+        result = unittest.TextTestRunner(stream=out, verbosity=verbosity).run(suite)
+        out.write(f"{result.testsRun} FreeCAD test(s) in {time.time() - t0:.1f} s:"
+                  f" {len(result.failures)} failure(s), {len(result.errors)} error(s),"
+                  f" {len(result.skipped)} skipped\n")
+        status = 0 if result.wasSuccessful() and result.testsRun > 0 else 1
+    except BaseException:
+        import traceback
+        traceback.print_exc(file=out)
+        status = 1
+    finally:
+        out.flush()
+        sys.stderr.flush()
+        os._exit(status)
+
+
+def relaunch(argv):
+    import argparse
+    import shutil
+    import subprocess
+    import sysconfig
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("-k", dest="pattern", help="only tests whose id contains this")
+    ap.add_argument("-q", "--quiet", action="store_true")
+    ap.add_argument("--freecadcmd", default=os.environ.get("INVRAD_FREECADCMD", "freecadcmd"))
+    args = ap.parse_args(argv)
+    exe = shutil.which(args.freecadcmd)
+    if not exe:
+        print(f"run.py: {args.freecadcmd} not found (install FreeCAD: freecad-python3)",
+              file=sys.stderr)
+        return 2
+    env = os.environ.copy()
+    paths = [sysconfig.get_paths()["purelib"], ROOT]
+    if env.get("PYTHONPATH"):
+        paths.append(env["PYTHONPATH"])
+    env["PYTHONPATH"] = os.pathsep.join(paths)
+    env.setdefault("QT_QPA_PLATFORM", "offscreen")
+    if args.pattern:
+        env["INVRAD_FC_TESTS"] = args.pattern
+    if args.quiet:
+        env["INVRAD_FC_VERBOSE"] = "0"
+    return subprocess.call([exe, os.path.abspath(__file__)], env=env)
+
+
+if _inside_freecad():
+    run_inside()
+elif __name__ == "__main__":
+    sys.exit(relaunch(sys.argv[1:]))

@@ -1,0 +1,145 @@
+"""Luminaires -> Arch Equipment "Light Fixture": placement, body, room, one undo step."""
+import numpy as np
+
+import FreeCAD
+
+from fctest import FreeCADTestCase, make_walled_room
+from invrad_wb.app import document, fixtures
+from invrad_wb.core.luminaires import Luminaire
+from invrad_wb.errors import LuminaireError, SceneError
+
+
+def down(x, y, z=2.7, flux=1500.0, **kw):
+    return Luminaire([x, y, z], [0, 0, -1], flux, **kw)
+
+
+class TestFixtures(FreeCADTestCase):
+
+    def setUp(self):
+        super().setUp()
+        self.space = make_walled_room(self.doc)
+
+    def test_fixture_is_a_light_fixture_in_its_room(self):
+        (fx,) = fixtures.insert_fixtures(self.doc, [(self.space, [down(2.0, 1.5, score=0.4)])])
+        self.assertEqual(document.object_type(fx), "Equipment")
+        self.assertEqual(fx.IfcType, "Light Fixture")
+        self.assertEqual(fx.LuminousFlux, 1500.0)
+        self.assertEqual(fx.Room, self.space)
+        self.assertIn(fx, self.space.Group)
+        self.assertEqual(fx.Generator, "invrad")
+        self.assertAlmostEqual(fx.Score, 0.4)
+        props = dict(fx.IfcProperties)
+        self.assertEqual(props["LuminousFlux;;InvRad_Luminaire"], "IfcLuminousFluxMeasure;;1500.0")
+        self.assertTrue(fx.IfcData["IfcUID"])
+        self.assertTrue(self.space.IfcData["IfcUID"])
+        self.assertEqual(fx.Label, "Luminaire Office 1")
+
+    def test_placement_mm_and_light_along_local_minus_z(self):
+        normals = [[0, 0, -1], [1, 0, 0], [0, -1, 0], [0, 0, 1], [0.6, 0, -0.8]]
+        lums = [Luminaire([1.0 + 0.5 * i, 1.2, 2.0], n, 800.0) for i, n in enumerate(normals)]
+        objs = fixtures.insert_fixtures(self.doc, [(self.space, lums)])
+        for obj, lum in zip(objs, lums):
+            pl = obj.Placement
+            np.testing.assert_allclose([pl.Base.x, pl.Base.y, pl.Base.z], lum.position * 1000,
+                                       atol=1e-9)
+            d = pl.Rotation.multVec(FreeCAD.Vector(0, 0, -1))
+            np.testing.assert_allclose([d.x, d.y, d.z], lum.normal, atol=1e-9)
+            ld = obj.LightDirection
+            np.testing.assert_allclose([ld.x, ld.y, ld.z], lum.normal, atol=1e-9)
+            back = fixtures.fixture_luminaire(obj)
+            np.testing.assert_allclose(back.position, lum.position, atol=1e-12)
+            np.testing.assert_allclose(back.normal, lum.normal, atol=1e-9)
+
+    def test_body_hangs_from_the_ceiling_into_the_room(self):
+        (fx,) = fixtures.insert_fixtures(self.doc, [(self.space, [down(2.0, 1.5)])])
+        bb = fx.Shape.BoundBox
+        self.assertAlmostEqual(bb.ZMax, 2700.0, places=6)
+        self.assertAlmostEqual(bb.ZMin, 2660.0, places=6)
+        self.assertAlmostEqual(bb.XLength, 300.0, places=6)       # default 0.15 m radius
+        (fx2,) = fixtures.insert_fixtures(self.doc, [(self.space, [down(2, 1.5, radius_m=0.3)])])
+        self.assertAlmostEqual(fx2.Shape.BoundBox.XLength, 600.0, places=6)
+        self.assertAlmostEqual(fx2.EmitterRadius.Value, 300.0)
+
+    def test_insertion_is_one_undo_step(self):
+        before = document.snapshot(self.doc)
+        undo0 = self.doc.UndoCount
+        objs = fixtures.insert_fixtures(self.doc, [(self.space, [down(1, 1), down(3, 2)])])
+        self.assertEqual(len(objs), 2)
+        self.assertEqual(self.doc.UndoCount, undo0 + 1)
+        self.assertEqual(self.doc.UndoNames[0], "Insert luminaires")
+        self.doc.undo()
+        self.assertUnchanged(before)
+        self.assertEqual(fixtures.room_fixtures(self.space), [])
+        self.doc.redo()
+        self.assertEqual(len(fixtures.room_fixtures(self.space)), 2)
+
+    def test_rerun_replaces_generated_fixtures_only(self):
+        import Arch
+        manual = Arch.makeEquipment(name="Pendant by the architect")
+        manual.IfcType = "Light Fixture"
+        self.space.Proxy.addObject(self.space, manual)
+        self.doc.recompute()
+        fixtures.insert_fixtures(self.doc, [(self.space, [down(1, 1), down(3, 2)])])
+        fixtures.insert_fixtures(self.doc, [(self.space, [down(2, 1.5)])])
+        gen = fixtures.room_fixtures(self.space)
+        self.assertEqual(len(gen), 1)
+        self.assertIn(manual, self.space.Group)
+        self.assertEqual(len(fixtures.room_fixtures(self.space, generated_only=False)), 2)
+        fixtures.insert_fixtures(self.doc, [(self.space, [down(1, 1)])], replace=False)
+        self.assertEqual(len(fixtures.room_fixtures(self.space)), 2)
+
+    def test_bad_luminaire_leaves_document_unchanged(self):
+        before = document.snapshot(self.doc)
+        with self.assertRaisesMessage(LuminaireError, "luminaire 2", "Office", "flux"):
+            fixtures.insert_fixtures(self.doc, [(self.space, [down(1, 1), down(2, 2, flux=0.0)])])
+        with self.assertRaisesMessage(SceneError, "not a room"):
+            fixtures.insert_fixtures(self.doc, [(self.space.Base or self.doc.Objects[0],
+                                                 [down(1, 1)])])
+        self.assertUnchanged(before)
+
+    def test_failure_half_way_is_aborted(self):
+        before = document.snapshot(self.doc)
+        original = fixtures.make_fixture
+        calls = []
+
+        def failing(space, lum, label):
+            calls.append(label)
+            if len(calls) == 2:
+                raise RuntimeError("disk full")
+            return original(space, lum, label)
+        fixtures.make_fixture = failing
+        try:
+            fixtures.insert_fixtures(self.doc, [(self.space, [down(1, 1)])])   # an old run
+            before = document.snapshot(self.doc)
+            with self.assertRaises(RuntimeError):
+                fixtures.insert_fixtures(self.doc, [(self.space, [down(1, 1), down(2, 2)])])
+        finally:
+            fixtures.make_fixture = original
+        self.assertUnchanged(before)
+        self.assertEqual(len(fixtures.room_fixtures(self.space)), 1)
+
+    def test_save_and_reload_keeps_fixtures(self):
+        fixtures.insert_fixtures(self.doc, [(self.space, [down(1, 1, score=0.7),
+                                                          Luminaire([0.1, 1.5, 2.0], [1, 0, 0],
+                                                                    900.0, 0.05)])])
+        path = self.path("lit.FCStd")
+        self.doc.saveAs(path)
+        name = self.doc.Name
+        FreeCAD.closeDocument(name)
+        doc = FreeCAD.openDocument(path)
+        space = doc.getObjectsByLabel("Office")[0]
+        fx = fixtures.room_fixtures(space)
+        self.assertEqual(len(fx), 2)
+        self.assertEqual(sorted(f.LuminousFlux for f in fx), [900.0, 1500.0])
+        for f in fx:
+            self.assertEqual(f.Room, space)
+            self.assertEqual(f.IfcType, "Light Fixture")
+            self.assertFalse(f.Shape.isNull())
+        wall = [f for f in fx if f.LuminousFlux == 900.0][0]
+        lum = fixtures.fixture_luminaire(wall)
+        np.testing.assert_allclose(lum.normal, [1, 0, 0], atol=1e-9)
+        np.testing.assert_allclose(lum.position, [0.1, 1.5, 2.0], atol=1e-12)
+        self.assertAlmostEqual(lum.radius_m, 0.05)
+        doc.recompute()
+        self.assertEqual(len(fixtures.room_fixtures(space)), 2)
+        self.doc = doc
