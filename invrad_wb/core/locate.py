@@ -64,6 +64,10 @@ class LocateSettings:
     indirect : 'radiosity' (forward radiosity solve), 'ambient' (constant term) or 'none'
     min_gain : a peak is kept if it lowers the refinement cost by this fraction
     max_candidates : at most this many peaks are tried per room
+    overlap_levels : when the fit stays poor, vote again as if each point's light came
+        from 2, 3 ... of this many luminaires (the thesis' workaround for overlapping light,
+        5.2: search with a multiple of the flux) for more candidates; 1 disables it
+    poor_fit : mean absolute log deviation above which the fit counts as poor
     shade_limit_lux : a luminaire position is forbidden if it would put more than this on
         a point that must stay dark (None: 10 % of the median target, at least 1 lx)
     seed : seed of the voting point pattern offsets
@@ -86,8 +90,10 @@ class LocateSettings:
     refine: bool = True
     optimiser: str = "lm"
     indirect: str = "radiosity"
-    min_gain: float = 0.03
+    min_gain: float = 0.05
     max_candidates: int = 40
+    overlap_levels: int = 4
+    poor_fit: float = 0.08
     shade_limit_lux: float = None
     seed: int = 0
 
@@ -112,6 +118,9 @@ class LocateSettings:
             raise SettingsError(f"threshold must be in [0, 254], got {self.threshold!r}")
         if not (np.isfinite(self.neighbourhood_m) and self.neighbourhood_m >= 0):
             raise SettingsError(f"neighbourhood_m must be >= 0, got {self.neighbourhood_m!r}")
+        if not (isinstance(self.overlap_levels, int) and 1 <= self.overlap_levels <= 16):
+            raise SettingsError(f"overlap_levels must be an integer in 1-16, got"
+                                f" {self.overlap_levels!r}")
         if not 0 <= self.min_gain < 1:
             raise SettingsError(f"min_gain must be in [0, 1), got {self.min_gain!r}")
         return self
@@ -138,6 +147,8 @@ class RoomRun:
     occluders: object
     ambient_lux: float
     indirect_model: object = None
+    vote_fn: object = None            # share -> votes as if 1/share of the light per luminaire
+    extra_votes: dict = field(default_factory=dict)
     peaks: list = field(default_factory=list)
     lights: list = field(default_factory=list)
     trace: list = field(default_factory=list)
@@ -179,7 +190,7 @@ class LocateResult:
         s.check()
         t0 = time.time()
         for run in self.rooms:
-            _postprocess(run, s, self.flux_lm, progress)
+            _postprocess(run, s, self.flux_lm, progress, allow_votes=False)
         self.settings = asdict(s)
         self.timings["repeak"] = time.time() - t0
         self.luminaires = _collect(self.rooms, self.flux_lm)
@@ -228,6 +239,18 @@ def _ambient_estimate(scene, points):
         return 0.0
     rho = float(np.average(scene.face_reflectance[real], weights=area))
     return rho * float(np.average(points.lux, weights=points.area))
+
+
+def _uniform_indirect_per_lumen(scene):
+    """Mean interreflected illuminance per lumen in a closed room: rho / (S (1 - rho)).
+
+    (CIE 171 / the integrating-sphere balance: a flux F reflected with mean reflectance rho
+    comes back as rho F / (1 - rho) spread over the surface area S.)
+    """
+    real = ~scene.face_virtual
+    area = scene.face_areas[real]
+    rho = float(np.average(scene.face_reflectance[real], weights=area))
+    return rho / (area.sum() * max(1.0 - rho, 1e-3))
 
 
 def _visible_from_brightest(scene, points, canvas, top_fraction=0.95):
@@ -302,7 +325,7 @@ def _prefer_mounted(prob, lights, canvas, optimiser, reach=0.6, tolerance=0.02):
                 continue
             cand = Light(kind="surface", position=p, normal=m.normal.copy(), map_index=k,
                          plane=m.plane, peak_score=L.peak_score, origin=m.origin.copy(),
-                         u=m.u.copy(), v=m.v.copy())
+                         u=m.u.copy(), v=m.v.copy(), indirect=L.indirect)
             got, c = opt([cand], fixed=fixed)
             if c <= c_free * (1 + tolerance) and (best is None or c < best[1]):
                 best = (got[0], c)
@@ -354,7 +377,7 @@ class _Indirect:
         return g(B) if callable(g) else g @ B
 
 
-def _postprocess(run, s, flux, progress=None, deadline=None):
+def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
     peaks, _ = find_peaks(run.canvas, run.votes, threshold=s.threshold,
                           neighbourhood=s.neighbourhood_m, max_peaks=s.max_candidates)
     run.peaks = peaks
@@ -364,7 +387,6 @@ def _postprocess(run, s, flux, progress=None, deadline=None):
             L.score = L.peak_score / 255.0
         return
     prob = run.problem
-    prob.indirect = np.full(len(run.points), run.ambient_lux)
     cands = [_light_from_peak(p, run.canvas) for p in peaks]
     opt = prob.levenberg_marquardt if s.optimiser == "lm" else prob.evolution_strategy
 
@@ -379,21 +401,125 @@ def _postprocess(run, s, flux, progress=None, deadline=None):
                                         optimiser=s.optimiser, progress=progress,
                                         deadline=deadline)
     lights, cost = tidy(lights, cost)
-    if run.indirect_model is not None and lights:
-        # interreflected light of the luminaires found replaces the ambient estimate;
-        # repeat until the positions settle (each round: new indirect, refit, new peaks)
-        for _round in range(4):
-            before = np.array([L.position for L in lights])
-            prob.indirect = run.indirect_model(lights, flux)
-            lights, cost = opt(lights)
-            lights, cost, t2 = greedy_select(prob, cands, min_gain=s.min_gain,
-                                             optimiser=s.optimiser, initial=lights)
-            trace += t2
-            lights, cost = tidy(lights, cost)
-            after = np.array([L.position for L in lights])
-            if before.shape == after.shape and np.max(np.abs(before - after)) < 2e-3:
+    # each luminaire's own interreflected light from the radiosity model replaces its
+    # estimate; refit, look for missing/surplus luminaires, until nothing moves
+    def settle(lights, cost, cands):
+        nonlocal trace
+        for _round in range(5):
+            lights, changed = prob.refresh_indirect(lights, moved=0.005)
+            if not changed:
                 break
+            lights, cost = opt(lights)
+            if _round < 2:
+                lights, cost, t2 = greedy_select(prob, cands, min_gain=s.min_gain,
+                                                 optimiser=s.optimiser, initial=lights)
+                trace += t2
+                lights, cost = tidy(lights, cost)
+        return lights, cost
+
+    lights, cost = settle(lights, cost, cands)
+    # light that several luminaires share: vote again with a fraction of each point's
+    # light (thesis 5.2) and offer those peaks too
+    if run.vote_fn is not None and s.overlap_levels > 1 and fit_quality(prob, lights) > s.poor_fit:
+        extra = []
+        for share in range(2, s.overlap_levels + 1):
+            if share not in run.extra_votes:
+                if not allow_votes:
+                    continue   # post-processing again never votes again
+                run.extra_votes[share] = run.vote_fn(share)
+            pk, _ = find_peaks(run.canvas, run.extra_votes[share], threshold=s.threshold,
+                               neighbourhood=s.neighbourhood_m, max_peaks=s.max_candidates)
+            extra += pk
+        extra.sort(key=lambda p: -p.score)
+        more = [_light_from_peak(p, run.canvas) for p in extra]
+        # a fresh selection over all candidates (the first may be a local optimum that
+        # adding luminaires cannot leave); the better of the two answers is kept
+        alt, c_alt, t2 = greedy_select(prob, more + cands, min_gain=s.min_gain,
+                                       optimiser=s.optimiser,
+                                       patience=2 * s.overlap_levels + 10)
+        alt, c_alt = tidy(alt, c_alt)
+        alt, c_alt = settle(alt, c_alt, more + cands)
+        trace += [{"overlap_votes": len(more), "cost_before": cost, "cost_after": c_alt}] + t2
+        if c_alt < cost:
+            lights, cost = alt, c_alt
+    # still poor: light spread evenly by many luminaires (a uniform work plane) has no
+    # accumulation points at all; seed the refinement with regular arrangements of n
+    # luminaires on the ceiling and keep the best refined answer
+    if s.overlap_levels > 1 and fit_quality(prob, lights) > s.poor_fit:
+        best = None
+        for n in _seed_counts(run, flux):
+            seeds = _grid_seeds(run.canvas, n)
+            if not seeds:
+                continue
+            seeds = [prob.with_indirect(L) for L in seeds]
+            got, c = opt(seeds)
+            got, _ = prob.refresh_indirect(got, moved=0.02)
+            got, c = opt(got)
+            trace.append({"grid_seed": n, "cost_after": c})
+            if best is None or c < best[1]:
+                best = (got, c)
+            elif c > 1.5 * best[1]:
+                break   # past the best count
+        if best is not None:
+            alt, c_alt, t2 = greedy_select(prob, [], min_gain=s.min_gain,
+                                           optimiser=s.optimiser, initial=best[0])
+            alt, c_alt = tidy(alt, c_alt)
+            alt, c_alt = settle(alt, c_alt, cands)
+            trace += t2
+            if c_alt < cost:
+                lights, cost = alt, c_alt
     run.lights, run.cost, run.trace = lights, cost, trace
+
+
+def _seed_counts(run, flux, most=24):
+    """Luminaire counts to try as regular arrangements, around the lumen-method estimate.
+
+    The flux the targets need, sum(E * A) over the targeted points, divided by the flux of
+    one luminaire and a utilisation factor of 0.5, gives an estimate n0; counts from 1 to
+    2 n0 + 2 are tried (at most ``most``).
+    """
+    pts = run.points
+    need = float(np.sum(np.nan_to_num(pts.lux) * pts.area))
+    n0 = need / (0.5 * flux)
+    top = int(min(most, max(2, np.ceil(2 * n0 + 2))))
+    return list(range(1, top + 1))
+
+
+def _grid_seeds(canvas, n):
+    """n luminaires in a regular grid on the largest ceiling-like map (on its faces)."""
+    best = None
+    for k, m in enumerate(canvas.maps):
+        if m.kind == "surface" and m.normal[2] < -0.7:
+            if best is None or m.mask.sum() > canvas.maps[best].mask.sum():
+                best = k
+    if best is None:
+        return []
+    m = canvas.maps[best]
+    ii, jj = np.nonzero(m.mask)
+    i0, i1, j0, j1 = ii.min(), ii.max() + 1, jj.min(), jj.max() + 1
+    aspect = (i1 - i0) / max(j1 - j0, 1)
+    nx = max(1, int(round(np.sqrt(n * aspect))))
+    ny = int(np.ceil(n / nx))
+    out = []
+    for a in range(nx):
+        for b in range(ny):
+            if len(out) >= n:
+                break
+            ij = np.array([i0 + (a + 0.5) * (i1 - i0) / nx, j0 + (b + 0.5) * (j1 - j0) / ny])
+            pi, pj = int(ij[0]), int(ij[1])
+            if not m.mask[min(pi, m.shape[0] - 1), min(pj, m.shape[1] - 1)]:
+                continue
+            out.append(Light(kind="surface", position=m.to_world(ij[None])[0],
+                             normal=m.normal.copy(), map_index=best, plane=m.plane,
+                             origin=m.origin.copy(), u=m.u.copy(), v=m.v.copy()))
+    return out
+
+
+def fit_quality(prob, lights):
+    """Area-weighted mean absolute log deviation of the prediction from the targets."""
+    vis = [prob.visibility(L) for L in lights]
+    r, _ = prob.residuals(lights, vis)
+    return float(np.sum(prob.w_area * np.abs(r)))
 
 
 def _collect(rooms, flux):
@@ -499,19 +625,27 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
         vote_lux = np.where(lit, np.maximum(pts.lux - ambient, 0.0), 0.0)
         # a point barely above the ambient level carries no position information
         vote_lux[vote_lux < 0.05 * pts.lux] = 0.0
-        W = vote_weights(canvas, pts, vote_lux, s.weighting, s.vote_strength)
         shade_limit = s.shade_limit_lux
         if shade_limit is None and len(shade):
             shade_limit = max(1.0, 0.1 * float(np.median(pts.lux[lit])))
-        if s.vote_model == "exact":
-            cast = cast_exact_opencl if backend == "opencl" else cast_exact_numpy
-            votes = cast(canvas, pts, W, vote_lux, flux, bvh=occ, shade=shade,
-                         shade_limit_lux=shade_limit)
-        else:
-            from .votes_ellipse import cast_ellipse
-            votes = cast_ellipse(canvas, pts, W, vote_lux, flux, bvh=occ, shade=shade,
-                                 shade_limit_lux=shade_limit, backend=backend)
-        timings["votes"] += time.time() - t
+
+        def vote_fn(share=1, canvas=canvas, pts=pts, vote_lux=vote_lux, occ=occ, shade=shade,
+                    shade_limit=shade_limit):
+            t0 = time.time()
+            vl = vote_lux / share
+            W = vote_weights(canvas, pts, vl, s.weighting, s.vote_strength)
+            if s.vote_model == "exact":
+                cast = cast_exact_opencl if backend == "opencl" else cast_exact_numpy
+                out = cast(canvas, pts, W, vl, flux, bvh=occ, shade=shade,
+                           shade_limit_lux=shade_limit)
+            else:
+                from .votes_ellipse import cast_ellipse
+                out = cast_ellipse(canvas, pts, W, vl, flux, bvh=occ, shade=shade,
+                                   shade_limit_lux=shade_limit, backend=backend)
+            timings["votes"] += time.time() - t0
+            return out
+
+        votes = vote_fn(1)
         # refinement problem
         occluded_fn = None
         if occ is not None and backend == "opencl":
@@ -520,15 +654,18 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
         prob = RefineProblem(positions=pts.positions, normals=pts.normals, target=pts.lux,
                              flux=flux, area=pts.area, bvh=occ, inside=_make_inside(canvas),
                              occluded_fn=occluded_fn)
-        prob.indirect = np.full(len(pts), ambient)
         indirect_model = None
+        if s.indirect != "none" and has_rho:
+            per_lumen = _uniform_indirect_per_lumen(sub)
+            prob.indirect_estimate = lambda L, _k=len(pts), _a=per_lumen * flux: np.full(_k, _a)
         if s.indirect == "radiosity" and has_rho:
             t = time.time()
             indirect_model = _Indirect(sub, pts, backend)
+            prob.indirect_exact = lambda L, _m=indirect_model: _m([L], flux)
             timings["radiosity"] += time.time() - t
         run = RoomRun(room=int(room), scene=sub, points=pts, canvas=canvas, votes=votes,
                       problem=prob, occluders=occ, ambient_lux=ambient,
-                      indirect_model=indirect_model)
+                      indirect_model=indirect_model, vote_fn=vote_fn)
         report(base + 0.5 * step, f"room {int(room)}: peaks and refinement")
         t = time.time()
         _postprocess(run, s, flux,

@@ -7,14 +7,20 @@ predicted *together* and the robust deviation of log illuminance over the voting
 minimised:
 
     cost = mean_i rho(ln(E_pred_i + eps) - ln(E_target_i + eps)),
-    rho(r) = c^2/2 ln(1 + (r/c)^2)          (Cauchy, c = ``robust_scale``)
-    E_pred = sum_k F cos(theta_l) cos(theta_s) / (pi r^2) V_k + E_indirect
+    rho(r) = c^2 (sqrt(1 + (r/c)^2) - 1)     (pseudo-Huber, c = ``robust_scale``)
+
+(quadratic for small deviations, linear for large ones: a hot spot or a dark corner keeps
+costing in proportion, unlike a saturating Cauchy loss that would ignore them)
+    E_pred = sum_k (F cos(theta_l) cos(theta_s) / (pi r^2) V_k + I_k) + E_base
 
 by Levenberg-Marquardt with an analytic Jacobian (iteratively reweighted). Surface
 luminaires move in their plane (2 parameters, kept on the plane's faces), mid-air
-luminaires in 3-D (kept inside the room). ``E_indirect`` is a term supplied by the caller
-(constant ambient or the forward radiosity solve of the current luminaires), held fixed
-while positions move and refreshed between rounds.
+luminaires in 3-D (kept inside the room). ``I_k`` is luminaire k's own interreflected light
+(interreflection is linear in the sources): a uniform estimate from the room's flux balance
+for a new candidate, the forward radiosity solve once it is accepted; it is held fixed while
+positions move and refreshed when a luminaire has moved. Because each luminaire carries its
+own share, adding or removing one changes the indirect light consistently (a single shared
+term made the selection oscillate between too many and too few luminaires).
 
 Candidates (vote peaks, best first) are added greedily and kept only if they lower the cost
 by a clear margin; afterwards each luminaire is removed again if the cost does not need it.
@@ -47,6 +53,8 @@ class Light:
     origin: np.ndarray = None
     u: np.ndarray = None
     v: np.ndarray = None
+    indirect: np.ndarray = None        # (k,) lux this luminaire adds by interreflection
+    indirect_at: np.ndarray = None     # position it was computed for (None: an estimate)
 
     def params(self):
         if self.kind == "surface":
@@ -85,6 +93,9 @@ class RefineProblem:
     inside : callable(Light) -> Light or None: the luminaire moved into the allowed region
         (e.g. a mid-air luminaire clamped below the ceiling), or None if it cannot be
     occluded_fn : callable(p (n,3), q (n,3)) -> (n,) bool, optional fast occlusion
+    indirect : (k,) lux, a base term independent of the luminaires (default 0)
+    indirect_estimate : callable(Light) -> (k,) lux, quick interreflection of one luminaire
+    indirect_exact : callable(Light) -> (k,) lux, its forward radiosity solve (optional)
     """
 
     positions: np.ndarray
@@ -95,9 +106,11 @@ class RefineProblem:
     bvh: object = None
     inside: object = None
     occluded_fn: object = None
-    robust_scale: float = 0.15
+    robust_scale: float = 0.1
     eps_lux: float = None
     indirect: np.ndarray = None
+    indirect_estimate: object = None
+    indirect_exact: object = None
     stats: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -144,11 +157,37 @@ class RefineProblem:
              - 4.0 * d / r2[:, None])
         return E, E[:, None] * g
 
+    def with_indirect(self, L):
+        """L with its interreflected light attached (an estimate if it has none)."""
+        if L.indirect is None and self.indirect_estimate is not None:
+            L = L.copy()
+            L.indirect = self.indirect_estimate(L)
+        return L
+
+    def refresh_indirect(self, lights, moved=0.05):
+        """Exact interreflection for luminaires without it or moved more than ``moved`` m.
+
+        Returns the lights and whether any was refreshed.
+        """
+        if self.indirect_exact is None:
+            return lights, False
+        out, changed = [], False
+        for L in lights:
+            if L.indirect_at is None or np.linalg.norm(L.position - L.indirect_at) > moved:
+                L = L.copy()
+                L.indirect = self.indirect_exact(L)
+                L.indirect_at = L.position.copy()
+                changed = True
+            out.append(L)
+        return out, changed
+
     def fixed_light(self, lights):
-        """(k,) illuminance of luminaires that stay where they are."""
+        """(k,) illuminance (direct + own indirect) of luminaires that stay put."""
         E = np.zeros(len(self.positions))
         for L in lights:
             E += self.light_of(L, self.visibility(L))[0]
+            if L.indirect is not None:
+                E += L.indirect
         return E
 
     def residuals(self, lights, vis_list, with_jac=False, extra=None):
@@ -157,6 +196,8 @@ class RefineProblem:
         for L, vis in zip(lights, vis_list):
             e, de = self.light_of(L, vis, with_jac)
             E += e
+            if L.indirect is not None:
+                E += L.indirect
             if with_jac:
                 jac_blocks.append(de @ L.dpos().T)
         Ep = E + self.eps_lux
@@ -169,7 +210,7 @@ class RefineProblem:
 
     def cost_of(self, r):
         c = self.robust_scale
-        return float(np.sum(self.w_area * 0.5 * c * c * np.log1p((r / c) ** 2)))
+        return float(np.sum(self.w_area * c * c * (np.sqrt(1.0 + (r / c) ** 2) - 1.0)))
 
     def cost(self, lights, vis_list=None, extra=None):
         if vis_list is None:
@@ -194,7 +235,7 @@ class RefineProblem:
         c = self.robust_scale
         sizes = [len(L.params()) for L in lights]
         for _ in range(iterations):
-            w = self.w_area / (1.0 + (r / c) ** 2)
+            w = self.w_area / np.sqrt(1.0 + (r / c) ** 2)
             JtW = J.T * w
             H = JtW @ J
             g = JtW @ r
@@ -269,7 +310,7 @@ class RefineProblem:
         return lights, cost
 
 
-def greedy_select(problem, candidates, min_gain=0.03, min_gain_total=0.005, max_lights=64,
+def greedy_select(problem, candidates, min_gain=0.05, min_gain_total=0.005, max_lights=64,
                   merge_distance=0.25, optimiser="lm", patience=10, progress=None,
                   deadline=None, initial=None):
     """Add candidates best first while they clearly lower the cost; then prune.
@@ -324,6 +365,7 @@ def greedy_select(problem, candidates, min_gain=0.03, min_gain_total=0.005, max_
         if near:
             trace.append({"candidate": ci, "result": "near accepted luminaire"})
             continue
+        cand = problem.with_indirect(cand)
         fixed = problem.fixed_light(lights)
         alone, c_alone = opt([cand], fixed=fixed, iterations=12)
         if not enough(cost, c_alone):
