@@ -236,8 +236,13 @@ def build_parser():
 
 
 def main(argv=None):
+    import warnings
     ap = build_parser()
     args = ap.parse_args(argv)
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"invrad: warning: {message}", file=sys.stderr)
+    warnings.showwarning = show
     try:
         args.func(args)
     except InvradError as exc:

@@ -150,10 +150,23 @@ def opencl_available():
         return False
 
 
+_warned = False
+
+
 def check_backend(backend):
-    """Validate a backend name; 'auto' means OpenCL if usable, else numpy."""
+    """Validate a backend name; 'auto' means OpenCL if usable, else numpy (with a warning
+    that says why, once per process)."""
+    global _warned
     if backend == "auto":
-        return "opencl" if opencl_available() else "numpy"
+        try:
+            get_env()
+            return "opencl"
+        except DeviceError as exc:
+            if not _warned:
+                warnings.warn(f"{exc}. Using the numpy backend (much slower).", RuntimeWarning,
+                              stacklevel=2)
+                _warned = True
+            return "numpy"
     if backend not in BACKENDS:
         from ..errors import SettingsError
         raise SettingsError(f"backend must be one of {BACKENDS + ('auto',)}, got {backend!r}")
