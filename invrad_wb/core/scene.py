@@ -328,8 +328,7 @@ class Scene:
                               self.face_virtual[:, None].astype(np.float64),
                               np.round(n * 1e4), np.round(off[:, None] / C.PLANE_OFFSET_TOL_M)],
                              axis=1)
-        ukeys, inverse = np.unique(key, axis=0, return_inverse=True)
-        inverse = inverse.reshape(-1)
+        ukeys, inverse = unique_rows(key)
         k = len(ukeys)
         # representative normal/offset per key: area weighted
         a = self.face_areas
@@ -411,8 +410,7 @@ class Scene:
         fp = np.repeat(self.face_plane, 3)
         corners = self.faces.reshape(-1)
         pairs = np.stack([corners, fp], axis=1)
-        upairs, new_index = np.unique(pairs, axis=0, return_inverse=True)
-        new_index = new_index.reshape(-1)
+        upairs, new_index = unique_rows(pairs)
         if len(upairs) == len(self.vertices) and np.array_equal(upairs[:, 0],
                                                                 np.arange(len(self.vertices))):
             return
@@ -442,8 +440,7 @@ class Scene:
         """
         tol = 1e-6 * max(1.0, float(np.max(self.bounds[1] - self.bounds[0])))
         q = np.round(self.vertices / tol).astype(np.int64)
-        _, weld = np.unique(q, axis=0, return_inverse=True)
-        weld = weld.reshape(-1)
+        _, weld = unique_rows(q)
         real = ~self.face_virtual
         f = weld[self.faces]
         f_idx = np.flatnonzero(real)
@@ -454,8 +451,8 @@ class Scene:
         room = self.face_room[face_of]
         lo, hi = np.minimum(a, b), np.maximum(a, b)
         key = np.stack([room, lo, hi], axis=1)
-        ukey, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-        inv = inv.reshape(-1)
+        ukey, inv = unique_rows(key)
+        counts = np.bincount(inv, minlength=len(ukey))
         forward = (a < b).astype(np.int64)
         n_forward = np.bincount(inv, weights=forward, minlength=len(ukey))
         bad_edges = (counts == 2) & (n_forward != 1)
@@ -473,7 +470,7 @@ class Scene:
                 continue
             tri = self.vertices[self.faces[sel]]
             size = float(np.max(tri.reshape(-1, 3).max(0) - tri.reshape(-1, 3).min(0)))
-            probe = sel[np.argsort(self.face_areas[sel])[::-1][:12]]
+            probe = sel[np.argsort(self.face_areas[sel])[::-1][:5]]
             delta = 1e-3 * size
             c = self.face_centroids[probe]
             n = self.face_normals[probe]
@@ -562,6 +559,27 @@ class Scene:
     def __repr__(self):
         return (f"Scene({len(self.vertices)} vertices, {len(self.faces)} faces,"
                 f" {len(self.planes)} planes, rooms {self.rooms.tolist()})")
+
+
+def unique_rows(a):
+    """``np.unique(a, axis=0, return_inverse=True)`` by lexsort (much faster for big arrays).
+
+    Returns
+    -------
+    unique : (u, c) rows in lexicographic order (last column slowest)
+    inverse : (n,) int64 with ``unique[inverse] == a``
+    """
+    a = np.asarray(a)
+    if len(a) == 0:
+        return a.copy(), np.zeros(0, dtype=np.int64)
+    order = np.lexsort(a.T[::-1])
+    b = a[order]
+    new = np.ones(len(b), dtype=bool)
+    new[1:] = np.any(b[1:] != b[:-1], axis=1)
+    group = np.cumsum(new) - 1
+    inverse = np.empty(len(a), dtype=np.int64)
+    inverse[order] = group
+    return b[new], inverse
 
 
 def sample_texture(image, uv):
