@@ -280,8 +280,36 @@ def _light_from_peak(peak, canvas):
                  map_index=peak.map_index, peak_score=peak.score)
 
 
+def work_plane_height(scene):
+    """Height of the highest horizontal virtual (work) plane of a scene, or -inf."""
+    z = [float(scene.vertices[scene.faces[p.faces]][:, :, 2].max()) for p in scene.planes
+         if p.is_virtual and abs(p.normal[2]) > 0.99]
+    return max(z) if z else -np.inf
+
+
+def _exclude_furniture_zone(scene, canvas):
+    """No luminaire below a room's work plane: that zone holds desks and tables.
+
+    Masks out surface-map pixels (walls) below the work plane height; the refinement keeps
+    luminaires above it too (``canvas.min_z``).
+    """
+    z0 = work_plane_height(scene)
+    canvas.min_z = z0
+    if not np.isfinite(z0):
+        return
+    for m in canvas.maps:
+        if m.kind == "surface":
+            m.mask &= m.pixel_centres()[:, :, 2] > z0
+        elif m.height <= z0:
+            m.mask[...] = False
+
+
 def _make_inside(canvas):
+    min_z = getattr(canvas, "min_z", -np.inf)
+
     def inside(light):
+        if light.position[2] <= min_z:
+            return None
         if light.kind == "surface":
             return light if canvas.map_contains(light.map_index, light.position) else None
         if canvas.grid is None:
@@ -619,6 +647,7 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
                               dummy_spacing=s.dummy_spacing_m, dummy_count=s.dummy_count,
                               dummy_lowest=s.dummy_lowest_m, two_sided=s.two_sided_dummies,
                               planes=planes)
+        _exclude_furniture_zone(sub, canvas)
         timings["maps"] += time.time() - t
         report(base + 0.2 * step, f"room {int(room)}: votes")
         t = time.time()

@@ -12,8 +12,17 @@ import FreeCAD
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
-FZK = os.environ.get("INVRAD_FZK_IFC") or os.path.join(ROOT, "..", "shared", "data",
-                                                       "AC20-FZK-Haus.ifc")
+def _find_fzk():
+    """The FZK-Haus sample: $INVRAD_FZK_IFC, ../shared/data, or the copy in tests/data."""
+    for path in (os.environ.get("INVRAD_FZK_IFC"),
+                 os.path.join(ROOT, "..", "shared", "data", "AC20-FZK-Haus.ifc"),
+                 os.path.join(ROOT, "tests", "data", "AC20-FZK-Haus.ifc")):
+        if path and os.path.isfile(path):
+            return os.path.abspath(path)
+    return os.path.join(ROOT, "tests", "data", "AC20-FZK-Haus.ifc")
+
+
+FZK = _find_fzk()
 FZK_ROOMS = {"Schlafzimmer", "Bad", "Buero", "Wohnen", "Flur", "Küche", "Galerie"}
 
 
