@@ -398,9 +398,12 @@ class _Indirect:
         from .direct import direct_illuminance
         from .render import scene_bvh
         lums = [Luminaire(L.position, L.normal, flux) for L in lights]
-        vdir = direct_illuminance(self.scene.vertices, self.scene.vertex_normals, lums,
-                                  bvh=scene_bvh(self.scene), backend=self.backend)
-        B = self.model.solve(self.model.patch_direct_from_vertices(vdir))
+        # direct light at the patches' representative points (a patch's mean in render;
+        # the difference is second order for the interreflected part)
+        pts, nrm = self.model.patch_points()
+        pdir = direct_illuminance(pts + nrm * 1e-4, nrm, lums, bvh=scene_bvh(self.scene),
+                                  backend=self.backend)
+        B = self.model.solve(pdir)
         g = self.gather
         return g(B) if callable(g) else g @ B
 
@@ -489,13 +492,23 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
             elif c > 1.5 * best[1]:
                 break   # past the best count
         if best is not None:
-            alt, c_alt, t2 = greedy_select(prob, [], min_gain=s.min_gain,
-                                           optimiser=s.optimiser, initial=best[0])
-            alt, c_alt = tidy(alt, c_alt)
-            alt, c_alt = settle(alt, c_alt, cands)
-            trace += t2
+            # refine the best arrangement with exact interreflection; no pruning here:
+            # for evenly spread light every luminaire of the arrangement does its share
+            alt, c_alt = best
+            for _round in range(4):
+                alt, changed = prob.refresh_indirect(alt, moved=0.005)
+                if not changed:
+                    break
+                alt, c_alt = opt(alt)
+            # the same with vote candidates added / surplus luminaires pruned
+            alt2, c_alt2 = settle(alt, c_alt, cands)
+            if c_alt2 < c_alt:
+                alt, c_alt = alt2, c_alt2
             if c_alt < cost:
                 lights, cost = alt, c_alt
+                for i, L in enumerate(lights):
+                    c_rest = prob.cost(lights[:i] + lights[i + 1:])
+                    L.score = float((c_rest - cost) / max(c_rest, 1e-12))
     run.lights, run.cost, run.trace = lights, cost, trace
 
 
@@ -514,18 +527,22 @@ def _seed_counts(run, flux, most=24):
 
 
 def _grid_seeds(canvas, n):
-    """n luminaires in a regular grid on the largest ceiling-like map (on its faces)."""
-    best = None
-    for k, m in enumerate(canvas.maps):
-        if m.kind == "surface" and m.normal[2] < -0.7:
-            if best is None or m.mask.sum() > canvas.maps[best].mask.sum():
-                best = k
-    if best is None:
+    """n luminaires in a regular grid over the room's footprint, on the ceiling above.
+
+    The grid covers the bounding box of the footprint (cells of the room's aspect ratio);
+    each grid point gets the lowest ceiling-like surface (normal pointing down) above it,
+    so sloped and stepped ceilings work. Grid points outside the footprint are dropped.
+    """
+    g = canvas.grid
+    ceil = [k for k, m in enumerate(canvas.maps) if m.kind == "surface" and m.normal[2] < -0.3]
+    if g is None or not ceil:
         return []
-    m = canvas.maps[best]
-    ii, jj = np.nonzero(m.mask)
-    i0, i1, j0, j1 = ii.min(), ii.max() + 1, jj.min(), jj.max() + 1
-    aspect = (i1 - i0) / max(j1 - j0, 1)
+    ii, jj = np.nonzero(g.footprint & np.isfinite(g.ceiling_z))
+    if len(ii) == 0:
+        return []
+    x0, x1 = g.origin[0] + ii.min() * g.pixel, g.origin[0] + (ii.max() + 1) * g.pixel
+    y0, y1 = g.origin[1] + jj.min() * g.pixel, g.origin[1] + (jj.max() + 1) * g.pixel
+    aspect = (x1 - x0) / max(y1 - y0, 1e-9)
     nx = max(1, int(round(np.sqrt(n * aspect))))
     ny = int(np.ceil(n / nx))
     out = []
@@ -533,13 +550,22 @@ def _grid_seeds(canvas, n):
         for b in range(ny):
             if len(out) >= n:
                 break
-            ij = np.array([i0 + (a + 0.5) * (i1 - i0) / nx, j0 + (b + 0.5) * (j1 - j0) / ny])
-            pi, pj = int(ij[0]), int(ij[1])
-            if not m.mask[min(pi, m.shape[0] - 1), min(pj, m.shape[1] - 1)]:
+            x = x0 + (a + 0.5) * (x1 - x0) / nx
+            y = y0 + (b + 0.5) * (y1 - y0) / ny
+            best = None
+            for k in ceil:
+                m = canvas.maps[k]
+                z = -(m.normal[0] * x + m.normal[1] * y + m.offset) / m.normal[2]
+                p = np.array([x, y, z])
+                if canvas.map_contains(k, p) and (best is None or z < best[1][2]):
+                    best = (k, p)
+            if best is None:
                 continue
-            out.append(Light(kind="surface", position=m.to_world(ij[None])[0],
-                             normal=m.normal.copy(), map_index=best, plane=m.plane,
-                             origin=m.origin.copy(), u=m.u.copy(), v=m.v.copy()))
+            k, p = best
+            m = canvas.maps[k]
+            out.append(Light(kind="surface", position=p, normal=m.normal.copy(), map_index=k,
+                             plane=m.plane, origin=m.origin.copy(), u=m.u.copy(),
+                             v=m.v.copy()))
     return out
 
 

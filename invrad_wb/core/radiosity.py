@@ -908,6 +908,17 @@ class RadiosityModel:
                                      minlength=self.n_patches) * inv_area
                          for c in range(face_val.shape[1])], axis=1)
 
+    def patch_points(self):
+        """Representative point (on the surface) and normal of every patch: (P, 3) each."""
+        if getattr(self, "_patch_points", None) is None:
+            pts = np.zeros((self.n_patches, 3))
+            nrm = np.zeros((self.n_patches, 3))
+            for room in self.rooms:
+                pts[room.sl] = room.patches.point
+                nrm[room.sl] = room.patches.normal
+            self._patch_points = (pts, nrm)
+        return self._patch_points
+
     def solve(self, patch_direct):
         """Patch exitance from reflection: ``B = rho (E + F B)`` per room (Jacobi).
 

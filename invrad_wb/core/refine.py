@@ -190,16 +190,36 @@ class RefineProblem:
                 E += L.indirect
         return E
 
+    def lights_of(self, lights, vis_list, with_grad=False):
+        """All luminaires at once: E (K, k) and, with_grad, d E / d position (K, k, 3)."""
+        C = np.array([L.position for L in lights])                  # (K, 3)
+        N = np.array([L.normal for L in lights])                    # (K, 3)
+        V = np.array(vis_list, dtype=bool).reshape(len(lights), -1)
+        d = C[:, None, :] - self.positions[None, :, :]              # c - s, (K, k, 3)
+        A = -np.einsum("Kkc,Kc->Kk", d, N)
+        B = C @ self.normals.T - self._s_dot_m[None, :]
+        r2 = np.einsum("Kkc,Kkc->Kk", d, d)
+        ok = (A > 1e-9) & (B > 1e-9) & V
+        Ac, Bc = np.where(ok, A, 1.0), np.where(ok, B, 1.0)
+        E = np.where(ok, self.flux * Ac * Bc / (np.pi * r2 * r2), 0.0)
+        self.stats["evaluations"] += len(lights)
+        if not with_grad:
+            return E, None
+        g = (-N[:, None, :] / Ac[..., None] + self.normals[None] / Bc[..., None]
+             - 4.0 * d / r2[..., None])
+        return E, E[..., None] * g
+
     def residuals(self, lights, vis_list, with_jac=False, extra=None):
         E = self.indirect.copy() if extra is None else self.indirect + extra
         jac_blocks = []
-        for L, vis in zip(lights, vis_list):
-            e, de = self.light_of(L, vis, with_jac)
-            E += e
-            if L.indirect is not None:
-                E += L.indirect
-            if with_jac:
-                jac_blocks.append(de @ L.dpos().T)
+        if lights:
+            e, de = self.lights_of(lights, vis_list, with_jac)
+            E += e.sum(axis=0)
+            for i, L in enumerate(lights):
+                if L.indirect is not None:
+                    E += L.indirect
+                if with_jac:
+                    jac_blocks.append(de[i] @ L.dpos().T)
         Ep = E + self.eps_lux
         r = np.log(Ep) - self.log_target
         if not with_jac:
