@@ -13,28 +13,8 @@ import os
 
 import numpy as np
 
-from .atomic import atomic_path, atomic_write_text
-
-
-def _write(path, pixels):
-    """Write an (h, w) or (h, w, c) array with OpenImageIO, atomically."""
-    import OpenImageIO as oiio
-    pixels = np.ascontiguousarray(pixels)
-    if pixels.ndim == 2:
-        pixels = pixels[:, :, None]
-    h, w, c = pixels.shape
-    fmt = oiio.UINT8 if pixels.dtype == np.uint8 else oiio.FLOAT
-    with atomic_path(path) as tmp:
-        out = oiio.ImageOutput.create(tmp)
-        if out is None:
-            raise OSError(f"cannot write {path}: {oiio.geterror()}")
-        try:
-            if not out.open(tmp, oiio.ImageSpec(w, h, c, fmt)):
-                raise OSError(f"cannot write {path}: {out.geterror()}")
-            if not out.write_image(pixels):
-                raise OSError(f"cannot write {path}: {out.geterror()}")
-        finally:
-            out.close()
+from .atomic import atomic_write_text
+from .images import save_png, save_exr
 
 
 def _mark(rgb, i, j, colour, r=2):
@@ -98,9 +78,9 @@ def save_vote_maps(result, folder):
             grey = np.clip(a * scale, 0, 255).astype(np.uint8)
             grey[~m.mask] = 0
             p = os.path.join(room_dir, f"{m.name}.png")
-            _write(p, grey)
+            save_png(p, grey)
             e = os.path.join(room_dir, f"{m.name}.exr")
-            _write(e, a.astype(np.float32))
+            save_exr(e, a)
             written += [p, e]
             rgb = np.repeat(grey[:, :, None], 3, axis=2)
             rgb[~m.mask] = (40, 40, 60)
@@ -119,7 +99,7 @@ def save_vote_maps(result, folder):
         if tiles:
             sheet = _contact_sheet(tiles)
             p = os.path.join(room_dir, "contact_sheet.png")
-            _write(p, sheet)
+            save_png(p, sheet)
             written.append(p)
         j = os.path.join(room_dir, "maps.json")
         atomic_write_text(j, json.dumps({"room": run.room, "joint_scale_max_votes": top,
