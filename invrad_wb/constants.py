@@ -53,3 +53,11 @@ RADIOSITY_CL_CHUNK_MB = 64
 #: Width (patch radii) of the zone beyond the near field where exact and far-field form
 #: factors are blended (continuous form factors).
 RADIOSITY_NEAR_BLEND = 0.5
+
+#: Work-items per OpenCL launch (launches are chunked so any scene size fits and no launch
+#: runs long enough to trip a GPU driver's watchdog).
+CL_CHUNK_RECEIVERS = 1 << 18
+CL_CHUNK_SEGMENTS = 1 << 20
+#: Exact votes: (16-pixel blocks x voting points) per launch.
+CL_CHUNK_VOTE_PAIRS = 1 << 27
+CL_CHUNK_ELLIPSES = 1 << 16

@@ -9,7 +9,7 @@
  */
 #include "bvh.h"
 
-__kernel void direct_illuminance(const int n, __global const float4 *pts,
+__kernel void direct_illuminance(const int n, const int first, __global const float4 *pts,
                                  __global const float4 *nrm,
                                  const int k, __global const float4 *epos,
                                  __global const float4 *enrm /* w = flux lm */,
@@ -18,7 +18,7 @@ __kernel void direct_illuminance(const int n, __global const float4 *pts,
                                  __global const int2 *info, __global const float16 *tris,
                                  __global float *out)
 {
-    const int i = get_global_id(0);
+    const int i = first + get_global_id(0);   /* chunked launches */
     if (i >= n) return;
     const float3 p = pts[i].xyz, m = nrm[i].xyz;
     float e = 0.0f;

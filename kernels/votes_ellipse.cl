@@ -16,7 +16,7 @@ inline float3 ell_point(const float3 c, const float3 w, const float3 v, const fl
     return c + (b * (ct + d * (2.0f * ct * ct - 1.0f))) * w + (a * st) * v;
 }
 
-__kernel void ellipse_votes(const int n, __global const float4 *ell_c,
+__kernel void ellipse_votes(const int n, const int first, __global const float4 *ell_c,
                             __global const float4 *ell_w, __global const float4 *ell_v,
                             __global const int4 *ell_i, __global const float *ell_d,
                             __global const float4 *m_origin, __global const float4 *m_u,
@@ -28,7 +28,7 @@ __kernel void ellipse_votes(const int n, __global const float4 *ell_c,
                             __global const int2 *info, __global const float16 *tris,
                             __global volatile uint *out)
 {
-    const int g = get_global_id(0);
+    const int g = first + get_global_id(0);   /* chunked launches */
     if (g >= n) return;
     const float4 c4 = ell_c[g], w4 = ell_w[g], v4 = ell_v[g];
     const int4 ei = ell_i[g];

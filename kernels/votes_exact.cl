@@ -47,7 +47,7 @@ inline float16 tent_votes(const float16 cx, const float16 cy, const float16 cz,
     return select((float16)(0.0f), tent, ok);
 }
 
-__kernel void exact_votes(const int nblocks, __global const int4 *blocks,
+__kernel void exact_votes(const int nblocks, const int first, __global const int4 *blocks,
                           __global const float4 *map_origin, __global const float4 *map_u,
                           __global const float4 *map_v, __global const float4 *map_n,
                           __global const int4 *map_info, const float pixel,
@@ -60,7 +60,7 @@ __kernel void exact_votes(const int nblocks, __global const int4 *blocks,
                           __global const int2 *info, __global const float16 *tris,
                           __global float *out)
 {
-    const int g = get_global_id(0);
+    const int g = first + get_global_id(0);   /* chunked launches: any scene size fits */
     if (g >= nblocks) return;
     const int4 b = blocks[g];
     const int map = b.x;

@@ -122,3 +122,14 @@ def test_luminaire_json_errors(tmp_path):
     p.write_text('{"luminaires": [')
     with pytest.raises(LuminaireError, match="not valid JSON"):
         load_luminaires(str(p))
+
+
+@pytest.mark.opencl
+def test_chunked_direct_launches_match(monkeypatch):
+    from invrad_wb import constants as C
+    s = g.box_room((4, 3, 2.5), cell=0.25)
+    lums = [Luminaire([2, 1.5, 2.5], [0, 0, -1], 2000)]
+    a = direct_illuminance_opencl(s.vertices, s.vertex_normals, lums, bvh=BVH(s.triangles))
+    monkeypatch.setattr(C, "CL_CHUNK_RECEIVERS", 100)
+    b = direct_illuminance_opencl(s.vertices, s.vertex_normals, lums, bvh=BVH(s.triangles))
+    assert np.array_equal(a, b)

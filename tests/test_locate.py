@@ -256,3 +256,16 @@ def test_radiosity_model_beats_constant_ambient_with_interreflection():
     assert full["found"] == 2 and full["spurious"] == 0
     if amb["found"] == 2:
         assert full["max_error_cm"] <= amb["max_error_cm"]
+
+
+@pytest.mark.opencl
+def test_chunked_launches_give_the_same_votes(monkeypatch):
+    from invrad_wb import constants as C
+    s = _small_case()
+    pts = voting_points(s, density=20)
+    canvas = build_canvas(s, 0, pixel=0.2, dummy_spacing=0.3)
+    W = vote_weights(canvas, pts, pts.lux, "illumination")
+    whole = cast_exact_opencl(canvas, pts, W, pts.lux, 2000.0)
+    monkeypatch.setattr(C, "CL_CHUNK_VOTE_PAIRS", 64 * len(pts))   # ~64 blocks per launch
+    chunked = cast_exact_opencl(canvas, pts, W, pts.lux, 2000.0)
+    assert np.array_equal(whole, chunked)

@@ -177,3 +177,19 @@ def check_backend(backend):
 
 def round_up(n, m):
     return ((int(n) + m - 1) // m) * m
+
+
+def launch_chunked(env, kernel, n, args_before, args_after, chunk, local=64):
+    """Run ``kernel(n, first, *args)`` over ``n`` work-items in launches of ``chunk``.
+
+    Long single launches can hit a GPU driver's watchdog (the thesis' CUDA kernels had a
+    5 s limit) and huge global sizes can exceed device limits; each launch covers
+    ``first .. first + chunk`` and the kernel adds ``first`` to its global id.
+    """
+    import numpy as np
+    chunk = max(local, round_up(chunk, local))
+    for first in range(0, max(int(n), 0), chunk):
+        size = round_up(min(chunk, n - first), local)
+        kernel(env.queue, (size,), None, np.int32(n), np.int32(first), *args_before,
+               *args_after)
+        env.queue.finish()

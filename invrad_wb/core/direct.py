@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import constants as C
 from .bvh import BVH, segments_occluded_numpy
-from .clenv import get_env, round_up, check_backend
+from .clenv import get_env, check_backend, launch_chunked
 from .luminaires import emitter_samples
 
 
@@ -84,9 +84,9 @@ def direct_illuminance_opencl(points, normals, luminaires, bvh=None, occlusion=T
     d_epos = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=_f4(pos))
     d_enrm = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=_f4(nrm, flux))
     d_out = cl.Buffer(env.ctx, mf.WRITE_ONLY, out.nbytes)
-    knl(env.queue, (round_up(n, 64),), None, np.int32(n), d_pts, d_nrm,
-                           np.int32(len(pos)), d_epos, d_enrm, np.float32(C.RAY_EPS_M),
-                           *bufs, d_out)
+    launch_chunked(env, knl, n, (d_pts, d_nrm, np.int32(len(pos)), d_epos, d_enrm,
+                                 np.float32(C.RAY_EPS_M)), (*bufs, d_out),
+                   max(64, C.CL_CHUNK_RECEIVERS // max(1, len(pos))))
     cl.enqueue_copy(env.queue, out, d_out)
     return out.astype(np.float64)
 

@@ -6,7 +6,7 @@ reference :func:`invrad_wb.core.bvh.segments_occluded_bruteforce`).
 import numpy as np
 
 from .. import constants as C
-from .clenv import get_env, round_up
+from .clenv import get_env, launch_chunked
 
 
 def segments_occluded_opencl(bvh, p, q, eps=C.RAY_EPS_M):
@@ -28,7 +28,7 @@ def segments_occluded_opencl(bvh, p, q, eps=C.RAY_EPS_M):
     d_q = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=q4)
     d_o = cl.Buffer(env.ctx, mf.WRITE_ONLY, out.nbytes)
     knl = env.kernel("occlusion", "segments_occluded")
-    knl(env.queue, (round_up(n, 64),), None, np.int32(n), d_p, d_q, np.float32(eps),
-        *bvh.cl_buffers(env), d_o)
+    launch_chunked(env, knl, n, (d_p, d_q, np.float32(eps)), (*bvh.cl_buffers(env), d_o),
+                   C.CL_CHUNK_SEGMENTS)
     cl.enqueue_copy(env.queue, out, d_o)
     return out.astype(bool)

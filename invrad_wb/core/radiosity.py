@@ -493,22 +493,8 @@ def _segments_occluded(bvh, p, q, backend):
     if backend != "opencl":
         from .bvh import segments_occluded_numpy
         return segments_occluded_numpy(bvh, p, q)
-    env = get_env()
-    cl = env.cl
-    mf = cl.mem_flags
-    k = len(p)
-    out = np.zeros(k, np.uint8)
-    if k == 0 or bvh.n_triangles == 0:
-        return out.astype(bool)
-    knl = env.kernel("occlusion", "segments_occluded")
-    bufs = bvh.cl_buffers(env)
-    d_p = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=_f4(p))
-    d_q = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=_f4(q))
-    d_out = cl.Buffer(env.ctx, mf.WRITE_ONLY, out.nbytes)
-    knl(env.queue, (round_up(k, 64),), None, np.int32(k), d_p, d_q,
-        np.float32(C.RAY_EPS_M), *bufs, d_out)
-    cl.enqueue_copy(env.queue, out, d_out)
-    return out.astype(bool)
+    from .occlusion import segments_occluded_opencl
+    return segments_occluded_opencl(bvh, p, q)
 
 
 def patch_visibility(patches, bvh, backend="numpy"):

@@ -20,7 +20,7 @@ import numpy as np
 from .. import constants as C
 from ..errors import SettingsError
 from .bvh import segments_occluded_numpy
-from .clenv import get_env, round_up
+from .clenv import get_env, round_up, launch_chunked
 from .formfactor import _g1, _x_max_unit
 
 WEIGHTINGS = ("illumination", "distance", "both", "none")
@@ -247,11 +247,14 @@ def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
         ln_lim, ns = 0.0, 0
     d_out = cl.Buffer(env.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=out)
     nb = len(blocks)
-    knl(env.queue, (round_up(max(nb, 1), 32),), None, np.int32(nb), buf(blocks),
-        buf(origin), buf(u), buf(v), buf(n), buf(info), np.float32(canvas.pixel),
-        np.int32(len(points)), buf(_f4(points.positions, lnE)), buf(_f4(points.normals)),
-        buf(np.ascontiguousarray(W, np.float32)), np.int32(ns), buf(sp), buf(sn),
-        np.float32(ln_lim), np.float32(C.RAY_EPS_M), np.float32(baseline), *bvh_bufs, d_out)
+    launch_chunked(env, knl, nb,
+                   (buf(blocks), buf(origin), buf(u), buf(v), buf(n), buf(info),
+                    np.float32(canvas.pixel), np.int32(len(points)),
+                    buf(_f4(points.positions, lnE)), buf(_f4(points.normals)),
+                    buf(np.ascontiguousarray(W, np.float32)), np.int32(ns), buf(sp), buf(sn),
+                    np.float32(ln_lim), np.float32(C.RAY_EPS_M), np.float32(baseline)),
+                   (*bvh_bufs, d_out),
+                   max(32, C.CL_CHUNK_VOTE_PAIRS // max(1, len(points) + ns)), local=32)
     cl.enqueue_copy(env.queue, out, d_out)
     # blocks skipped as fully masked stay 0; masked pixels inside blocks are zeroed here
     out[~canvas.mask_flat()] = 0.0

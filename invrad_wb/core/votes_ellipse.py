@@ -22,7 +22,7 @@ import numpy as np
 
 from .. import constants as C
 from .bvh import BVH, segments_occluded_numpy
-from .clenv import get_env, round_up
+from .clenv import get_env, launch_chunked
 from .table import load_voting_table
 
 FIXED_POINT = 65536.0
@@ -204,10 +204,12 @@ def cast_ellipse_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
     ell_d = P["d"].astype(np.float32)
     bvh_bufs = (bvh if occlusion else BVH(np.zeros((0, 3, 3)))).cl_buffers(env)
     d_out = cl.Buffer(env.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=out)
-    knl(env.queue, (round_up(n, 32),), None, np.int32(n), buf(ell_c), buf(ell_w), buf(ell_v),
-        buf(ell_i), buf(ell_d), buf(m_origin), buf(m_u), buf(m_v), buf(m_n), buf(m_info),
-        buf(mask), np.float32(canvas.pixel), buf(f4(points.positions)),
-        buf(f4(points.normals)), np.float32(C.RAY_EPS_M), *bvh_bufs, d_out)
+    launch_chunked(env, knl, n,
+                   (buf(ell_c), buf(ell_w), buf(ell_v), buf(ell_i), buf(ell_d), buf(m_origin),
+                    buf(m_u), buf(m_v), buf(m_n), buf(m_info), buf(mask),
+                    np.float32(canvas.pixel), buf(f4(points.positions)),
+                    buf(f4(points.normals)), np.float32(C.RAY_EPS_M)), (*bvh_bufs, d_out),
+                   C.CL_CHUNK_ELLIPSES, local=32)
     cl.enqueue_copy(env.queue, out, d_out)
     acc = out.astype(np.float64) / FIXED_POINT
     if shade is not None and len(shade) and shade_limit_lux is not None:
