@@ -37,6 +37,8 @@ from .votemaps import build_canvas
 from .votes import vote_weights, cast_exact_numpy, cast_exact_opencl
 
 VOTE_MODELS = ("exact", "ellipse")
+#: luminaires stay this far above a work plane (nothing is mounted right above a desk)
+WORK_PLANE_CLEARANCE_M = 0.3
 INDIRECT_MODES = ("radiosity", "ambient", "none")
 
 
@@ -288,12 +290,12 @@ def work_plane_height(scene):
 
 
 def _exclude_furniture_zone(scene, canvas):
-    """No luminaire below a room's work plane: that zone holds desks and tables.
+    """No luminaire below a room's work plane (plus a clearance): desks and tables.
 
     Masks out surface-map pixels (walls) below the work plane height; the refinement keeps
     luminaires above it too (``canvas.min_z``).
     """
-    z0 = work_plane_height(scene)
+    z0 = work_plane_height(scene) + WORK_PLANE_CLEARANCE_M
     canvas.min_z = z0
     if not np.isfinite(z0):
         return
@@ -434,19 +436,29 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
     lights, cost = tidy(lights, cost)
     # each luminaire's own interreflected light from the radiosity model replaces its
     # estimate; refit, look for missing/surplus luminaires, until nothing moves
+    def converge(lights, cost, rounds=8):
+        """Refit until every luminaire's interreflection was computed where it now is."""
+        for _round in range(rounds):
+            lights, changed = prob.refresh_indirect(lights, moved=0.005)
+            if not changed:
+                return lights, cost
+            lights, cost = opt(lights)
+        # out of rounds: make the indirect light exact for the final positions anyway
+        lights, _ = prob.refresh_indirect(lights, moved=0.0)
+        return lights, prob.cost(lights)
+
     def settle(lights, cost, cands):
         nonlocal trace
-        for _round in range(5):
+        for _round in range(2):
             lights, changed = prob.refresh_indirect(lights, moved=0.005)
             if not changed:
                 break
             lights, cost = opt(lights)
-            if _round < 2:
-                lights, cost, t2 = greedy_select(prob, cands, min_gain=s.min_gain,
-                                                 optimiser=s.optimiser, initial=lights)
-                trace += t2
-                lights, cost = tidy(lights, cost)
-        return lights, cost
+            lights, cost, t2 = greedy_select(prob, cands, min_gain=s.min_gain,
+                                             optimiser=s.optimiser, initial=lights)
+            trace += t2
+            lights, cost = tidy(lights, cost)
+        return converge(lights, cost)
 
     lights, cost = settle(lights, cost, cands)
     # light that several luminaires share: vote again with a fraction of each point's
@@ -477,29 +489,28 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
     # accumulation points at all; seed the refinement with regular arrangements of n
     # luminaires on the ceiling and keep the best refined answer
     if s.overlap_levels > 1 and fit_quality(prob, lights) > s.poor_fit:
-        best = None
+        scanned = []
         for n in _seed_counts(run, flux):
             seeds = _grid_seeds(run.canvas, n)
             if not seeds:
                 continue
             seeds = [prob.with_indirect(L) for L in seeds]
             got, c = opt(seeds)
-            got, _ = prob.refresh_indirect(got, moved=0.02)
-            got, c = opt(got)
             trace.append({"grid_seed": n, "cost_after": c})
+            scanned.append((c, n, got))
+            if c > 1.5 * min(x[0] for x in scanned):
+                break   # past the best count
+        best = None
+        # the scan used estimated interreflection: settle the three best counts exactly
+        for c, n, got in sorted(scanned, key=lambda x: x[0])[:3]:
+            got, c = converge(got, c)
+            trace.append({"grid_seed_exact": n, "cost_after": c})
             if best is None or c < best[1]:
                 best = (got, c)
-            elif c > 1.5 * best[1]:
-                break   # past the best count
         if best is not None:
             # refine the best arrangement with exact interreflection; no pruning here:
             # for evenly spread light every luminaire of the arrangement does its share
             alt, c_alt = best
-            for _round in range(4):
-                alt, changed = prob.refresh_indirect(alt, moved=0.005)
-                if not changed:
-                    break
-                alt, c_alt = opt(alt)
             # the same with vote candidates added / surplus luminaires pruned
             alt2, c_alt2 = settle(alt, c_alt, cands)
             if c_alt2 < c_alt:

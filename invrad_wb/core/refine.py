@@ -158,11 +158,20 @@ class RefineProblem:
         return E, E[:, None] * g
 
     def with_indirect(self, L):
-        """L with its interreflected light attached (an estimate if it has none)."""
+        """L with its interreflected light attached (an estimate if it has none).
+
+        The estimate is scaled by what exact solves have shown so far in this room (the
+        flux-balance value is a mean over all surfaces; a work plane facing a bright ceiling
+        gets more).
+        """
         if L.indirect is None and self.indirect_estimate is not None:
             L = L.copy()
-            L.indirect = self.indirect_estimate(L)
+            L.indirect = self.indirect_estimate(L) * self._estimate_scale()
         return L
+
+    def _estimate_scale(self):
+        n = self.stats.get("indirect_calibrations", 0)
+        return self.stats["indirect_ratio_sum"] / n if n else 1.0
 
     def refresh_indirect(self, lights, moved=0.05):
         """Exact interreflection for luminaires without it or moved more than ``moved`` m.
@@ -178,6 +187,14 @@ class RefineProblem:
                 L.indirect = self.indirect_exact(L)
                 L.indirect_at = L.position.copy()
                 changed = True
+                if self.indirect_estimate is not None:
+                    est = float(np.mean(self.indirect_estimate(L)))
+                    if est > 0:
+                        self.stats["indirect_ratio_sum"] = (
+                            self.stats.get("indirect_ratio_sum", 0.0)
+                            + float(np.mean(L.indirect)) / est)
+                        self.stats["indirect_calibrations"] = (
+                            self.stats.get("indirect_calibrations", 0) + 1)
             out.append(L)
         return out, changed
 

@@ -109,8 +109,17 @@ def sample_plane(scene, plane, density, seed=0):
 
 
 def default_density(scene, target_points=3000, lo=2.0, hi=400.0):
-    """Votes per m^2 giving about ``target_points`` points per room (the largest room)."""
-    areas = np.bincount(scene.face_room, weights=scene.face_areas)
+    """Votes per m^2 giving about ``target_points`` targeted points in the largest room.
+
+    Only faces that carry a target count: a room whose only target is its work plane gets
+    its points there instead of a sixth of them.
+    """
+    tg = scene.vertex_targets()
+    has = np.any(np.isfinite(tg[scene.faces]), axis=1)
+    area = np.where(has, scene.face_areas, 0.0)
+    if not has.any():
+        area = scene.face_areas
+    areas = np.bincount(scene.face_room, weights=area)
     largest = float(areas.max())
     return float(np.clip(target_points / max(largest, 1e-9), lo, hi))
 

@@ -474,6 +474,10 @@ def distance_to_segments(points, segments, chunk=256):
     return out
 
 
+#: free height needed above a work plane for it to be a work place (metres)
+WORK_PLANE_HEADROOM_M = 0.6
+
+
 def work_plane(vertices, triangles, floor, target, source=None, check_inside=True,
                surface=None):
     """Virtual work-plane triangles for a room: its floor lifted by ``target.height_m``.
@@ -487,7 +491,8 @@ def work_plane(vertices, triangles, floor, target, source=None, check_inside=Tru
         Which triangles are floor (face up, normal +Z).
     target : WorkPlaneTarget
     check_inside : bool
-        Drop work-plane triangles that leave the room (e.g. under a low sloped ceiling),
+        Drop work-plane triangles that leave the room or have less than
+        ``WORK_PLANE_HEADROOM_M`` of room above them (e.g. under a low sloped ceiling),
         tested with the generalised winding number of the room surface.
     surface : ((k, 3) float64, (j, 3) int), optional
         A coarser triangulation of the same closed room surface for that test (its cost
@@ -530,8 +535,11 @@ def work_plane(vertices, triangles, floor, target, source=None, check_inside=Tru
         centroids = wv[wtri].mean(axis=1)
         sv, st = (v, tri) if surface is None else (np.asarray(surface[0], dtype=np.float64),
                                                   np.asarray(surface[1], dtype=np.int64))
-        w = winding_number(sv[st], centroids)
-        keep = np.abs(w) > 0.5
+        # a work place also needs head room above the desk: under a low sloped roof
+        # the work plane stops where less than WORK_PLANE_HEADROOM_M is left above it
+        w = winding_number(sv[st], np.concatenate(
+            [centroids, centroids + [0.0, 0.0, WORK_PLANE_HEADROOM_M]]))
+        keep = (np.abs(w[:len(centroids)]) > 0.5) & (np.abs(w[len(centroids):]) > 0.5)
         if not keep.any():
             raise SceneError(f"{target.name}: a work plane {h} m above the floor lies"
                              " outside the room", source)
