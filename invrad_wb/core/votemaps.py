@@ -65,6 +65,7 @@ class VoteMap:
     start: int = 0
     stride: int = 0
     height: float = float("nan")
+    face_test: object = None
 
     @property
     def name(self):
@@ -91,6 +92,39 @@ def _align(n, m=16):
     return ((n + m - 1) // m) * m
 
 
+class FaceTest:
+    """Exact "is this 2-D point on the faces?" for points near the mask's border.
+
+    The pixel masks say whether a pixel's centre is on a face; a pixel at the border is
+    partly off the faces, so a point there is checked against the triangles themselves
+    (those whose bounding box holds it).
+    """
+
+    def __init__(self, tri2d, mask, origin2d, pixel):
+        self.tri = np.asarray(tri2d, dtype=np.float64)
+        self.lo = self.tri.min(axis=1)
+        self.hi = self.tri.max(axis=1)
+        m = np.pad(mask, 1)
+        inner = m[1:-1, 1:-1].copy()
+        for di in (-1, 0, 1):
+            for dj in (-1, 0, 1):
+                inner &= m[1 + di:m.shape[0] - 1 + di, 1 + dj:m.shape[1] - 1 + dj]
+        self.inner = inner
+        self.origin = np.asarray(origin2d, dtype=np.float64)
+        self.pixel = pixel
+
+    def contains(self, q, i, j, tol=1e-9):
+        """q (2,) in the same 2-D frame as the triangles; (i, j) its pixel."""
+        if self.inner[i, j]:
+            return True
+        sel = np.flatnonzero(np.all((self.lo <= q + tol) & (self.hi >= q - tol), axis=1))
+        if len(sel) == 0:
+            return False
+        from .raster import barycentric_2d
+        b = barycentric_2d(self.tri[sel], np.broadcast_to(q, (len(sel), 2)))
+        return bool(np.any(np.all(b >= -tol, axis=1)))
+
+
 @dataclass
 class DummyGrid:
     """The room's footprint raster used for dummy planes and to keep luminaires inside.
@@ -104,6 +138,7 @@ class DummyGrid:
     footprint: np.ndarray
     ceiling_z: np.ndarray
     floor_z: float
+    floor_test: object = None     # FaceTest of the floor-like faces in (x, y)
 
     def clamp(self, p, margin=1e-3):
         """The point with its height clamped into the room, or None outside the footprint."""
@@ -112,6 +147,9 @@ class DummyGrid:
         if not (0 <= i < self.footprint.shape[0] and 0 <= j < self.footprint.shape[1]):
             return None
         if not self.footprint[i, j] or self.ceiling_z[i, j] - margin <= self.floor_z + margin:
+            return None
+        if self.floor_test is not None and not self.floor_test.contains(
+                np.asarray(p[:2], dtype=np.float64), i, j):
             return None
         z = min(max(p[2], self.floor_z + margin), self.ceiling_z[i, j] - margin)
         if z == p[2]:
@@ -147,12 +185,16 @@ class VoteCanvas:
     grid: DummyGrid = None
 
     def map_contains(self, map_index, p):
-        """Whether point p (3,) projects onto a valid pixel of a surface map."""
+        """Whether point p (3,) lies on the faces of a surface map (on a valid pixel and,
+        near the faces' border, inside a face)."""
         m = self.maps[map_index]
         d = np.asarray(p) - m.origin
-        i = int(np.floor(d @ m.u / m.pixel))
-        j = int(np.floor(d @ m.v / m.pixel))
-        return bool(0 <= i < m.shape[0] and 0 <= j < m.shape[1] and m.mask[i, j])
+        q = np.array([d @ m.u, d @ m.v])
+        i = int(np.floor(q[0] / m.pixel))
+        j = int(np.floor(q[1] / m.pixel))
+        if not (0 <= i < m.shape[0] and 0 <= j < m.shape[1] and m.mask[i, j]):
+            return False
+        return m.face_test is None or m.face_test.contains(q, i, j)
 
     def split(self, flat):
         """Flat buffer (size,) -> list of (nu, nv) arrays, one per map (views)."""
@@ -181,9 +223,12 @@ def _surface_map(scene, plane, pixel):
     tri, _ = locate_points(plane_triangles_2d(scene, plane),
                            np.stack([I.reshape(-1), J.reshape(-1)], axis=1))
     mask = (tri >= 0).reshape(nu, nv)
+    # triangles in this map's (u, v) frame (origin shifted by -extra from the plane's)
+    tri2d = plane_triangles_2d(scene, plane) + extra
     return VoteMap(kind="surface", plane=plane.index, layer=-1, room=plane.room,
                    normal=plane.normal.copy(), offset=plane.offset, origin=origin,
-                   u=plane.u.copy(), v=plane.v.copy(), shape=(nu, nv), pixel=pixel, mask=mask)
+                   u=plane.u.copy(), v=plane.v.copy(), shape=(nu, nv), pixel=pixel, mask=mask,
+                   face_test=FaceTest(tri2d, mask, (0.0, 0.0), pixel))
 
 
 def dummy_layer_heights(scene, room, spacing, count=None, lowest=None):
@@ -241,7 +286,10 @@ def _dummy_maps(scene, room, heights, pixel, two_sided, clearance):
     footprint = t_up >= 0
     grid = DummyGrid(origin=np.array([lo[0] - extra[0], lo[1] - extra[1]]), pixel=pixel,
                      footprint=footprint.reshape(nu, nv), ceiling_z=ceil_z.reshape(nu, nv),
-                     floor_z=float(up[:, :, 2].min()) if len(up) else float(lo[2]))
+                     floor_z=float(up[:, :, 2].min()) if len(up) else float(lo[2]),
+                     floor_test=FaceTest(up[:, :, :2], footprint.reshape(nu, nv),
+                                         (lo[0] - extra[0], lo[1] - extra[1]), pixel)
+                     if len(up) else None)
     maps = []
     sides = [np.array([0.0, 0.0, -1.0])] + ([np.array([0.0, 0.0, 1.0])] if two_sided else [])
     for k, z in enumerate(heights):
