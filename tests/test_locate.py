@@ -269,3 +269,40 @@ def test_chunked_launches_give_the_same_votes(monkeypatch):
     monkeypatch.setattr(C, "CL_CHUNK_VOTE_PAIRS", 64 * len(pts))   # ~64 blocks per launch
     chunked = cast_exact_opencl(canvas, pts, W, pts.lux, 2000.0)
     assert np.array_equal(whole, chunked)
+
+
+def test_two_sided_dummy_planes_find_an_uplight():
+    # a pendant that lights the ceiling (facing up): only two-sided dummy planes hold it
+    s = g.box_room((6, 4, 3), cell=0.1, reflectance=0.0)
+    true = [Luminaire([3.1, 1.9, 2.2], [0, 0, 1], 3000.0)]
+    scene = s.with_vertex_lux(render(s, true, interreflection=False, backend=BACKEND))
+    r = locate(scene, 3000.0, backend=BACKEND, two_sided_dummies=True)
+    m = match(r.luminaires, true)
+    assert m["found"] == 1 and m["spurious"] == 0 and m["max_error_cm"] < 10, m
+    assert r.luminaires[0].normal[2] > 0.99
+    assert any(mp.kind == "dummy" and mp.normal[2] > 0 for mp in r.rooms[0].canvas.maps)
+
+
+def test_vote_only_to_planes_visible_from_the_brightest_spots():
+    # a low pendant: the brightest spots are on the floor below it
+    scene, true = known_scene("pendant", reflectance=0.0, backend=BACKEND)
+    r = locate(scene, 3000.0, backend=BACKEND, all_planes=False)
+    run = r.rooms[0]
+    kept = {mp.plane for mp in run.canvas.maps if mp.kind == "surface"}
+    # thesis 4.2.1: a plane is kept if a vertex of it lies in front of a brightest spot
+    pts = run.points
+    bright = np.flatnonzero(pts.lux >= 0.95 * pts.lux.max())
+    for p in scene.planes:
+        v = scene.vertices[scene.faces[p.faces]].reshape(-1, 3)
+        seen = any(np.any((v - pts.positions[b]) @ pts.normals[b] > 1e-6) for b in bright)
+        assert (p.index in kept) == seen
+    assert len(kept) < len(scene.planes)      # the brightest spots' own plane is dropped
+    m = match(r.luminaires, true)
+    assert m["found"] == 1 and m["spurious"] == 0 and m["max_error_cm"] < 10
+
+
+def test_evolution_strategy_optimiser_also_refines():
+    scene, true = known_scene("two_ceiling", reflectance=0.0, backend=BACKEND)
+    r = locate(scene, 3000.0, backend=BACKEND, optimiser="es")
+    m = match(r.luminaires, true)
+    assert m["found"] == 2 and m["spurious"] == 0 and m["max_error_cm"] < 10, m

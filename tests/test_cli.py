@@ -1,0 +1,110 @@
+"""Command line: the documented commands work on plain meshes and fail cleanly."""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def run(*args, env=None, check=False):
+    e = dict(os.environ)
+    e.update(env or {})
+    p = subprocess.run([sys.executable, "-m", "invrad_wb", *args], cwd=ROOT, env=e,
+                       capture_output=True, text=True, timeout=600)
+    if check and p.returncode != 0:
+        raise AssertionError(p.stdout + p.stderr)
+    return p
+
+
+def test_example_locate_verify_round_trip(tmp_path):
+    scene = tmp_path / "scene.ply"
+    truth = tmp_path / "truth.json"
+    run("example", "two_ceiling", "-o", str(scene), "--truth", str(truth), "--cell", "0.15",
+        check=True)
+    result = tmp_path / "result.json"
+    maps = tmp_path / "maps"
+    p = run("locate", str(scene), "--flux", "3000", "-o", str(result), "--vote-maps", str(maps),
+            check=True)
+    assert "2 luminaire(s)" in p.stdout
+    data = json.loads(result.read_text())
+    found = np.array([l["position"] for l in data["luminaires"]])
+    true = np.array([l["position"] for l in json.loads(truth.read_text())["luminaires"]])
+    d = np.linalg.norm(found[:, None] - true[None], axis=2)
+    assert d.min(axis=0).max() < 0.1
+    assert set(data) >= {"luminaires", "settings", "timings"}
+    assert data["settings"]["vote_model"] == "exact"
+    assert (maps / "room0" / "contact_sheet.png").exists()
+    assert (maps / "room0" / "maps.json").exists()
+    rep = tmp_path / "report"
+    run("verify", str(scene), "--luminaires", str(result), "--report", str(rep), check=True)
+    assert (rep / "index.html").exists()
+    # render: the forward solve of the true luminaires reproduces the targets
+    out = tmp_path / "rendered.ply"
+    run("render", str(scene), "--luminaires", str(truth), "-o", str(out),
+        "--no-interreflection", check=True)
+    from invrad_wb.core.sceneio import read_scene
+    a, b = read_scene(str(scene)), read_scene(str(out))
+    assert np.allclose(a.vertex_lux, b.vertex_lux, rtol=1e-4, atol=1e-3)
+
+
+def test_settings_are_passed_through(tmp_path):
+    scene = tmp_path / "scene.ply"
+    run("example", "one_ceiling", "-o", str(scene), "--cell", "0.25", check=True)
+    result = tmp_path / "r.json"
+    run("locate", str(scene), "--flux", "3000", "-o", str(result), "--vote-model", "ellipse",
+        "--resolution", "0.15", "--threshold", "60", "--dummy-planes", "false", check=True)
+    s = json.loads(result.read_text())["settings"]
+    assert s["vote_model"] == "ellipse" and s["pixel_m"] == 0.15 and s["threshold"] == 60
+    assert s["dummy_planes"] is False
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["locate", "missing.ply", "--flux", "3000", "-o", "x.json"], "missing.ply"),
+    (["locate", "examples/office.ply", "--flux", "-5", "-o", "x.json"], "flux"),
+    (["locate", "examples/office.ply", "--flux", "3000", "-o", "x.json", "--threshold", "300"],
+     "threshold"),
+    (["render", "examples/office.ply", "--luminaires", "nope.json", "-o", "x.ply"], "nope.json"),
+    (["example", "castle", "-o", "x.ply"], "castle"),
+])
+def test_errors_are_one_line_with_status_2(tmp_path, args, needle):
+    p = run(*[a if a != "x.json" and a != "x.ply" else str(tmp_path / a) for a in args])
+    assert p.returncode == 2, p.stderr
+    err = [l for l in p.stderr.splitlines() if l.startswith("invrad: error:")]
+    assert len(err) == 1 and needle in err[0], p.stderr
+    assert "Traceback" not in p.stderr
+
+
+def test_millimetre_file_needs_unit(tmp_path):
+    from invrad_wb.core import generate as g
+    from invrad_wb.core.sceneio import write_scene
+    s = g.box_room((6, 4, 3), cell=1.0)
+    s.vertices = s.vertices * 1000.0
+    path = tmp_path / "mm.ply"
+    write_scene(str(path), s, lux=np.full(len(s.vertices), 100.0))
+    p = run("info", str(path))
+    assert p.returncode == 2 and "--unit mm" in p.stderr
+    p = run("info", str(path), "--unit", "mm", check=True)
+    assert "6.0" in p.stdout
+
+
+def test_no_opencl_device_is_a_clear_error(tmp_path):
+    # an empty ICD vendor folder: the loader finds no platform
+    empty = tmp_path / "vendors"
+    empty.mkdir()
+    p = run("locate", "examples/office.ply", "--flux", "3000", "-o", str(tmp_path / "r.json"),
+            "--backend", "opencl", env={"OCL_ICD_VENDORS": str(empty)})
+    assert p.returncode == 2
+    assert "OpenCL" in p.stderr and "--backend numpy" in p.stderr
+    assert not (tmp_path / "r.json").exists()
+
+
+def test_failed_run_leaves_existing_output_untouched(tmp_path):
+    out = tmp_path / "result.json"
+    out.write_text("precious")
+    p = run("locate", "examples/office.ply", "--flux", "0", "-o", str(out))
+    assert p.returncode == 2
+    assert out.read_text() == "precious"
