@@ -1,5 +1,11 @@
-"""Verification report: metrics on analytic cases, images, HTML/CSV, atomic output."""
+"""Verification report: metrics on analytic cases, images, HTML/CSV, atomic output.
+
+Achieved light is rendered with ``interreflection=False`` so that the expected values are
+analytic (a lambertian point luminaire over a floor, CIE 171 style).
+"""
 import csv
+import json
+import math
 import os
 
 import numpy as np
@@ -7,105 +13,472 @@ import pytest
 
 from invrad_wb.core import generate as g
 from invrad_wb.core import images as im
+from invrad_wb.core import report as R
 from invrad_wb.core.luminaires import Luminaire
 from invrad_wb.core.render import render
-from invrad_wb.core.report import build_report, room_metrics, describe_plane
+from invrad_wb.core.report import build_report, describe_plane, room_metrics
+from invrad_wb.errors import SceneError
+
+H = 2.5          # luminaire height over the floor (m)
+F = 3000.0       # flux (lm)
 
 
-def _room():
-    s = g.box_room((4, 3, 2.5), cell=0.25, reflectance=0.0)
-    lums = [Luminaire([2.0, 1.5, 2.5], [0, 0, -1], 2000.0)]
-    lux = render(s, lums, interreflection=False, backend="numpy")
-    return s, lums, lux
+def _floor(size=4.0, cell=0.1):
+    return g.MeshBuilder(cell).quad([0, 0, 0], [size, 0, 0], [size, size, 0], [0, size, 0],
+                                    inward=[0, 0, 1]).scene()
 
 
-def test_metrics_of_a_perfect_match():
-    s, lums, lux = _room()
-    floor = [p for p in s.planes if p.normal[2] > 0.9][0]
-    tgt = np.full(len(s.vertices), np.nan)
-    fv = np.unique(s.faces[floor.faces])
-    tgt[fv] = lux[fv]
-    m = room_metrics(s, tgt, lux)
-    assert m["n_faces"] == len(floor.faces)
-    assert m["rmse_pct"] == pytest.approx(0, abs=1e-9)
-    assert m["em"] == pytest.approx(m["target_em"])
-    # the brightest floor face is right below the luminaire: E ~ F / (pi h^2)
-    assert m["emax"] == pytest.approx(2000 / (np.pi * 2.5 ** 2), rel=0.03)
-    assert m["u0"] == pytest.approx(m["emin"] / m["em"])
-    assert "floor" in describe_plane(floor)
+def _analytic(points, pos, flux):
+    """E = F h^2 / (pi r^4) of a downward lambertian point luminaire on a floor (lx)."""
+    d = points - np.asarray(pos)
+    r2 = np.einsum("ij,ij->i", d, d)
+    return flux * d[:, 2] ** 2 / (np.pi * r2 ** 2)
 
 
-def test_largest_deviation_is_found_where_it_is():
-    s, lums, lux = _room()
-    wrong = render(s, [Luminaire([3.5, 2.5, 2.5], [0, 0, -1], 2000.0)], interreflection=False,
-                   backend="numpy")
-    floor = [p for p in s.planes if p.normal[2] > 0.9][0]
-    m = room_metrics(s, lux, wrong, faces=floor.faces)
-    # the largest deviation is either too bright under the misplaced luminaire or too
-    # dark under the right place, and the sign says which
-    where = np.array(m["max_dev_point"][:2])
-    spot = [3.5, 2.5] if m["max_dev_lux"] > 0 else [2.0, 1.5]
-    assert np.linalg.norm(where - spot) < 0.6
-    assert "floor at x" in m["max_dev_where"]
-    assert m["em"] < m["target_em"]          # light lost into the corner walls
+def _render(scene, pos, flux):
+    return render(scene, [Luminaire(pos, [0, 0, -1], flux)], interreflection=False,
+                  backend="numpy")
 
 
-def test_shade_metrics():
-    s, lums, lux = _room()
-    ceiling = [p for p in s.planes if p.normal[2] < -0.9][0]
-    tgt = np.full(len(s.vertices), np.nan)
-    tgt[np.unique(s.faces[ceiling.faces])] = 0.0
-    m = room_metrics(s, tgt, lux + 7.0)
-    assert m["shade_max_lux"] == pytest.approx(7.0)
-    assert np.isnan(m["em"])
+def _corner_rect_fraction(a, b, h):
+    """Fraction of a downward lambertian point source's flux falling on an a x b
+    rectangle with one corner below the source (form factor, closed form)."""
+    A, B = a / h, b / h
+    return (A / math.sqrt(1 + A * A) * math.atan(B / math.sqrt(1 + A * A))
+            + B / math.sqrt(1 + B * B) * math.atan(A / math.sqrt(1 + B * B))) / (2 * math.pi)
 
 
-def test_false_colour_and_diverging_scales():
-    rgb = im.false_colour(np.array([0.0, 50.0, 100.0, np.nan]), 0, 100)
+def _midpoint_integral(scene, faces, values):
+    """Edge-midpoint quadrature: exact for quadratics over each triangle. Returns the
+    integral of ``values(corner_values)`` given per corner -> per midpoint."""
+    c = values[scene.faces[faces]]
+    mids = 0.5 * (c + c[:, [1, 2, 0]])
+    return mids, scene.face_areas[faces]
+
+
+# ---------------------------------------------------------------------------- metrics
+def test_perfect_match_has_zero_error_and_analytic_em_emin_u0():
+    s = _floor()
+    pos = [2.0, 2.0, H]
+    target = _analytic(s.vertices, pos, F)
+    m = room_metrics(s, target, target.copy())
+    assert m["rmse_pct"] == 0 and m["mae_pct"] == 0 and m["max_dev_lux"] == 0
+    assert m["max_dev_where"] == "" and np.isnan(m["max_dev_point"]).all()
+    assert m["within_tol_pct"] == pytest.approx(100.0)
+    assert m["n_faces"] == len(s.faces) and m["area_m2"] == pytest.approx(16.0)
+    # Emax right below the luminaire, Emin in the corners: analytic values at vertices
+    assert m["target_emax"] == pytest.approx(F / (np.pi * H ** 2), rel=1e-12)
+    r2 = 2 * 2.0 ** 2 + H ** 2
+    assert m["target_emin"] == pytest.approx(F * H ** 2 / (np.pi * r2 ** 2), rel=1e-12)
+    # Em = flux on the floor / area (closed-form form factor); linear interpolation on a
+    # 0.1 m mesh integrates it to well within 0.2 %
+    em = 4 * F * _corner_rect_fraction(2.0, 2.0, H) / 16.0
+    assert m["target_em"] == pytest.approx(em, rel=2e-3)
+    assert m["target_u0"] == pytest.approx(m["target_emin"] / m["target_em"])
+    assert m["target_u0"] == pytest.approx(F * H ** 2 / (np.pi * r2 ** 2) / em, rel=2e-3)
+    # the forward solver reproduces the analytic target
+    achieved = _render(s, pos, F)
+    m = room_metrics(s, target, achieved)
+    assert m["rmse_pct"] < 1e-3 and abs(m["bias_pct"]) < 1e-3
+    assert m["u0"] == pytest.approx(m["target_u0"], rel=1e-5)
+
+
+def test_half_flux_is_fifty_percent_too_dark_everywhere():
+    s = _floor()
+    pos = [2.0, 2.0, H]
+    target = _analytic(s.vertices, pos, F)
+    achieved = _render(s, pos, F / 2)
+    m = room_metrics(s, target, achieved)
+    assert m["bias_pct"] == pytest.approx(-50.0, abs=1e-3)
+    assert m["mae_pct"] == pytest.approx(50.0, abs=1e-3)
+    assert m["within_tol_pct"] == 0.0
+    assert m["max_dev_lux"] < 0 and m["max_dev_pct"] == pytest.approx(-50.0, abs=1e-3)
+    # largest deviation in lux where the target is highest: right below the luminaire
+    assert m["max_dev_point"][:2] == pytest.approx([2.0, 2.0], abs=1e-9)
+    assert m["max_dev_where"] == "floor at (2.00, 2.00) m"
+    # RMSE = sqrt(mean (E - T)^2) / mean T, against an independent exact quadrature
+    faces = np.arange(len(s.faces))
+    mids, area = _midpoint_integral(s, faces, achieved - target)
+    ref = np.sqrt((area * (mids ** 2).mean(axis=1)).sum() / area.sum()) / m["target_em"]
+    assert m["rmse_pct"] == pytest.approx(100 * ref, rel=1e-6)
+    assert m["rmse_pct"] > 50.0          # a uniform -50 % weighs the bright centre more
+
+
+def test_misplaced_brighter_luminaire_deviation_sign_and_place():
+    s = _floor()
+    target = _analytic(s.vertices, [2.0, 2.0, H], F)
+    achieved = _render(s, [3.0, 1.0, H], 1.5 * F)
+    m = room_metrics(s, target, achieved)
+    assert m["max_dev_lux"] > 0                              # too bright ...
+    # ... near the misplaced luminaire, pushed away from the target's centre (where the
+    # target falls off): the analytic argmax of E - T
+    diff = _analytic(s.vertices, [3.0, 1.0, H], 1.5 * F) - target
+    best = s.vertices[np.argmax(diff)]
+    assert m["max_dev_point"] == pytest.approx(best.tolist(), abs=1e-9)
+    assert np.linalg.norm(best[:2] - [3.0, 1.0]) < 0.5
+    assert np.linalg.norm(best[:2] - [2.0, 2.0]) > np.sqrt(2)
+    assert m["max_dev_where"] == f"floor at ({best[0]:.2f}, {best[1]:.2f}) m"
+    assert m["max_dev_lux"] == pytest.approx(diff.max(), rel=1e-5)
+    assert m["max_dev_pct"] == pytest.approx(100 * diff.max() / target[np.argmax(diff)],
+                                             rel=1e-5)
+    # the darkest point is the corner farthest from the moved luminaire
+    assert m["emin_point"][:2] == pytest.approx([0.0, 4.0])
+    # mean absolute deviation integrates |E - T| exactly over each triangle even where it
+    # changes sign: compare with a dense sub-triangle sampling
+    d = (achieved - target)[s.faces]
+    B = R._sub_barycentric(24)
+    dense = (s.face_areas * np.abs(d @ B.T).mean(axis=1)).sum() / 16.0
+    assert m["mae_lux"] == pytest.approx(dense, rel=2e-3)
+    assert R._abs_integral(np.array([[1.0, -1.0, 0.0]]), np.array([1.0]))[0] == \
+        pytest.approx(1 / 3)        # |f| of a linear field through 0: 2 x (1/2 x 1/3)
+
+
+def test_shade_targets_are_reported_apart():
+    s = _floor()
+    x = s.vertices[:, 0]
+    target = np.where(x <= 2.0 + 1e-9, 300.0, 0.0)
+    lum = [3.5, 2.0, H]
+    achieved = _render(s, lum, F)
+    m = room_metrics(s, target, achieved)
+    shade_faces = np.all(target[s.faces] == 0, axis=1)
+    assert m["n_shade_faces"] == int(shade_faces.sum()) > 0
+    assert m["shade_area_m2"] == pytest.approx(s.face_areas[shade_faces].sum())
+    assert m["shade_max_lux"] == pytest.approx(F / (np.pi * H ** 2), rel=1e-5)
+    assert m["shade_max_where"] == "floor at (3.50, 2.00) m"
+    assert 0 < m["shade_mean_lux"] < m["shade_max_lux"]
+    # Em and U0 over the lit faces only (the lit/shade edge does not drag them down)
+    assert m["target_em"] == pytest.approx(300.0) and m["target_u0"] == pytest.approx(1.0)
+    assert m["n_transition_faces"] > 0
+    # deviation images: shade points in % of a reference (the room's mean target)
+    d = R.relative_deviation(target, achieved, 300.0)
+    sh = target == 0
+    assert np.allclose(d[sh], achieved[sh] / 300.0)
+    assert np.allclose(d[~sh], achieved[~sh] / 300.0 - 1.0)
+    # light deep in the shade changes the shade metrics only
+    deep = x > 2.2
+    brighter = achieved.copy()
+    brighter[deep] += 100.0
+    m2 = room_metrics(s, target, brighter)
+    for k in ("target_em", "em", "rmse_pct", "emin", "max_dev_lux"):
+        assert m2[k] == m[k], k
+    assert m2["shade_max_lux"] == pytest.approx(m["shade_max_lux"] + 100.0)
+    # a set with shade only has no lit metrics
+    m3 = room_metrics(s, target, achieved, faces=np.flatnonzero(shade_faces))
+    assert np.isnan(m3["em"]) and m3["n_lit_faces"] == 0 and m3["shade_max_lux"] > 0
+
+
+def test_faces_without_target_are_ignored_and_subsets_work():
+    s = _floor()
+    target = _analytic(s.vertices, [2.0, 2.0, H], F)
+    target[s.vertices[:, 1] > 3.0 + 1e-9] = np.nan
+    achieved = target * 1.2
+    has = np.all(np.isfinite(target[s.faces]), axis=1)
+    m = room_metrics(s, target, achieved)
+    assert m["n_faces"] == int(has.sum()) and m["area_m2"] == pytest.approx(12.0)
+    assert m["bias_pct"] == pytest.approx(20.0) and m["mae_pct"] == pytest.approx(20.0)
+    sub = np.flatnonzero(s.face_centroids[:, 0] < 1.0)
+    ms = room_metrics(s, target, achieved, faces=sub)
+    assert ms["area_m2"] == pytest.approx(3.0)
+    assert ms["target_em"] < m["target_em"]               # the edge strip is darker
+    with pytest.raises(SceneError, match="vertices"):
+        room_metrics(s, target[:-1], achieved)
+    bad = achieved.copy()
+    bad[0] = np.nan
+    with pytest.raises(SceneError, match="achieved"):
+        room_metrics(s, target, bad)
+
+
+def test_walls_are_described_by_where_they_stand():
+    s = g.box_room((5, 4, 3), cell=0.5)
+    words = sorted(describe_plane(p, 0.0) for p in s.planes)
+    assert words == ["ceiling", "floor", "wall x = 0.00 m (facing +x)",
+                     "wall x = 5.00 m (facing -x)", "wall y = 0.00 m (facing +y)",
+                     "wall y = 4.00 m (facing -y)"]
+    wall = [p for p in s.planes if p.normal[0] < -0.9][0]
+    assert R.describe_point(s, wall, [5.0, 1.5, 2.0]) == \
+        "wall x = 5.00 m (facing -x) at y = 1.50 m, 2.00 m above the floor"
+
+
+# ---------------------------------------------------------------------------- images
+def test_colour_scales():
+    rgb = im.false_colour(np.array([0.0, 50.0, 100.0, 250.0, np.nan]), 0, 100)
     assert tuple(rgb[0]) == (68, 1, 84) and tuple(rgb[2]) == (253, 231, 37)
-    assert tuple(rgb[3]) == im.NAN_GREY
-    d = im.diverging(np.array([-1.0, 0.0, 1.0]), 0.5)
-    assert d[0, 2] > d[0, 0] and d[2, 0] > d[2, 2] and np.all(d[1] > 240)
+    assert tuple(rgb[3]) == (253, 231, 37)                    # above the scale: clipped
+    assert tuple(rgb[4]) == im.NAN_GREY
+    assert tuple(im.false_colour(np.array([0.0]), 0, 100, shade=True)[0]) == im.SHADE_BLACK
+    lum = rgb[:3].astype(float) @ [0.299, 0.587, 0.114]
+    assert np.all(np.diff(lum) > 0)                            # brighter = lighter
+    d = im.diverging(np.array([-1.0, -0.25, 0.0, 0.25, 1.0, np.nan]), 0.5)
+    assert d[0, 2] > d[0, 0] and d[4, 0] > d[4, 2]            # blue dark, red bright
+    assert np.all(d[2] > 240)                                   # white on target
+    assert d[1, 2] > d[1, 0] and d[3, 0] > d[3, 2]
+    assert tuple(d[5]) == im.NAN_GREY
+    assert [im.nice_max(v) for v in (0.7, 180, 250, 1234)] == [0.8, 200, 250, 1500]
+    bar = im.colour_bar(0, 500, "lux", width=300)
+    row = bar[10]
+    assert tuple(row[34]) == (68, 1, 84) and tuple(row[34 + 299]) == (253, 231, 37)
 
 
-def test_report_files_images_and_escaping(tmp_path):
-    s, lums, lux = _room()
-    out = tmp_path / "rep"
-    paths = build_report(s, lux, lux * 1.1, lums, str(out),
-                         room_names=["<script>alert(1)</script>"])
-    page = open(paths.html, encoding="utf-8").read()
-    assert "&lt;script&gt;" in page and "<script>" not in page
-    for f in ("room0_target.png", "room0_achieved.png", "room0_deviation.png",
-              "room0_plan_achieved.png", "rooms.csv", "luminaires.csv"):
-        assert (out / f).exists(), f
-    rows = list(csv.DictReader(open(paths.rooms_csv, encoding="utf-8")))
-    assert len(rows) == 1
-    assert float(rows[0]["mae_pct"]) == pytest.approx(10.0, rel=1e-6)    # +10 % everywhere
-    assert float(rows[0]["max_dev_pct"]) == pytest.approx(10.0, rel=1e-6)
-    assert float(rows[0]["em"]) == pytest.approx(1.1 * float(rows[0]["target_em"]))
-    lum = list(csv.DictReader(open(paths.luminaires_csv, encoding="utf-8")))
-    assert float(lum[0]["z_m"]) == pytest.approx(2.5)
-    # the plan view shows the hot spot under the luminaire in the hot colour
+def test_unfolded_box_net_geometry_and_hot_spot():
+    s = g.box_room((6, 4, 3), cell=0.25, reflectance=0.0)
+    lum = [4.5, 1.0, 3.0]
+    E = _render(s, lum, F)
+    r = im.unfolded_raster(s, 0, metres_per_pixel=0.05)
+    assert r.layout == "box net"
+    # net: 3 + 6 + 3 m wide; wall + floor + wall + ceiling = 3 + 4 + 3 + 4 m tall; 10 px
+    # margins
+    assert r.shape == (round(14 / 0.05) + 20, round(12 / 0.05) + 20)
+    kind = {p.index: describe_plane(p, 0.0) for p in s.planes}
+
+    def at(x, y):                       # net coordinates (m) -> what the pixel shows
+        c = int((x - r.x0) / r.metres_per_pixel)
+        rr = int((r.y1 - y) / r.metres_per_pixel)
+        return kind.get(int(r.plane[rr, c]), "background")
+
+    assert at(3.0, 2.0) == "floor"
+    assert at(3.0, -1.5) == "wall y = 0.00 m (facing +y)"      # folded out below
+    assert at(3.0, 5.5) == "wall y = 4.00 m (facing -y)"       # and above
+    assert at(-1.5, 2.0) == "wall x = 0.00 m (facing +x)"
+    assert at(7.5, 2.0) == "wall x = 6.00 m (facing -x)"
+    assert at(3.0, 9.0) == "ceiling"                            # beyond the top wall
+    assert at(-1.5, -1.5) == "background"
+    # every plane drawn once, at its true area
+    for p in s.planes:
+        assert (r.plane == p.index).sum() * 0.05 ** 2 == pytest.approx(p.area, rel=0.03)
+    # the floor pixel under the luminaire is the brightest floor pixel, in the top colour
+    floor = [p for p in s.planes if p.normal[2] > 0.9][0]
+    c, rr = r.pixel_of(np.array([[lum[0], lum[1], 0.0]]), floor.index)[0]
+    vals = r.sample(E)
+    on_floor = r.plane == floor.index
+    top = float(np.nanmax(vals[on_floor]))          # walls near the luminaire are brighter
+    img = im.paint(r, vals, lambda v: im.false_colour(v, 0, top))
+    hot = img[int(rr), int(c)]
+    assert hot[0] > 200 and hot[1] > 200 and hot[2] < 90         # yellow
+    assert vals[int(rr), int(c)] >= top * 0.99
+    cold = img[int(r.pixel_of(np.array([[0.2, 3.8, 0.0]]), floor.index)[0][1]),
+               int(r.pixel_of(np.array([[0.2, 3.8, 0.0]]), floor.index)[0][0])]
+    assert cold[2] > cold[1] and cold[0] < 100                  # dark blue-purple
+    # the sampled field is the linear interpolation of the vertex values
+    assert vals[int(rr), int(c)] == pytest.approx(F / (np.pi * 3.0 ** 2), rel=0.03)
+
+
+@pytest.mark.parametrize("make", [
+    lambda: g.pillar_room((6, 4, 3), cell=0.25),
+    lambda: g.l_room((6, 5, 3), cut=(3, 2.5), cell=0.25),
+    lambda: g.sloped_room((6, 4), cell=0.25)])
+def test_unfolded_layout_never_overlaps_planes(make):
+    s = make()
+    r = im.unfolded_raster(s, 0, metres_per_pixel=0.05)
+    for p in s.planes:
+        assert (r.plane == p.index).sum() * 0.05 ** 2 == pytest.approx(p.area, rel=0.06), \
+            describe_plane(p)
+
+
+def test_plan_view_shows_the_work_plane_over_the_floor():
+    s, virt = _room_with_work_plane()
+    r = im.plan_raster(s, 0, metres_per_pixel=0.05)
+    wp = [p for p in s.planes if p.is_virtual][0]
+    floor = [p for p in s.planes if p.normal[2] > 0.9 and not p.is_virtual][0]
+    mid = r.pixel_of(np.array([[3.0, 2.0, 0.8]]), wp.index)[0].astype(int)
+    edge = r.pixel_of(np.array([[0.2, 0.2, 0.0]]), floor.index)[0].astype(int)
+    assert r.plane[mid[1], mid[0]] == wp.index
+    assert r.plane[edge[1], edge[0]] == floor.index
+
+
+def test_png_and_exr_round_trip_and_refuse_bad_input(tmp_path):
+    grey = (np.arange(12, dtype=np.uint8) * 20).reshape(3, 4)
+    p = im.save_png(str(tmp_path / "g.png"), grey)
+    back = im.read_image(p)
+    assert back.shape == (3, 4, 1) and np.array_equal(np.round(back[..., 0] * 255), grey)
+    rgb = np.zeros((5, 7, 3))
+    rgb[2, 3] = (1.0, 0.5, 0.0)
+    back = im.read_image(im.save_png(str(tmp_path / "c.png"), rgb))
+    assert np.array_equal(np.round(back[2, 3] * 255), [255, 128, 0])
+    vals = np.array([[1.5, np.nan], [1e5, 0.0]])
+    e = im.save_exr(str(tmp_path / "v.exr"), np.stack([vals, -vals], 2), ["target", "d"])
+    back = im.read_image(e)
     import OpenImageIO as oiio
-    buf = oiio.ImageBuf(str(out / "room0_plan_achieved.png"))
-    px = buf.get_pixels(oiio.UINT8)
-    h, w, _ = px.shape
-    centre = px[h // 2, w // 2 - 20]        # beside the ring drawn at the luminaire
-    corner = px[16, 16]
-    assert centre[1] > corner[1]            # viridis: brighter = more green/yellow
+    names = list(oiio.ImageInput.open(e).spec().channelnames)
+    assert sorted(names) == ["d", "target"]       # EXR stores channels sorted by name
+    assert back.shape == (2, 2, 2)
+    assert np.allclose(back[..., names.index("target")], vals, equal_nan=True)
+    assert np.allclose(back[..., names.index("d")], -vals, equal_nan=True)
+    h = im.read_image(im.save_exr(str(tmp_path / "h.exr"), vals[:1], half=True))
+    assert h[0, 0, 0] == 1.5 and np.isnan(h[0, 1, 0])
+    assert oiio.ImageInput.open(str(tmp_path / "h.exr")).spec().format == oiio.HALF
+    with pytest.raises(ValueError):
+        im.save_png(str(tmp_path / "bad.png"), np.zeros((4, 4, 7), np.uint8))
+    with pytest.raises(ValueError):
+        im.save_png(str(tmp_path / "bad.png"), np.full((4, 4), 300))
+    assert sorted(os.listdir(tmp_path)) == ["c.png", "g.png", "h.exr", "v.exr"]
 
 
-def test_report_writes_are_atomic(tmp_path, monkeypatch):
-    s, lums, lux = _room()
+# ---------------------------------------------------------------------------- the report
+def _room_with_work_plane(cell=0.25):
+    mb = g.MeshBuilder(cell)
+    g.add_prism_room(mb, [(0, 0), (6, 0), (6, 4), (0, 4)], [(0, 0, 6, 4)], height=3.0,
+                     reflectance=0.0)
+    n_room = sum(len(f) for f in mb._f)
+    mb.quad([0.5, 0.5, 0.8], [5.5, 0.5, 0.8], [5.5, 3.5, 0.8], [0.5, 3.5, 0.8],
+            inward=[0, 0, 1], reflectance=0.0)
+    virt = np.zeros(sum(len(f) for f in mb._f), bool)
+    virt[n_room:] = True
+    return mb.scene(face_virtual=virt), virt
+
+
+def _report_case():
+    s, _ = _room_with_work_plane()
+    lums = [Luminaire([1.5, 2.0, 3.0], [0, 0, -1], 4000.0, room=0, score=0.7),
+            Luminaire([4.5, 2.0, 3.0], [0, 0, -1], 4000.0, room=0, score=0.4)]
+    E = render(s, lums, interreflection=False, backend="numpy")
+    vp = s.vertex_plane
+    target = np.full(len(s.vertices), np.nan)
+    wp = [p for p in s.planes if p.is_virtual][0]
+    target[vp == wp.index] = 400.0
+    screen = [p for p in s.planes if p.normal[0] < -0.9][0]        # wall x = 6 stays dark
+    on = (vp == screen.index) & (s.vertices[:, 1] > 1) & (s.vertices[:, 1] < 3) \
+        & (s.vertices[:, 2] > 1) & (s.vertices[:, 2] < 2.5)
+    target[on] = 0.0
+    return s, lums, target, E
+
+
+def test_report_html_csv_json_and_images(tmp_path):
+    s, lums, target, E = _report_case()
     out = tmp_path / "rep"
-    build_report(s, lux, lux, lums, str(out))
-    before = open(out / "index.html", encoding="utf-8").read()
-    import invrad_wb.core.report as R
+    evil = '<script>alert("x")</script> & co'
+    desk = np.flatnonzero((s.face_centroids[:, 2] > 0.7) & (s.face_centroids[:, 0] < 2.0))
+    paths = build_report(s, target, E, lums, str(out), room_names=[evil],
+                         title="Run <1>", extra={"interreflection": False, "<b>": "<i>"},
+                         groups=[(0, "desk <A>", desk)])
+    page = open(paths.html, encoding="utf-8").read()
+    assert "<script" not in page and "&lt;b&gt;" in page
+    assert "&lt;script&gt;alert(&quot;x&quot;)&lt;/script&gt; &amp; co" in page
+    assert "Run &lt;1&gt;" in page and "&lt;i&gt;" in page
+    m = paths.metrics[0]
+    parts = {p["part"]: p["metrics"] for p in paths.rooms[0]["parts"]}
+    wp = parts["work plane"]
+    assert wp["target_em"] == pytest.approx(400.0)
+    for v in (R.fmt_lux(m["em"]), R.fmt_lux(wp["em"]), R.fmt_pct(m["rmse_pct"]),
+              R.fmt_ratio(wp["u0"]), R.fmt_lux(m["shade_max_lux"])):
+        assert v in page
+    assert m["shade_max_lux"] > 0 and "wall x = 6.00 m" in m["shade_max_where"]
+    assert "data:image/png;base64," in page                     # self-contained
+    # files
+    for f in ("room0_target.png", "room0_achieved.png", "room0_deviation.png",
+              "room0_plan_achieved.png", "room0_plan_deviation.png", "colourbar_lux.png",
+              "colourbar_deviation.png", "room0_unfolded.exr", "room0_plan.exr",
+              "rooms.csv", "surfaces.csv", "luminaires.csv", "metrics.json", "index.html"):
+        assert (out / f).is_file(), f
+    assert not [f for f in os.listdir(out) if f.startswith(".")]
+    # rooms.csv: one row per room, same numbers as the metrics
+    rows = list(csv.DictReader(open(paths.rooms_csv, encoding="utf-8")))
+    assert len(rows) == 1 and rows[0]["name"] == evil
+    for k in ("target_em", "em", "emin", "u0", "rmse_pct", "mae_pct", "max_dev_lux",
+              "shade_max_lux", "within_tol_pct", "area_m2"):
+        assert float(rows[0][k]) == m[k], k
+    assert [float(rows[0][f"max_dev_{a}_m"]) for a in "xyz"] == m["max_dev_point"]
+    assert rows[0]["max_dev_where"] == m["max_dev_where"]
+    assert rows[0]["target_u0"] == "" or float(rows[0]["target_u0"]) == m["target_u0"]
+    surf = list(csv.DictReader(open(paths.surfaces_csv, encoding="utf-8")))
+    wrow = [r for r in surf if r["part"] == "work plane"][0]
+    assert float(wrow["em"]) == wp["em"] and float(wrow["u0"]) == wp["u0"]
+    drow = [r for r in surf if r["part"] == "desk <A>"][0]
+    assert float(drow["area_m2"]) == pytest.approx(1.5 * 3.0)     # x 0.5..2, y 0.5..3.5
+    assert float(drow["em"]) == parts["desk <A>"]["em"]
+    assert "desk &lt;A&gt;" in page
+    lum = list(csv.DictReader(open(paths.luminaires_csv, encoding="utf-8")))
+    assert [float(r["x_m"]) for r in lum] == [1.5, 4.5]
+    assert [float(r["flux_lm"]) for r in lum] == [4000.0, 4000.0]
+    assert float(lum[1]["score"]) == 0.4 and lum[0]["room_name"] == evil
+    data = json.load(open(paths.metrics_json, encoding="utf-8"))
+    assert data["rooms"][0]["metrics"]["em"] == m["em"]
+    assert data["scale"]["lux_max"] == paths.scale["lux_max"] >= 400
+    # the plan image shows the luminaires as rings: white/black at the ring, hot colour
+    # just beside it
+    png = im.read_image(out / "room0_plan_achieved.png")
+    assert png.shape[2] == 3 and png.shape[0] > 300
 
-    def broken(*a, **k):
-        raise OSError("disk full")
-    monkeypatch.setattr(R, "atomic_write_text", broken)
+
+def test_report_images_show_the_hot_spot_in_the_hot_colour(tmp_path):
+    s = g.box_room((4, 3, 2.5), cell=0.25, reflectance=0.0)
+    lums = [Luminaire([1.0, 1.0, 2.5], [0, 0, -1], 2000.0)]
+    E = render(s, lums, interreflection=False, backend="numpy")
+    paths = build_report(s, E, E, lums, str(tmp_path), write_exr=False)
+    vmax = paths.scale["lux_max"]
+    assert vmax == im.nice_max(E.max())
+    plan = im.plan_raster(s, 0)
+    png = np.round(im.read_image(tmp_path / "room0_plan_achieved.png") * 255)
+    # compose() adds a 30 px title and centres the map 3 px below it
+    left = (png.shape[1] - plan.shape[1]) // 2
+    floor = [p for p in s.planes if p.normal[2] > 0.9][0]
+
+    def colour_at(x, y):
+        c, rr = plan.pixel_of(np.array([[x, y, 0.0]]), floor.index)[0]
+        return png[33 + int(rr), left + int(c)]
+
+    # below the ring (its label is up and to the right): the colour of the value there
+    x, y = 1.0, 1.0 - 0.2
+    c, rr = plan.pixel_of(np.array([[x, y, 0.0]]), floor.index)[0]
+    expect = im.false_colour(plan.sample(E)[int(rr), int(c)], 0, vmax).astype(float)
+    beside = colour_at(x, y)
+    assert np.abs(beside - expect).max() <= 3 or \
+        np.abs(beside - 0.55 * expect).max() <= 3            # or on an iso-lux line
+    far = colour_at(3.9, 2.9)
+    assert far[1] < beside[1] - 30 and far[2] < beside[2]   # darker: lower in viridis
+    ring = colour_at(1.0, 1.0)                              # the centre dot is black
+    assert ring.max() < 60
+    # deviation of a perfect match is white on the plan
+    dev = np.round(im.read_image(tmp_path / "room0_plan_deviation.png") * 255)
+    c, rr = plan.pixel_of(np.array([[3.0, 2.0, 0.0]]), floor.index)[0]
+    assert np.all(dev[33 + int(rr), left + int(c)] > 240)
+
+
+def test_report_is_atomic(tmp_path, monkeypatch):
+    s = g.box_room((4, 3, 2.5), cell=0.5, reflectance=0.0)
+    lums = [Luminaire([2.0, 1.5, 2.5], [0, 0, -1], 2000.0)]
+    E = render(s, lums, interreflection=False, backend="numpy")
+    out = tmp_path / "rep"
+    build_report(s, E, E, lums, str(out))
+    before = {f: open(out / f, "rb").read() for f in os.listdir(out)}
+    calls = []
+    real = im.save_png
+
+    def failing(path, image):
+        calls.append(path)
+        if len(calls) == 3:
+            raise OSError("disk full")
+        return real(path, image)
+
+    monkeypatch.setattr(im, "save_png", failing)
+    with pytest.raises(OSError, match="disk full"):
+        build_report(s, E, E * 2, lums, str(out))
+    after = {f: open(out / f, "rb").read() for f in os.listdir(out)}
+    assert after == before                     # nothing replaced, nothing left behind
+    fresh = tmp_path / "fresh"
+    calls.clear()
     with pytest.raises(OSError):
-        build_report(s, lux, lux * 2, lums, str(out))
-    assert open(out / "index.html", encoding="utf-8").read() == before
-    assert not [f for f in os.listdir(out) if f.startswith(".invrad-")]
+        build_report(s, E, E * 2, lums, str(fresh))
+    assert os.listdir(fresh) == []
+    # a failing text write (after all images) also leaves the old report
+    monkeypatch.setattr(im, "save_png", real)
+
+    orig = R._Staging.text
+
+    def broken(self, name, text):
+        if name == "index.html":
+            raise OSError("no space")
+        return orig(self, name, text)
+
+    monkeypatch.setattr(R._Staging, "text", broken)
+    with pytest.raises(OSError, match="no space"):
+        build_report(s, E, E * 3, lums, str(out))
+    assert {f: open(out / f, "rb").read() for f in os.listdir(out)} == before
+
+
+def test_bad_input_is_refused(tmp_path):
+    s = g.box_room((4, 3, 2.5), cell=0.5)
+    E = np.zeros(len(s.vertices))
+    with pytest.raises(SceneError, match="vertices"):
+        build_report(s, E[:-1], E, [], str(tmp_path / "a"))
+    with pytest.raises(ValueError, match="lux_range"):
+        build_report(s, E, E, [], str(tmp_path / "b"), lux_range=(10, 5))
