@@ -31,7 +31,7 @@ from .bvh import BVH
 from .clenv import check_backend, get_env
 from .luminaires import Luminaire
 from .peaks import find_peaks
-from .refine import Light, RefineProblem, greedy_select
+from .refine import Light, RefineProblem, greedy_select, swap_search
 from .sampling import voting_points, default_density
 from .votemaps import build_canvas
 from .votes import vote_weights, cast_exact_numpy, cast_exact_opencl
@@ -333,7 +333,8 @@ def _prefer_mounted(prob, lights, canvas, optimiser, reach=0.6, tolerance=0.02):
     A pendant a few centimetres from a ceiling explains the light almost as well as a
     luminaire on it (and a tilted ceiling's luminaire almost like a pendant facing down);
     a mounted luminaire is the simpler, more common answer, so it wins unless the pendant
-    lowers the cost by more than ``tolerance``.
+    is better by more than ``tolerance`` of what the luminaire explains at all (the cost
+    without it minus the cost with it; the other luminaires' residual errors do not count).
     """
     opt = prob.levenberg_marquardt if optimiser == "lm" else prob.evolution_strategy
     out = list(lights)
@@ -343,6 +344,7 @@ def _prefer_mounted(prob, lights, canvas, optimiser, reach=0.6, tolerance=0.02):
         others = out[:i] + out[i + 1:]
         fixed = prob.fixed_light(others)
         c_free = prob.cost([L], extra=fixed)
+        explains = max(prob.cost([], extra=fixed) - c_free, 0.0)
         best = None
         for k, m in enumerate(canvas.maps):
             if m.kind != "surface" or m.normal @ L.normal < 0.5:
@@ -357,7 +359,7 @@ def _prefer_mounted(prob, lights, canvas, optimiser, reach=0.6, tolerance=0.02):
                          plane=m.plane, peak_score=L.peak_score, origin=m.origin.copy(),
                          u=m.u.copy(), v=m.v.copy(), indirect=L.indirect)
             got, c = opt([cand], fixed=fixed)
-            if c <= c_free * (1 + tolerance) and (best is None or c < best[1]):
+            if c <= c_free + tolerance * explains and (best is None or c < best[1]):
                 best = (got[0], c)
         if best is not None:
             out[i] = best[0]
@@ -433,6 +435,17 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
     lights, cost, trace = greedy_select(prob, cands, min_gain=s.min_gain,
                                         optimiser=s.optimiser, progress=progress,
                                         deadline=deadline)
+    cost0 = prob.cost([])
+    if lights and cost > 1e-3 * cost0:
+        # not the near-exact fit a set of the right luminaires gives: try swaps
+        lights, cost, nswap = swap_search(prob, lights, cands, min_gain=s.min_gain,
+                                          optimiser=s.optimiser)
+        trace.append({"swaps": nswap, "cost_after": cost})
+        if nswap:
+            # swapped luminaires may have made others redundant (or two may coincide)
+            lights, cost, t2 = greedy_select(prob, [], min_gain=s.min_gain,
+                                             optimiser=s.optimiser, initial=lights)
+            trace += t2
     lights, cost = tidy(lights, cost)
     # each luminaire's own interreflected light from the radiosity model replaces its
     # estimate; refit, look for missing/surplus luminaires, until nothing moves
@@ -520,6 +533,11 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
                 for i, L in enumerate(lights):
                     c_rest = prob.cost(lights[:i] + lights[i + 1:])
                     L.score = float((c_rest - cost) / max(c_rest, 1e-12))
+    # final scores: how much worse the fit is without each luminaire
+    cost = prob.cost(lights) if lights else cost
+    for i, L in enumerate(lights):
+        c_rest = prob.cost(lights[:i] + lights[i + 1:])
+        L.score = float((c_rest - cost) / max(c_rest, 1e-12))
     run.lights, run.cost, run.trace = lights, cost, trace
 
 

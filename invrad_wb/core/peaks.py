@@ -4,7 +4,8 @@
    ``smooth_px`` pixels) and the negative Laplacian (3x3 kernel) is taken, computed only from
    neighbours on the map's mask so that face borders make no false edges.
 2. Non-maxima suppression: a pixel survives if no pixel within ``neighbourhood`` metres is
-   higher (dummy layers of one side are treated as a 3-D stack: the layer above and below
+   higher (and, on dummy layers, if it is at least ``DUMMY_WALL_GAP_M`` from the room's
+   outline: pendants do not hang against walls) (dummy layers of one side are treated as a 3-D stack: the layer above and below
    count as neighbours, so a pendant's accumulation point is kept at its sharpest height).
 3. Joint scaling of all maps (planes and dummy planes together) to 0-255.
 4. Threshold (0-254): every surviving pixel above it is a candidate; candidates get a
@@ -106,6 +107,19 @@ def _max_filter(a, r):
     return out
 
 
+#: no mid-air candidate closer than this to the room's outline (metres)
+DUMMY_WALL_GAP_M = 0.2
+
+
+def _erode(mask, r):
+    out = mask.copy()
+    p = np.pad(mask, r, constant_values=False)
+    for di in range(-r, r + 1):
+        for dj in range(-r, r + 1):
+            out &= p[r + di:r + di + mask.shape[0], r + dj:r + dj + mask.shape[1]]
+    return out
+
+
 def _subpixel(s, i, j):
     def par(m1, c0, p1):
         den = m1 - 2 * c0 + p1
@@ -156,7 +170,12 @@ def find_peaks(canvas, flat_votes, threshold=32.0, neighbourhood=0.3, smooth_px=
                         and np.allclose(m2.normal, m.normal) and m2.shape == m.shape):
                     local = np.maximum(local, _max_filter(resp[k2], r_px))
                     local = np.maximum(local, resp[k2])
-        keep.append((r >= local) & (r > 0) & m.mask)
+        allowed = m.mask
+        if m.kind == "dummy":
+            # pendants hang away from walls: no candidates in the border band of a dummy
+            # layer, where votes from the walls pile up against the room's outline
+            allowed = _erode(m.mask, max(1, int(round(DUMMY_WALL_GAP_M / canvas.pixel))))
+        keep.append((r >= local) & (r > 0) & allowed)
     top = max([float(r[kp].max()) for r, kp in zip(resp, keep) if kp.any()], default=0.0)
     scaled = [np.where(kp, r * (255.0 / top), 0.0) if top > 0 else np.zeros_like(r)
               for r, kp in zip(resp, keep)]

@@ -36,7 +36,7 @@ from ..errors import Cancelled, SettingsError
 from .bvh import segments_occluded_numpy
 
 
-@dataclass
+@dataclass(eq=False)
 class Light:
     """A luminaire being refined.
 
@@ -253,7 +253,53 @@ class RefineProblem:
         if vis_list is None:
             vis_list = [self.visibility(L) for L in lights]
         r, _ = self.residuals(lights, vis_list, extra=extra)
-        return self.cost_of(r)
+        return self.cost_of(r) + self.separation_cost(lights)
+
+    # ------------------------------------------------------------------ separation
+    #: luminaires facing the same way closer than this are pushed apart (metres); real
+    #: fixtures are separate objects, and without it the fit can let two or three
+    #: overlapping luminaires collapse into one spot with their summed flux
+    separation_m = 0.3
+
+    def _separation_weight(self):
+        w = getattr(self, "_sep_w", None)
+        if w is None:
+            r, _ = self.residuals([], [])
+            w = self._sep_w = float(np.sqrt(0.01 * self.cost_of(r)))
+        return w
+
+    def separation(self, lights, with_jac=False):
+        """Penalty residuals (p,) for close pairs and, with_jac, their Jacobian (p, n)."""
+        rows, jac = [], []
+        sizes = [len(L.params()) for L in lights]
+        starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
+        lam, d0 = self._separation_weight(), self.separation_m
+        for i in range(len(lights)):
+            for j in range(i + 1, len(lights)):
+                a, b = lights[i], lights[j]
+                if a.normal @ b.normal < 0.5:
+                    continue
+                diff = a.position - b.position
+                d = float(np.linalg.norm(diff))
+                if d >= d0:
+                    continue
+                rows.append(lam * (1.0 - d / d0))
+                if with_jac:
+                    e = diff / d if d > 1e-9 else a.dpos()[0] / np.linalg.norm(a.dpos()[0])
+                    row = np.zeros(starts[-1])
+                    row[starts[i]:starts[i + 1]] = -lam / d0 * (a.dpos() @ e)
+                    row[starts[j]:starts[j + 1]] = lam / d0 * (b.dpos() @ e)
+                    jac.append(row)
+        r = np.array(rows)
+        if not with_jac:
+            return r, None
+        return r, (np.array(jac) if jac else np.zeros((0, starts[-1])))
+
+    def separation_cost(self, lights):
+        if len(lights) < 2:
+            return 0.0
+        r, _ = self.separation(lights)
+        return float(np.sum(r * r))
 
     # ------------------------------------------------------------------ optimisers
     def levenberg_marquardt(self, lights, iterations=25, tol=1e-7, fixed=None):
@@ -267,15 +313,16 @@ class RefineProblem:
         vis = [self.visibility(L) for L in lights]
         vis_at = [L.position.copy() for L in lights]
         r, J = self.residuals(lights, vis, True, extra=fixed)
-        cost = self.cost_of(r)
+        rp, Jp = self.separation(lights, True)
+        cost = self.cost_of(r) + float(rp @ rp)
         lam = 1e-3
         c = self.robust_scale
         sizes = [len(L.params()) for L in lights]
         for _ in range(iterations):
             w = self.w_area / np.sqrt(1.0 + (r / c) ** 2)
             JtW = J.T * w
-            H = JtW @ J
-            g = JtW @ r
+            H = JtW @ J + Jp.T @ Jp
+            g = JtW @ r + Jp.T @ rp
             improved = False
             for _try in range(8):
                 A = H + lam * np.diag(np.maximum(np.diag(H), 1e-12))
@@ -294,7 +341,7 @@ class RefineProblem:
                     new.append(cand)
                     k += sz
                 r_new, _ = self.residuals(new, vis, extra=fixed)
-                cost_new = self.cost_of(r_new)
+                cost_new = self.cost_of(r_new) + self.separation_cost(new)
                 if cost_new < cost:
                     improved = True
                     gain = cost - cost_new
@@ -310,7 +357,8 @@ class RefineProblem:
                     vis[i] = self.visibility(L)
                     vis_at[i] = L.position.copy()
             r, J = self.residuals(lights, vis, True, extra=fixed)
-            cost = self.cost_of(r)
+            rp, Jp = self.separation(lights, True)
+            cost = self.cost_of(r) + float(rp @ rp)
             if gain < tol * max(cost, 1e-12) or np.linalg.norm(step) < 1e-5:
                 break
         return lights, cost
@@ -441,3 +489,55 @@ def greedy_select(problem, candidates, min_gain=0.05, min_gain_total=0.005, max_
         c_rest = problem.cost(rest)
         L.score = float((c_rest - cost) / max(c_rest, 1e-12))
     return lights, cost, trace
+
+
+def swap_search(problem, lights, candidates, min_gain=0.05, merge_distance=0.25, tries=8,
+                max_evals=40, optimiser="lm", deadline=None):
+    """Escape a poor greedy answer: replace one luminaire by another candidate.
+
+    Greedy selection cannot undo an early choice (a peak between two overlapping
+    luminaires, a ceiling light where a pendant hangs). Each luminaire, least needed first,
+    is replaced in turn by the best ``tries`` candidates that are not near another
+    luminaire; all are refined jointly and the swap is kept if the cost drops by
+    ``min_gain``. Stops after ``max_evals`` refinements.
+
+    Returns
+    -------
+    lights, cost, swaps (number of swaps kept)
+    """
+    opt = problem.levenberg_marquardt if optimiser == "lm" else problem.evolution_strategy
+    lights = [L.copy() for L in lights]
+    cost = problem.cost(lights)
+    evals = swaps = 0
+    improved = True
+    while improved and evals < max_evals:
+        improved = False
+        order = sorted(range(len(lights)), key=lambda i: lights[i].score)
+        for i in order:
+            rest = lights[:i] + lights[i + 1:]
+            pool = [c for c in candidates
+                    if not any(np.linalg.norm(L.position - c.position) < merge_distance
+                               and L.normal @ c.normal > 0.5 for L in lights)]
+            # alternatives near the luminaire first (a pendant under a ceiling light, the
+            # other of two overlapping peaks), then the best-scoring elsewhere
+            pool.sort(key=lambda c: np.linalg.norm(c.position - lights[i].position))
+            dist = [np.linalg.norm(c.position - lights[i].position) for c in pool]
+            near = [c for c, d in zip(pool, dist) if d < 1.5]
+            far = [c for c, d in zip(pool, dist) if d >= 1.5]
+            pool = near[:tries] + far[:tries // 2]
+            for cand in pool:
+                if evals >= max_evals or (deadline is not None and time.time() > deadline):
+                    return lights, cost, swaps
+                evals += 1
+                trial, c = opt(rest + [problem.with_indirect(cand)])
+                if c < cost * (1.0 - min_gain):
+                    lights, cost = trial, c
+                    swaps += 1
+                    improved = True
+                    break
+            if improved:
+                break
+    for i, L in enumerate(lights):
+        c_rest = problem.cost(lights[:i] + lights[i + 1:])
+        L.score = float((c_rest - cost) / max(c_rest, 1e-12))
+    return lights, cost, swaps
