@@ -89,9 +89,9 @@ def laplace_response(a, mask):
         nm = pm[di:di + a.shape[0], dj:dj + a.shape[1]]
         acc += np.where(nm, c - nb, 0.0)
         cnt += nm
-    with np.errstate(invalid="ignore", divide="ignore"):
-        resp = np.where(cnt > 0, acc * (4.0 / np.maximum(cnt, 1)), 0.0)
-    return np.where(mask, np.maximum(resp, 0.0), 0.0)
+    # a missing neighbour counts as equal to the centre (no rescaling: scaling the sum up by
+    # 4 / count made corner pixels, with two neighbours, look twice as peaked)
+    return np.where(mask & (cnt > 0), np.maximum(acc, 0.0), 0.0)
 
 
 def _max_filter(a, r):
@@ -170,7 +170,9 @@ def find_peaks(canvas, flat_votes, threshold=32.0, neighbourhood=0.3, smooth_px=
                         and np.allclose(m2.normal, m.normal) and m2.shape == m.shape):
                     local = np.maximum(local, _max_filter(resp[k2], r_px))
                     local = np.maximum(local, resp[k2])
-        allowed = m.mask
+        # no candidates on the outermost pixel ring of a map: half of such a pixel is off the
+        # faces, and votes of points right next to the border pile up there
+        allowed = _erode(m.mask, 1)
         if m.kind == "dummy":
             # pendants hang away from walls: no candidates in the border band of a dummy
             # layer, where votes from the walls pile up against the room's outline
