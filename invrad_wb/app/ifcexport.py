@@ -56,9 +56,14 @@ def _uid(obj):
 
 
 def _is_internal(obj):
+    """invrad's own bookkeeping objects, never exported: targets, their group and the
+    metrics spreadsheet of Verify and report (FreeCAD's exporter would write a sheet
+    as an IfcBuildingElementProxy)."""
+    from .results import SHEET_NAME
     from .targets import is_target
     return is_target(obj) or (obj.TypeId == "App::DocumentObjectGroup"
-                              and obj.Name.startswith("InvRadTargets"))
+                              and obj.Name.startswith("InvRadTargets")) \
+        or (obj.TypeId == "Spreadsheet::Sheet" and obj.Name.startswith(SHEET_NAME))
 
 
 def export_ifc(doc, path, base_ifc=None):

@@ -230,7 +230,7 @@ def _room_stats(scene, target, achieved, plans):
     return out
 
 
-def run(doc, settings, progress=None, locate=None):
+def run(doc, settings, progress=None, locate=None, building=None):
     """The whole pipeline (see the module docstring).
 
     Parameters
@@ -242,6 +242,10 @@ def run(doc, settings, progress=None, locate=None):
     locate : callable, optional
         ``locate(scene, flux_lm=..., settings=..., progress=..., backend=...)`` returning an
         object with ``.luminaires``; default :func:`invrad_wb.core.locate.locate`.
+    building : BuildingScene, optional
+        The result of :func:`prepare` for these settings, when the caller has made it
+        already (the GUI meshes the rooms in the main thread and runs the rest, with
+        ``insert=False``, in a worker thread).
 
     Returns
     -------
@@ -250,7 +254,8 @@ def run(doc, settings, progress=None, locate=None):
     flux = check_flux(settings.flux_lm)
     timings = {}
     t0 = time.perf_counter()
-    building = prepare(doc, settings, _progress(progress, 0.0, 0.1))
+    if building is None:
+        building = prepare(doc, settings, _progress(progress, 0.0, 0.1))
     timings["prepare"] = building.seconds
     scene = building.scene
     if locate is None:

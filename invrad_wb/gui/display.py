@@ -1,0 +1,575 @@
+"""False-colour display of illuminance on the room surfaces, with a legend.
+
+The display is a coin3d overlay added to the 3D views' scene graphs, not a document
+object: nothing of it is saved in the .FCStd file or written to an IFC export, and showing
+or hiding it is no document change (no undo step).
+
+What it shows (per vertex of the rooms' sampling meshes, colours interpolated):
+
+* **targets**: the lighting targets of every room with targets, as the pipeline evaluates
+  them (:func:`invrad_wb.app.pipeline.prepare`) in viridis like the report's images;
+  "no target" is grey and a shade target (0 lx, "must stay dark") near black, so neither
+  is mistaken for a low target; the work plane is a translucent layer at its height;
+* **achieved** illuminance after *Verify and report*, on the same meshes.
+
+The overlay sits ``offset_m`` inside the room (no z-fighting with the Space and the wall
+faces), is not pickable (clicks select the faces behind it) and culls back faces, so that
+from outside a room one looks into it like into a doll's house: the near walls and the
+ceiling vanish while the floor and the far walls stay. The legend (colour bar, ticks in
+lux, swatches) is drawn in screen space at the left of the view; each room's name is
+written above the middle of its floor.
+
+The numpy part (colour map, ticks, overlay geometry) needs no GUI and is tested
+headless; the coin part runs only with FreeCAD's GUI.
+"""
+import numpy as np
+
+#: The colour map: viridis (matplotlib's values at 9 points, linearly interpolated), the
+#: map of the HTML report's images (:mod:`invrad_wb.core.images`), so that the 3D view
+#: and the report read the same.
+VIRIDIS = np.array([[68, 1, 84], [71, 44, 122], [59, 81, 139], [44, 113, 142],
+                    [33, 144, 141], [39, 173, 129], [92, 200, 99], [170, 220, 50],
+                    [253, 231, 37]], dtype=np.float64) / 255.0
+#: Colours (RGB in [0, 1]) of vertices without a target (the report's grey) and of shade
+#: targets (0 lx, "must stay dark"; darker than the map's low end).
+NO_TARGET_RGB = (150 / 255.0, 150 / 255.0, 150 / 255.0)
+SHADE_RGB = (0.02, 0.02, 0.02)
+EDGE_RGB = (0.1, 0.1, 0.1)
+
+#: Node names, so that a scene graph can be searched for the overlay.
+OVERLAY_NAME = "InvRadFalseColour"
+LEGEND_NAME = "InvRadLegend"
+
+
+def colour_map(x):
+    """Viridis: x in [0, 1] (any shape) -> (..., 3) RGB in [0, 1]."""
+    t = np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0) * (len(VIRIDIS) - 1)
+    i = np.minimum(np.floor(t).astype(np.int64), len(VIRIDIS) - 2)
+    f = (t - i)[..., None]
+    return VIRIDIS[i] * (1 - f) + VIRIDIS[i + 1] * f
+
+
+def nice_max(value):
+    """A round upper end of the scale >= ``value`` (1, 1.5, 2, 2.5, 3, 4, 5, 6, 8 x 10^k)."""
+    v = float(value)
+    if not np.isfinite(v) or v <= 0:
+        return 1.0
+    k = np.floor(np.log10(v))
+    for m in (1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0):
+        if m * 10 ** k >= v * (1 - 1e-9):
+            return float(m * 10 ** k)
+    return float(10 ** (k + 1))
+
+
+def ticks(vmax, n=5):
+    """``n`` evenly spaced tick values from 0 to ``vmax``."""
+    return [vmax * i / (n - 1) for i in range(n)]
+
+
+def colours(values, vmax, targets=True):
+    """False colours of illuminance values.
+
+    Parameters
+    ----------
+    values : (n,) float64, lux (NaN = no target)
+    vmax : float, lux at the top of the scale
+    targets : bool
+        Target mode: NaN -> :data:`NO_TARGET_RGB`, exactly 0 -> :data:`SHADE_RGB`.
+        Otherwise NaN is also grey and 0 is the bottom of the scale.
+
+    Returns
+    -------
+    (n, 3) float64 RGB in [0, 1]
+    """
+    v = np.asarray(values, dtype=np.float64)
+    rgb = colour_map(np.nan_to_num(v) / vmax)
+    rgb[~np.isfinite(v)] = NO_TARGET_RGB
+    if targets:
+        rgb[np.isfinite(v) & (v == 0)] = SHADE_RGB
+    return rgb
+
+
+def label(v):
+    return f"{v:.0f}" if v >= 10 or v == 0 else f"{v:.2g}"
+
+
+def face_groups(building):
+    """(m,) int: one id per boundary face of each room, and one per work plane."""
+    groups = np.full(len(building.scene.faces), -1, dtype=np.int64)
+    base = 0
+    for p in building.rooms:
+        start = p.faces.start
+        n_surf = len(p.mesh.triangles)
+        groups[start:start + n_surf] = base + p.mesh.triangle_face
+        base += p.mesh.n_faces
+        if p.n_work_plane:
+            groups[start + n_surf:p.faces.stop] = base
+            base += 1
+    return groups
+
+
+def boundary_edges(faces, groups):
+    """(k, 2) vertex index pairs: edges used by one triangle only within their group."""
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    g = np.concatenate([groups, groups, groups])
+    key = np.concatenate([np.sort(e, axis=1), g[:, None]], axis=1)
+    uniq, inv, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    once = count[inv.reshape(-1)] == 1
+    return e[once]
+
+
+def overlay_geometry(building, values, offset_m=0.01, targets=True, vmax=None):
+    """What the overlay draws, in FreeCAD's millimetres.
+
+    Returns
+    -------
+    dict with
+      points : (n, 3) float64, mm, offset ``offset_m`` along each vertex's room-side normal
+      surfaces, work_plane : (k, 3) int64 triangles (counter-clockwise from the room)
+      rgb : (n, 3) float64
+      edges : (j, 2) int64, outlines of the room faces and work planes
+      vmax : float, top of the scale (lux)
+    """
+    sc = building.scene
+    v = np.asarray(values, dtype=np.float64)
+    if vmax is None:
+        finite = v[np.isfinite(v)]
+        vmax = nice_max(finite.max() if finite.size else 1.0)
+    pts = (sc.vertices + offset_m * sc.vertex_normals) * 1000.0
+    groups = face_groups(building)
+    virt = np.asarray(sc.face_virtual, dtype=bool)
+    return {"points": pts, "surfaces": sc.faces[~virt], "work_plane": sc.faces[virt],
+            "rgb": colours(v, vmax, targets), "edges": boundary_edges(sc.faces, groups),
+            "vmax": float(vmax)}
+
+
+def room_labels(building, height_m=0.9):
+    """``[(room label, (x, y, z) mm)]``: where each room's name is written, above the
+    middle of its floor (``height_m`` above it, over a work plane at 0.75 m)."""
+    out = []
+    for p in building.rooms:
+        m = p.mesh
+        tri = m.triangles[m.floor_triangles] if m.floor_triangles.any() else m.triangles
+        v = m.vertices[np.unique(tri.reshape(-1))]
+        lo = v.min(axis=0)
+        c = 0.5 * (v.min(axis=0) + v.max(axis=0))
+        out.append((p.space.Label, (1000.0 * c[0], 1000.0 * c[1],
+                                    1000.0 * (lo[2] + height_m))))
+    return out
+
+
+# ------------------------------------------------------------------------- coin3d
+_STATE = {}         # doc name -> {"node", "graphs", "mode", "building", "values", ...}
+
+
+def _coin():
+    from pivy import coin
+    return coin
+
+
+def _indexed(tris):
+    idx = np.full((len(tris), 4), -1, dtype=np.int64)
+    idx[:, :3] = tris
+    return [int(i) for i in idx.reshape(-1)]
+
+
+def _face_set(coin, tris, two_sided=False):
+    sep = coin.SoSeparator()
+    hints = coin.SoShapeHints()
+    hints.vertexOrdering = coin.SoShapeHints.COUNTERCLOCKWISE
+    hints.shapeType = (coin.SoShapeHints.UNKNOWN_SHAPE_TYPE if two_sided
+                       else coin.SoShapeHints.SOLID)
+    sep.addChild(hints)
+    fs = coin.SoIndexedFaceSet()
+    fs.coordIndex.setValues(0, 4 * len(tris), _indexed(tris))
+    sep.addChild(fs)
+    return sep
+
+
+def build_labels(labels):
+    """Room names in the 3D view (screen-aligned text, drawn last and on top: the
+    translucent work plane is drawn after opaque things and would cover them)."""
+    coin = _coin()
+    sep = coin.SoAnnotation()
+    pick = coin.SoPickStyle()
+    pick.style = coin.SoPickStyle.UNPICKABLE
+    sep.addChild(pick)
+    light = coin.SoLightModel()
+    light.model = coin.SoLightModel.BASE_COLOR
+    sep.addChild(light)
+    mat = coin.SoMaterial()
+    mat.diffuseColor = (0.0, 0.0, 0.0)
+    sep.addChild(mat)
+    font = coin.SoFont()
+    font.name = "Sans:Bold"
+    font.size = 14
+    sep.addChild(font)
+    for name, (x, y, z) in labels:
+        t = coin.SoSeparator()
+        tr = coin.SoTranslation()
+        tr.translation = (float(x), float(y), float(z))
+        t.addChild(tr)
+        txt = coin.SoText2()
+        txt.string = name
+        txt.justification = coin.SoText2.CENTER
+        t.addChild(txt)
+        sep.addChild(t)
+    return sep
+
+
+def build_overlay(geom, work_plane_transparency=0.25):
+    """The coin node of an :func:`overlay_geometry` (surfaces, work plane, outlines)."""
+    coin = _coin()
+    root = coin.SoSeparator()
+    root.setName(OVERLAY_NAME)
+    pick = coin.SoPickStyle()
+    pick.style = coin.SoPickStyle.UNPICKABLE
+    root.addChild(pick)
+    light = coin.SoLightModel()
+    light.model = coin.SoLightModel.BASE_COLOR
+    root.addChild(light)
+    coords = coin.SoCoordinate3()
+    pts = geom["points"]
+    coords.point.setValues(0, len(pts), [tuple(map(float, p)) for p in pts])
+    root.addChild(coords)
+
+    faces = coin.SoSeparator()
+    offset = coin.SoPolygonOffset()          # faces behind their own outlines
+    offset.factor = 1.0
+    offset.units = 1.0
+    faces.addChild(offset)
+    bind = coin.SoMaterialBinding()
+    bind.value = coin.SoMaterialBinding.PER_VERTEX_INDEXED
+    faces.addChild(bind)
+    mat = coin.SoMaterial()
+    rgb = geom["rgb"]
+    mat.diffuseColor.setValues(0, len(rgb), [tuple(map(float, c)) for c in rgb])
+    faces.addChild(mat)
+    if len(geom["surfaces"]):
+        faces.addChild(_face_set(coin, geom["surfaces"]))
+    if len(geom["work_plane"]):
+        wp = coin.SoSeparator()
+        wmat = coin.SoMaterial()
+        wmat.diffuseColor.setValues(0, len(rgb), [tuple(map(float, c)) for c in rgb])
+        wmat.transparency.setValues(0, len(rgb), [float(work_plane_transparency)] * len(rgb))
+        wp.addChild(wmat)
+        wp.addChild(_face_set(coin, geom["work_plane"], two_sided=True))
+        faces.addChild(wp)
+    root.addChild(faces)
+
+    if len(geom["edges"]):
+        lines = coin.SoSeparator()
+        lmat = coin.SoMaterial()
+        lmat.diffuseColor = EDGE_RGB
+        lines.addChild(lmat)
+        style = coin.SoDrawStyle()
+        style.lineWidth = 1.5
+        lines.addChild(style)
+        ls = coin.SoIndexedLineSet()
+        e = geom["edges"]
+        idx = np.full((len(e), 3), -1, dtype=np.int64)
+        idx[:, :2] = e
+        ls.coordIndex.setValues(0, idx.size, [int(i) for i in idx.reshape(-1)])
+        lines.addChild(ls)
+        root.addChild(lines)
+    return root
+
+
+def _text(coin, x, y, s, size=None, just=None):
+    sep = coin.SoSeparator()
+    tr = coin.SoTranslation()
+    tr.translation = (x, y, 0.0)
+    sep.addChild(tr)
+    if size:
+        font = coin.SoFont()
+        font.name = "Sans"
+        font.size = size
+        sep.addChild(font)
+    t = coin.SoText2()
+    t.string = s
+    if just == "right":
+        t.justification = coin.SoText2.RIGHT
+    sep.addChild(t)
+    return sep
+
+
+def _quad(coin, x0, y0, x1, y1, rgb, z=0.0):
+    sep = coin.SoSeparator()
+    m = coin.SoMaterial()
+    m.diffuseColor = rgb
+    sep.addChild(m)
+    c = coin.SoCoordinate3()
+    c.point.setValues(0, 4, [(x0, y0, z), (x1, y0, z), (x1, y1, z), (x0, y1, z)])
+    sep.addChild(c)
+    f = coin.SoFaceSet()
+    f.numVertices.setValue(4)
+    sep.addChild(f)
+    return sep
+
+
+def legend_layout(title, vmax, swatches, over=False):
+    """Positions of the legend's parts in normalised view coordinates ([-1, 1]^2).
+
+    Returns a dict of plain numbers and strings (tested headless): the panel, the colour
+    bar, the ticks ``[(y, text)]`` and the swatches ``[(y, rgb, text)]``.
+    """
+    x0, x1 = -0.985, -0.70
+    bar = (-0.965, -0.915)
+    y_bar0 = -0.55 + 0.09 * (2 - len(swatches))
+    y_bar1 = 0.5
+    tick_list = [(y_bar0 + (y_bar1 - y_bar0) * t / vmax, label(t)) for t in ticks(vmax)]
+    if over:                       # values above the scale take its top colour
+        tick_list[-1] = (tick_list[-1][0], tick_list[-1][1] + "+")
+    sw = []
+    y = y_bar0 - 0.1
+    for rgb, text in swatches:
+        sw.append((y, rgb, text))
+        y -= 0.09
+    bottom = (y + 0.09 - 0.06) if sw else (y_bar0 - 0.06)
+    title_lines = title.split("\n")
+    y_top = y_bar1 + 0.1 + 0.055 * len(title_lines)
+    return {"panel": (x0, bottom, x1, y_top), "bar": (bar[0], y_bar0, bar[1], y_bar1),
+            "ticks": tick_list, "swatches": sw,
+            "title": [(y_bar1 + 0.07 + 0.055 * (len(title_lines) - 1 - i), s)
+                      for i, s in enumerate(title_lines)]}
+
+
+def build_legend(title, vmax, swatches=(), over=False):
+    """Screen-space legend: colour bar 0..vmax lx with ticks, swatches, title."""
+    coin = _coin()
+    lay = legend_layout(title, vmax, list(swatches), over)
+    skip = coin.SoType.fromName("SoSkipBoundingGroup").createInstance()
+    skip.setName(LEGEND_NAME)
+    ann = coin.SoAnnotation()
+    skip.addChild(ann)
+    pick = coin.SoPickStyle()
+    pick.style = coin.SoPickStyle.UNPICKABLE
+    ann.addChild(pick)
+    cam = coin.SoOrthographicCamera()
+    # LEAVE_AS_IS (4): normalised [-1, 1] view coordinates; pivy 0.6 lacks the name
+    cam.viewportMapping = getattr(coin.SoCamera, "LEAVE_AS_IS", 4)
+    cam.position = (0.0, 0.0, 5.0)
+    cam.height = 2.0
+    cam.nearDistance = 1.0
+    cam.farDistance = 10.0
+    ann.addChild(cam)
+    light = coin.SoLightModel()
+    light.model = coin.SoLightModel.BASE_COLOR
+    ann.addChild(light)
+    px0, py0, px1, py1 = lay["panel"]
+    ann.addChild(_quad(coin, px0 - 0.004, py0 - 0.006, px1 + 0.004, py1 + 0.006,
+                       (0.35, 0.35, 0.35), z=-0.2))
+    ann.addChild(_quad(coin, px0, py0, px1, py1, (1.0, 1.0, 1.0), z=-0.1))
+    bx0, by0, bx1, by1 = lay["bar"]
+    n = 48
+    ys = np.linspace(by0, by1, n + 1)
+    cols = colours(np.linspace(0.0, vmax, n + 1), vmax, targets=False)
+    bar = coin.SoSeparator()
+    bind = coin.SoMaterialBinding()
+    bind.value = coin.SoMaterialBinding.PER_VERTEX_INDEXED
+    bar.addChild(bind)
+    mat = coin.SoMaterial()
+    mat.diffuseColor.setValues(0, len(cols), [tuple(map(float, c)) for c in cols])
+    bar.addChild(mat)
+    pts = [(bx0, float(y), 0.0) for y in ys] + [(bx1, float(y), 0.0) for y in ys]
+    coords = coin.SoCoordinate3()
+    coords.point.setValues(0, len(pts), pts)
+    bar.addChild(coords)
+    idx, midx = [], []
+    for i in range(n):
+        quad = [i, n + 1 + i, n + 2 + i, i + 1]
+        idx += quad + [-1]
+        midx += [i, i, i + 1, i + 1, -1]
+    fs = coin.SoIndexedFaceSet()
+    fs.coordIndex.setValues(0, len(idx), idx)
+    fs.materialIndex.setValues(0, len(midx), midx)
+    bar.addChild(fs)
+    ann.addChild(bar)
+    lines = coin.SoSeparator()
+    lm = coin.SoMaterial()
+    lm.diffuseColor = (0.0, 0.0, 0.0)
+    lines.addChild(lm)
+    lpts, lidx = [(bx0, by0, 0.01), (bx1, by0, 0.01), (bx1, by1, 0.01), (bx0, by1, 0.01)], \
+        [0, 1, 2, 3, 0, -1]
+    for y, _ in lay["ticks"]:
+        k = len(lpts)
+        lpts += [(bx1, y, 0.01), (bx1 + 0.012, y, 0.01)]
+        lidx += [k, k + 1, -1]
+    lc = coin.SoCoordinate3()
+    lc.point.setValues(0, len(lpts), lpts)
+    lines.addChild(lc)
+    ls = coin.SoIndexedLineSet()
+    ls.coordIndex.setValues(0, len(lidx), lidx)
+    lines.addChild(ls)
+    ann.addChild(lines)
+    text = coin.SoSeparator()
+    tm = coin.SoMaterial()
+    tm.diffuseColor = (0.0, 0.0, 0.0)
+    text.addChild(tm)
+    font = coin.SoFont()
+    font.name = "Sans"
+    font.size = 13
+    text.addChild(font)
+    for y, s in lay["ticks"]:
+        text.addChild(_text(coin, bx1 + 0.02, y - 0.015, s))
+    for y, s in lay["title"]:
+        text.addChild(_text(coin, px0 + 0.012, y, s))
+    for y, rgb, s in lay["swatches"]:
+        ann.addChild(_quad(coin, bx0, y - 0.03, bx1, y + 0.03, rgb, z=0.0))
+        text.addChild(_text(coin, bx1 + 0.02, y - 0.015, s))
+    ann.addChild(text)
+    return skip
+
+
+def _graphs(doc):
+    """Scene graphs of the document's 3D views."""
+    import FreeCADGui
+    gdoc = FreeCADGui.getDocument(doc.Name)
+    out = []
+    for view in gdoc.mdiViewsOfType("Gui::View3DInventor"):
+        try:
+            out.append(view.getSceneGraph())
+        except Exception:
+            pass
+    return out
+
+
+def is_shown(doc, mode=None):
+    st = _STATE.get(doc.Name)
+    return st is not None and (mode is None or st["mode"] == mode)
+
+
+def mode(doc):
+    st = _STATE.get(doc.Name)
+    return st["mode"] if st else None
+
+
+def hide(doc):
+    """Remove the overlay of ``doc`` from its views (no-op if none)."""
+    st = _STATE.pop(doc.Name, None)
+    if st is None:
+        return False
+    for sg in st["graphs"]:
+        for node in (st["node"], st["legend"]):
+            try:
+                if sg.findChild(node) >= 0:
+                    sg.removeChild(node)
+            except Exception:
+                pass
+    return True
+
+
+def target_scale(building):
+    """Top of the scale for a building's targets (lux): the largest target, rounded up."""
+    t = building.scene.vertex_lux
+    t = t[np.isfinite(t)] if t is not None else np.zeros(0)
+    return nice_max(t.max() if t.size else 1.0)
+
+
+def show(doc, building, values, title, mode_name, targets=True, vmax=None):
+    """Show per-vertex ``values`` (lux) of ``building`` in false colour; replaces any
+    overlay of ``doc``. ``vmax``: top of the scale (default: the largest value, rounded
+    up); larger values take the top colour and the top tick reads "<vmax>+". Returns the
+    top of the scale (lux)."""
+    import FreeCAD
+    from . import params
+    if not FreeCAD.GuiUp:
+        return None
+    opts = params.load_display()
+    hide(doc)
+    geom = overlay_geometry(building, values, offset_m=opts["offset_m"], targets=targets,
+                            vmax=vmax)
+    coin = _coin()
+    node = coin.SoSeparator()
+    node.setName(OVERLAY_NAME + "Root")
+    node.addChild(build_overlay(geom, opts["work_plane_transparency"]))
+    v = np.asarray(values, dtype=np.float64)
+    over = bool(np.any(v[np.isfinite(v)] > geom["vmax"] * (1 + 1e-9)))
+    swatches = []
+    if targets:
+        if np.any(np.isfinite(v) & (v == 0)):
+            swatches.append((SHADE_RGB, "0 (shade)"))
+        if np.any(~np.isfinite(v)):
+            swatches.append((NO_TARGET_RGB, "no target"))
+    legend = coin.SoSeparator()
+    legend.setName(LEGEND_NAME + "Root")
+    legend.addChild(build_legend(title, geom["vmax"], swatches, over=over))
+    legend.addChild(build_labels(room_labels(building)))
+    graphs = _graphs(doc)
+    for sg in graphs:
+        # the surfaces go last, where clipping planes (Std_ToggleClipPlane, inserted
+        # after the 'EditingRoot' child) cut them like the building; the legend and the
+        # room names go first, where no clipping plane reaches them (clipped annotations
+        # vanish altogether in FreeCAD 0.20)
+        sg.addChild(node)
+        sg.insertChild(legend, 0)
+    _STATE[doc.Name] = {"node": node, "legend": legend, "graphs": graphs,
+                        "mode": mode_name,
+                        "building": building, "vmax": geom["vmax"],
+                        "triangles": len(geom["surfaces"]) + len(geom["work_plane"])}
+    return geom["vmax"]
+
+
+def show_targets(doc, rooms=None):
+    """Evaluate the rooms' targets on fine display meshes and show them."""
+    from ..app.pipeline import PipelineSettings, prepare
+    from . import params
+    opts = params.load_display()
+    building = prepare(doc, PipelineSettings(flux_lm=1.0, resolution_m=opts["resolution_m"],
+                                             rooms=rooms))
+    return show(doc, building, building.scene.vertex_lux, "Target\nilluminance (lx)",
+                "targets", targets=True)
+
+
+def show_achieved(doc, building, achieved, vmax=None):
+    """The achieved illuminance; ``vmax`` the top of the scale (the report's, so that the
+    view and the report's images read the same), by default the targets' (same colour =
+    on target)."""
+    return show(doc, building, achieved, "Achieved\nilluminance (lx)", "achieved",
+                targets=False, vmax=vmax or target_scale(building))
+
+
+def toggle_targets(doc=None):
+    """Show the targets, or hide them if they are shown; True if shown afterwards.
+
+    Errors (no rooms, a bad target) are reported, not raised, like every GUI action.
+    """
+    import FreeCAD
+    from . import messages
+    doc = doc or FreeCAD.ActiveDocument
+    if doc is None:
+        return False
+    if is_shown(doc, "targets"):
+        hide(doc)
+        return False
+    try:
+        show_targets(doc)
+    except Exception as exc:
+        hide(doc)
+        messages.exception("Show targets", exc)
+        return False
+    return True
+
+
+def refresh(doc):
+    """Rebuild the target display of ``doc`` if it is shown (after targets changed)."""
+    if not is_shown(doc, "targets"):
+        return
+    try:
+        show_targets(doc)
+    except Exception as exc:             # e.g. the last target was deleted
+        hide(doc)
+        import FreeCAD
+        FreeCAD.Console.PrintWarning(f"invrad: target display hidden: {exc}\n")
+
+
+def state(doc):
+    """The overlay's bookkeeping for ``doc`` (mode, vmax, triangles), or None."""
+    st = _STATE.get(doc.Name)
+    if st is None:
+        return None
+    return {k: st[k] for k in ("mode", "vmax", "triangles")}
+
+
+def forget(doc_name):
+    _STATE.pop(doc_name, None)

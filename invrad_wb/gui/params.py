@@ -1,0 +1,220 @@
+"""The workbench's settings, kept in FreeCAD's parameters between sessions.
+
+Group ``User parameter:BaseApp/Preferences/Mod/InvRad`` (Tools > Edit parameters):
+
+* ``Run``: the pipeline options of :class:`invrad_wb.app.pipeline.PipelineSettings` that a
+  user chooses (flux, mesh resolution, interreflection, backend, replace);
+* ``Locate``: every field of :class:`invrad_wb.core.locate.LocateSettings`, under its own
+  name; options whose default is "automatic" (``None`` in the core, e.g. ``votes_per_m2``)
+  are stored as text, empty meaning automatic;
+* ``Target``: the last values of the target task panel;
+* ``Display``: the false-colour display (resolution, offset, work-plane transparency).
+
+Headless-safe (only ``FreeCAD.ParamGet``), so the tests check it under freecadcmd. Values
+are SI: lumens, metres, lux.
+"""
+import dataclasses
+import math
+
+from ..app import settings as S
+
+ROOT = "User parameter:BaseApp/Preferences/Mod/InvRad"
+
+#: Options of a run that are not locate settings: name -> (kind, default).
+RUN = {
+    "flux_lm": ("float", 3000.0),
+    "resolution_m": ("float", S.RESOLUTION_M),
+    "interreflection": ("bool", True),
+    "backend": ("str", "auto"),
+    "replace": ("bool", True),
+    "report_dir": ("str", ""),
+}
+
+#: Locate settings whose core default is None ("automatic"): their value type.
+OPTIONAL = {"votes_per_m2": "float", "dummy_count": "int", "dummy_lowest_m": "float",
+            "shade_limit_lux": "float"}
+
+#: Choices of the text-valued options (value, label), the task panel's combo boxes.
+CHOICES = {
+    "vote_model": [("exact", "Exact contours"), ("ellipse", "Ellipses (thesis)")],
+    "weighting": [("illumination", "Illumination"), ("distance", "Distance"),
+                  ("both", "Both"), ("none", "None")],
+    "occlusion": [("auto", "Auto (non-convex)"), (True, "On"), (False, "Off")],
+    "optimiser": [("lm", "Levenberg-Marquardt"), ("es", "(1+1)-ES")],
+    "indirect": [("radiosity", "Radiosity"), ("ambient", "Ambient term"),
+                 ("none", "None")],
+    "backend": [("auto", "Auto"), ("opencl", "OpenCL"), ("numpy", "numpy")],
+}
+
+TARGET = {
+    "kind": ("str", "Uniform"),
+    "lux": ("float", 300.0),
+    "radius_m": ("float", 0.5),
+    "falloff": ("str", "Cosine"),
+    "lux_scale": ("float", 1.0),
+    "image": ("str", ""),
+    "height_m": ("float", S.WORK_PLANE_HEIGHT_M),
+    "margin_m": ("float", S.WORK_PLANE_MARGIN_M),
+}
+
+DISPLAY = {
+    "resolution_m": ("float", 0.1),
+    "offset_m": ("float", 0.01),
+    "work_plane_transparency": ("float", 0.25),
+}
+
+
+def group(name):
+    import FreeCAD
+    return FreeCAD.ParamGet(f"{ROOT}/{name}")
+
+
+def locate_fields():
+    """``{name: (kind, default)}`` for every LocateSettings field."""
+    from ..core.locate import LocateSettings
+    out = {}
+    for f in dataclasses.fields(LocateSettings):
+        default = f.default
+        if f.name == "occlusion":
+            kind = "occlusion"
+        elif f.name in OPTIONAL or default is None:
+            kind = "opt" + OPTIONAL.get(f.name, "float")
+        elif isinstance(default, bool):
+            kind = "bool"
+        elif isinstance(default, int):
+            kind = "int"
+        elif isinstance(default, float):
+            kind = "float"
+        else:
+            kind = "str"
+        out[f.name] = (kind, default)
+    return out
+
+
+def _get(grp, name, kind, default):
+    if kind == "float":
+        return float(grp.GetFloat(name, float(default)))
+    if kind == "int":
+        return int(grp.GetInt(name, int(default)))
+    if kind == "bool":
+        return bool(grp.GetBool(name, bool(default)))
+    if kind == "str":
+        return grp.GetString(name, str(default))
+    if kind == "occlusion":
+        text = grp.GetString(name, _occlusion_text(default)).strip().lower()
+        return {"auto": "auto", "true": True, "on": True, "false": False,
+                "off": False}.get(text, default)
+    if kind.startswith("opt"):
+        text = grp.GetString(name, "" if default is None else str(default)).strip()
+        if text == "" or text.lower() == "auto":
+            return None
+        try:
+            v = float(text)
+        except ValueError:
+            return default
+        return int(v) if kind == "optint" else v
+    raise ValueError(f"unknown parameter kind {kind!r}")
+
+
+def _occlusion_text(value):
+    return {True: "true", False: "false"}.get(value, "auto")
+
+
+def _set(grp, name, kind, value):
+    if kind == "float":
+        grp.SetFloat(name, float(value))
+    elif kind == "int":
+        grp.SetInt(name, int(value))
+    elif kind == "bool":
+        grp.SetBool(name, bool(value))
+    elif kind == "str":
+        grp.SetString(name, str(value))
+    elif kind == "occlusion":
+        grp.SetString(name, _occlusion_text(value))
+    elif kind.startswith("opt"):
+        if value is None or (isinstance(value, float) and math.isnan(value)):
+            grp.SetString(name, "")
+        else:
+            grp.SetString(name, repr(int(value) if kind == "optint" else float(value)))
+    else:
+        raise ValueError(f"unknown parameter kind {kind!r}")
+
+
+def _load(name, schema):
+    grp = group(name)
+    return {k: _get(grp, k, kind, default) for k, (kind, default) in schema.items()}
+
+
+def _save(name, schema, values):
+    grp = group(name)
+    for k, v in values.items():
+        if k in schema:
+            _set(grp, k, schema[k][0], v)
+
+
+def load_locate():
+    """The stored locate settings as a checked dict (bad stored values -> defaults)."""
+    from ..core.locate import LocateSettings
+    from ..errors import SettingsError
+    fields = locate_fields()
+    values = _load("Locate", fields)
+    try:
+        LocateSettings.from_dict(values)
+        return values
+    except (SettingsError, TypeError, ValueError):
+        pass
+    good = {}
+    for k, v in values.items():                 # keep what is valid on its own
+        try:
+            LocateSettings.from_dict({k: v})
+            good[k] = v
+        except (SettingsError, TypeError, ValueError):
+            good[k] = fields[k][1]
+    try:
+        LocateSettings.from_dict(good)
+        return good
+    except (SettingsError, TypeError, ValueError):
+        return {k: d for k, (_, d) in fields.items()}
+
+
+def save_locate(values):
+    _save("Locate", locate_fields(), values)
+
+
+def load_run():
+    return _load("Run", RUN)
+
+
+def save_run(values):
+    _save("Run", RUN, values)
+
+
+def load_target():
+    return _load("Target", TARGET)
+
+
+def save_target(values):
+    _save("Target", TARGET, values)
+
+
+def load_display():
+    return _load("Display", DISPLAY)
+
+
+def reset():
+    """Forget every stored value (back to the defaults)."""
+    for name in ("Run", "Locate", "Target", "Display"):
+        group(name).Clear()
+
+
+def pipeline_settings(rooms=None, report_dir=None, insert=True, run=None, locate=None):
+    """A PipelineSettings from the stored values (``run``/``locate`` dicts override)."""
+    from ..app.pipeline import PipelineSettings
+    r = load_run()
+    r.update(run or {})
+    loc = load_locate()
+    loc.update(locate or {})
+    return PipelineSettings(flux_lm=r["flux_lm"], resolution_m=r["resolution_m"],
+                            interreflection=r["interreflection"], locate=loc,
+                            backend=r["backend"], replace=r["replace"], rooms=rooms,
+                            report_dir=report_dir, insert=insert)

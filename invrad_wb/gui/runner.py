@@ -1,0 +1,229 @@
+"""The workbench's long actions: locate, recalculate peaks, verify and report.
+
+Each function is what a command records through ``Gui.doCommand`` (so a macro replays
+it) and does the same thing in every case:
+
+1. read what it needs from the document in the main thread (room meshes, targets,
+   fixtures) with :func:`invrad_wb.app.pipeline.prepare`;
+2. compute in a worker thread behind a progress dialog that can cancel
+   (:func:`invrad_wb.gui.progress.run`);
+3. change the document in the main thread, as ONE undoable transaction.
+
+A failed or cancelled run changes nothing and says why in a dialog and in the report
+view (:mod:`.messages`); the functions then return None instead of raising. The last
+locate result of each document is kept in memory (:func:`stored`), so that *Recalculate
+peaks* can post-process its votes without voting again; it is forgotten when the
+document is closed.
+
+Without a GUI everything runs in the calling thread and messages go to the console.
+"""
+from dataclasses import dataclass
+import os
+import time
+
+from . import messages, params
+from . import progress as P
+
+#: Fixture colour in the 3D view (a light warm yellow), set on new fixtures in the GUI.
+FIXTURE_RGB = (1.0, 0.85, 0.25)
+
+
+@dataclass
+class Stored:
+    """A document's last locate run."""
+    result: object            # PipelineResult (building, luminaires, locate_result ...)
+    settings: object          # PipelineSettings it ran with
+    verified: object = None   # VerifyResult of the last Verify and report
+    when: float = 0.0
+
+
+_RESULTS = {}
+
+
+def stored(doc):
+    """The document's last locate run (:class:`Stored`) or None."""
+    return None if doc is None else _RESULTS.get(doc.Name)
+
+
+def forget(doc_name):
+    _RESULTS.pop(doc_name, None)
+
+
+def _doc(doc):
+    import FreeCAD
+    doc = doc or FreeCAD.ActiveDocument
+    if doc is None:
+        from ..errors import SceneError
+        raise SceneError("no active document: open or create one with rooms (Arch Spaces)")
+    if isinstance(doc, str):
+        doc = FreeCAD.getDocument(doc)
+    return doc
+
+
+def _colour_fixtures(doc, names):
+    import FreeCAD
+    if not FreeCAD.GuiUp:
+        return
+    for n in names:
+        obj = doc.getObject(n)
+        vo = getattr(obj, "ViewObject", None) if obj is not None else None
+        if vo is not None and hasattr(vo, "ShapeColor"):
+            vo.ShapeColor = FIXTURE_RGB
+
+
+def _room_keys(rooms):
+    if not rooms:
+        return None
+    return [r.Name if hasattr(r, "Name") else str(r) for r in rooms]
+
+
+def locate(doc=None, rooms=None, run=None, locate=None):
+    """Find luminaires for the rooms' targets and insert them as light fixtures.
+
+    Parameters
+    ----------
+    doc : FreeCAD document or its name (default: the active one)
+    rooms : list of Spaces or their names/labels (default: every room with targets)
+    run : dict, overrides of the stored run options (``flux_lm``, ``resolution_m``,
+        ``interreflection``, ``backend``, ``replace``)
+    locate : dict, overrides of the stored locate settings
+
+    Returns
+    -------
+    PipelineResult, or None after an error or a cancel (already reported).
+    """
+    title = "Locate luminaires"
+    try:
+        doc = _doc(doc)
+        from ..app import pipeline, results
+        from ..core.locate import LocateSettings
+        settings = params.pipeline_settings(rooms=_room_keys(rooms), insert=False, run=run,
+                                            locate=locate)
+        pipeline.check_flux(settings.flux_lm)
+        LocateSettings.from_dict(settings.locate)
+        building = pipeline.prepare(doc, settings)
+        res = P.run(title, lambda cb: pipeline.run(doc, settings, progress=cb,
+                                                   building=building))
+        new = results.insert(doc, res.building, res.luminaires, replace=settings.replace,
+                             name=f"invrad: locate {len(res.luminaires)} luminaire(s)")
+    except BaseException as exc:
+        messages.exception(title, exc)
+        return None
+    res.fixtures = [o.Name for o in new]
+    _colour_fixtures(doc, res.fixtures)
+    _RESULTS[doc.Name] = Stored(res, settings, when=time.time())
+    rooms_txt = ", ".join(res.building.room_names)
+    lines = [f"{len(res.luminaires)} luminaire(s) of {settings.flux_lm:.0f} lm in"
+             f" {len(res.building.rooms)} room(s) ({rooms_txt}),"
+             f" {res.timings.get('total', 0):.1f} s"]
+    for r in res.summary.get("rooms", []):
+        for part in ("work_plane", "surfaces"):
+            d = r.get(part) or {}
+            if "mean_achieved_lux" in d:
+                lines.append(f"  {r['room']} {part.replace('_', ' ')}: mean"
+                             f" {d['mean_achieved_lux']:.0f} lx for"
+                             f" {d['mean_target_lux']:.0f} lx, RMSE"
+                             f" {100 * d['rms_relative_error']:.0f} %")
+    messages.show("info", title, "\n".join(lines), box=False)
+    return res
+
+
+def repeak(doc=None, threshold=None, neighbourhood_m=None):
+    """New threshold/neighbourhood on the stored votes; replaces the rooms' fixtures.
+
+    Returns the new list of Luminaires, or None after an error or a cancel.
+    """
+    title = "Recalculate peaks"
+    try:
+        doc = _doc(doc)
+        from ..app import results
+        from ..errors import SceneError
+        st = stored(doc)
+        if st is None:
+            raise SceneError("no locate result for this document in this session: run"
+                             " Locate luminaires first", doc.Label)
+        from ..core.locate import LocateSettings
+        probe = dict(st.result.locate_result.settings)
+        if threshold is not None:
+            probe["threshold"] = float(threshold)
+        if neighbourhood_m is not None:
+            probe["neighbourhood_m"] = float(neighbourhood_m)
+        LocateSettings.from_dict(probe)
+        lums = P.run(title, lambda cb: results.repeak(st.result, threshold,
+                                                      neighbourhood_m, cb))
+        new = results.insert(doc, st.result.building, lums, replace=True,
+                             name=f"invrad: recalculate peaks, {len(lums)} luminaire(s)")
+    except BaseException as exc:
+        messages.exception(title, exc)
+        return None
+    st.result.luminaires = lums
+    st.result.fixtures = [o.Name for o in new]
+    st.verified = None
+    _colour_fixtures(doc, st.result.fixtures)
+    keep = {}
+    if threshold is not None:
+        keep["threshold"] = float(threshold)
+    if neighbourhood_m is not None:
+        keep["neighbourhood_m"] = float(neighbourhood_m)
+    params.save_locate(keep)
+    messages.show("info", title, f"{len(lums)} luminaire(s) with threshold"
+                  f" {st.result.locate_result.settings.get('threshold')} and neighbourhood"
+                  f" {st.result.locate_result.settings.get('neighbourhood_m')} m", box=False)
+    return lums
+
+
+def default_report_dir(doc):
+    """Where *Verify and report* writes: ``Run/report_dir``/<document>, else next to the
+    saved document (``<name>_invrad_report``), else FreeCAD's user data folder."""
+    import FreeCAD
+    base = params.load_run().get("report_dir") or ""
+    if base:
+        return os.path.join(base, doc.Name)
+    if doc.FileName:
+        stem = os.path.splitext(os.path.basename(doc.FileName))[0]
+        return os.path.join(os.path.dirname(doc.FileName), f"{stem}_invrad_report")
+    return os.path.join(FreeCAD.getUserAppDataDir(), "invrad", "reports", doc.Name)
+
+
+def verify(doc=None, rooms=None, report_dir=None, show=True):
+    """Forward solve for the fixtures in the document, report, metrics sheet.
+
+    The report (HTML, CSV, images, ``summary.json``) goes to ``report_dir`` (default
+    :func:`default_report_dir`); the per-room metrics go into the Spreadsheet
+    ``InvRadReport`` (one undoable step); with ``show`` the achieved illuminance is shown
+    in false colour. Returns the VerifyResult, or None after an error or a cancel.
+    """
+    title = "Verify and report"
+    try:
+        doc = _doc(doc)
+        from ..app import pipeline, results
+        out = report_dir or default_report_dir(doc)
+        settings = params.pipeline_settings(rooms=_room_keys(rooms), report_dir=out,
+                                            insert=False)
+        building = pipeline.prepare(doc, settings)
+        lums, skipped = results.document_luminaires(building)
+        vr = P.run(title, lambda cb: results.verify(doc, settings, progress=cb,
+                                                    building=building, luminaires=lums))
+        vr.skipped = skipped
+        html = getattr(vr.report, "html", None) or vr.summary.get("report") or out
+        results.write_sheet(doc, vr.rows, note=f"Report: {html}")
+    except BaseException as exc:
+        messages.exception(title, exc)
+        return None
+    st = stored(doc)
+    if st is not None:
+        st.verified = vr
+    if show:
+        try:
+            from . import display
+            scale = getattr(vr.report, "scale", None) or {}
+            display.show_achieved(doc, vr.building, vr.achieved, scale.get("lux_max"))
+        except Exception as exc:               # the display is a nicety, not the result
+            messages.warning(title, f"could not show the result in false colour: {exc}")
+    lines = [f"{len(vr.luminaires)} luminaire(s) in {len(vr.building.rooms)} room(s);"
+             f" report: {html}"]
+    lines += ["  " + s for s in results.describe_rows(vr.rows)]
+    if skipped:
+        lines.append(f"  left out (no LuminousFlux): {', '.join(skipped)}")
+    messages.show("info", title, "\n".join(lines), box=False)
+    return vr

@@ -1,0 +1,366 @@
+"""Task panels: locate settings, a lighting target, recalculated peaks.
+
+Each panel loads its form from ``resources/ui/*.ui`` and stays thin: a widget is bound to
+the option of the same name (its ``objectName``), values come from and go back to the
+stored parameters (:mod:`.params`), and *OK* records the action with ``Gui.doCommand``
+(so macros replay it) through :mod:`.runner` or :mod:`invrad_wb.app.targets`.
+
+Widgets and values: ``QDoubleSpinBox``/``QSpinBox`` hold numbers in SI units (their
+minimum, shown as "auto", stands for the core's ``None``); ``QComboBox`` items carry the
+option's value as item data (:data:`invrad_wb.gui.params.CHOICES`); ``QCheckBox`` a bool.
+"""
+import os
+
+from .. import constants as C
+from . import messages, params
+
+UI_DIR = os.path.join(C.RESOURCES_DIR, "ui")
+
+#: The panel shown last (tests and the smoke script drive it).
+ACTIVE = None
+
+
+def ui_path(name):
+    return os.path.join(UI_DIR, name)
+
+
+def load_ui(name, icon=None):
+    """The form of ``resources/ui/<name>``; ``icon`` (an SVG of resources/icons) shows in
+    the task panel's title bar."""
+    import FreeCADGui
+    form = FreeCADGui.PySideUic.loadUi(ui_path(name))
+    if icon:
+        from PySide import QtGui
+        form.setWindowIcon(QtGui.QIcon(os.path.join(C.RESOURCES_DIR, "icons", icon)))
+    return form
+
+
+def _widget(form, name):
+    from PySide import QtGui
+    return form.findChild(QtGui.QWidget, name)
+
+
+def fill_combo(w, choices):
+    w.clear()
+    for value, text in choices:
+        w.addItem(text, value)
+
+
+def set_value(w, value):
+    """Show ``value`` in a bound widget (None -> the spin box minimum, i.e. "auto")."""
+    cls = type(w).__name__
+    if cls in ("QDoubleSpinBox", "QSpinBox"):
+        if value is None:
+            w.setValue(w.minimum())
+        else:
+            w.setValue(value)
+    elif cls == "QCheckBox":
+        w.setChecked(bool(value))
+    elif cls == "QComboBox":
+        for i in range(w.count()):
+            data = w.itemData(i)
+            if data == value and type(data) is type(value) or w.itemText(i) == value:
+                w.setCurrentIndex(i)
+                return
+    elif cls == "QLineEdit":
+        w.setText("" if value is None else str(value))
+    elif cls == "QLabel":
+        w.setText(str(value))
+
+
+def get_value(w, optional=False, integer=False):
+    cls = type(w).__name__
+    if cls in ("QDoubleSpinBox", "QSpinBox"):
+        v = w.value()
+        if optional and v <= w.minimum():
+            return None
+        return int(v) if integer or cls == "QSpinBox" else float(v)
+    if cls == "QCheckBox":
+        return bool(w.isChecked())
+    if cls == "QComboBox":
+        data = w.itemData(w.currentIndex())
+        return data if data is not None else w.currentText()
+    if cls == "QLineEdit":
+        return w.text()
+    raise TypeError(f"widget {w.objectName()} ({cls}) holds no value")
+
+
+def _call(func, *args, **kwargs):
+    """``module.func(arg, ..., key=value)`` as Python source (for Gui.doCommand)."""
+    parts = [repr(a) if not isinstance(a, _Src) else str(a) for a in args]
+    parts += [f"{k}={v if isinstance(v, _Src) else repr(v)}" for k, v in kwargs.items()]
+    return f"{func}({', '.join(parts)})"
+
+
+class _Src(str):
+    """Source text passed through :func:`_call` unquoted."""
+
+
+def doc_src(doc):
+    return _Src(f"App.getDocument({doc.Name!r})")
+
+
+def obj_src(obj):
+    return _Src(f"App.getDocument({obj.Document.Name!r}).getObject({obj.Name!r})")
+
+
+def do_command(*lines):
+    """Run (and record) Python source lines like a FreeCAD command does."""
+    import FreeCADGui
+    for line in lines:
+        FreeCADGui.doCommand(line)
+
+
+# ------------------------------------------------------------------------- locate
+class LocatePanel:
+    """Every locate setting; OK saves them and, if ``run``, locates the luminaires."""
+
+    RUN_FIELDS = ("flux_lm", "resolution_m", "interreflection", "backend", "replace")
+
+    def __init__(self, doc, rooms=None, run=True):
+        self.doc = doc
+        self.rooms = list(rooms or [])
+        global ACTIVE
+        ACTIVE = self
+        self.run = run
+        self.form = load_ui("locate_settings.ui", "locate.svg" if run else "settings.svg")
+        self.form.setWindowTitle("Locate luminaires" if run else "invrad settings")
+        self.fields = params.locate_fields()
+        for name, choices in params.CHOICES.items():
+            fill_combo(self.widget(name), choices)
+        self.show_values(params.load_run(), params.load_locate())
+        names = ", ".join(r.Label for r in self.rooms) if self.rooms else \
+            "every room with lighting targets"
+        self.widget("rooms_label").setText(names if run else "(settings only)")
+        self.widget("reset_defaults").clicked.connect(self.reset_defaults)
+
+    def widget(self, name):
+        w = _widget(self.form, name)
+        if w is None:
+            raise KeyError(f"locate_settings.ui has no widget {name!r}")
+        return w
+
+    def show_values(self, run, loc):
+        for k in self.RUN_FIELDS:
+            set_value(self.widget(k), run[k])
+        for k, v in loc.items():
+            set_value(self.widget(k), v)
+
+    def values(self):
+        """(run options, locate settings) as shown in the panel."""
+        run = {k: get_value(self.widget(k)) for k in self.RUN_FIELDS}
+        loc = {}
+        for k, (kind, _) in self.fields.items():
+            loc[k] = get_value(self.widget(k), optional=kind.startswith("opt"),
+                               integer=kind in ("int", "optint"))
+        return run, loc
+
+    def reset_defaults(self):
+        run = {k: d for k, (_, d) in params.RUN.items()}
+        loc = {k: d for k, (_, d) in self.fields.items()}
+        self.show_values(run, loc)
+
+    def getStandardButtons(self):
+        from PySide import QtGui
+        return int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
+
+    def check(self):
+        """The panel's values, checked; raises SettingsError naming the bad one."""
+        from ..app.pipeline import check_flux
+        from ..app.rooms import check_resolution
+        from ..core.locate import LocateSettings
+        run, loc = self.values()
+        check_flux(run["flux_lm"])
+        check_resolution(run["resolution_m"])
+        LocateSettings.from_dict(loc)
+        return run, loc
+
+    def accept(self):
+        import FreeCADGui
+        try:
+            run, loc = self.check()
+        except Exception as exc:
+            messages.exception("Locate settings", exc)
+            return False
+        params.save_run(run)
+        params.save_locate(loc)
+        FreeCADGui.Control.closeDialog()
+        if self.run:
+            from PySide import QtCore
+            rooms = [r.Name for r in self.rooms] or None
+            QtCore.QTimer.singleShot(0, lambda: run_locate(self.doc, rooms))
+        return True
+
+    def reject(self):
+        import FreeCADGui
+        FreeCADGui.Control.closeDialog()
+        return True
+
+
+def run_locate(doc, rooms=None):
+    """Record and run the locate action (with the stored settings, spelled out)."""
+    run = params.load_run()
+    loc = params.load_locate()
+    do_command("import invrad_wb.gui.runner",
+               _call("invrad_wb.gui.runner.locate", doc_src(doc), rooms=rooms,
+                     run={k: run[k] for k in LocatePanel.RUN_FIELDS}, locate=loc))
+
+
+# ------------------------------------------------------------------------- targets
+#: Panel kinds -> the app's target kinds.
+TARGET_KINDS = [("Uniform", "Uniform illuminance on the faces"), ("Spot", "Spot"),
+                ("Texture", "Illuminance image"), ("Shade", "Shade (0 lx)"),
+                ("WorkPlane", "Work plane of the room")]
+
+
+class TargetPanel:
+    """A new lighting target on selected faces of one room (or its work plane)."""
+
+    def __init__(self, space, faces, point_mm=None, kind=None):
+        from ..app.units import mm_to_m
+        self.space = space
+        global ACTIVE
+        ACTIVE = self
+        self.faces = list(faces)
+        self.form = load_ui("target.ui", "set_target.svg")
+        fill_combo(self.widget("kind"), TARGET_KINDS)
+        from ..app.targets import FALLOFFS
+        fill_combo(self.widget("falloff"), [(f, f) for f in FALLOFFS])
+        stored = params.load_target()
+        for k in ("lux", "radius_m", "lux_scale", "image", "height_m", "margin_m",
+                  "falloff"):
+            set_value(self.widget(k), stored[k])
+        if point_mm is None and self.faces:
+            from ..app.rooms import room_shape
+            point_mm = room_shape(space).Faces[int(self.faces[0][4:]) - 1].CenterOfMass
+        if point_mm is not None:
+            c = mm_to_m(point_mm)
+            for axis, v in zip("xyz", c):
+                self.widget(f"centre_{axis}").setValue(float(v))
+        self.widget("room_label").setText(space.Label)
+        self.widget("faces_label").setText(", ".join(self.faces) or "(the whole room)")
+        set_value(self.widget("kind"), kind or (stored["kind"] if self.faces else "WorkPlane"))
+        self.widget("kind").currentIndexChanged.connect(self.update_groups)
+        self.widget("browse").clicked.connect(self.browse)
+        self.update_groups()
+
+    def widget(self, name):
+        w = _widget(self.form, name)
+        if w is None:
+            raise KeyError(f"target.ui has no widget {name!r}")
+        return w
+
+    def kind(self):
+        return get_value(self.widget("kind"))
+
+    def update_groups(self, *_):
+        k = self.kind()
+        self.widget("group_spot").setVisible(k == "Spot")
+        self.widget("group_texture").setVisible(k == "Texture")
+        self.widget("group_work_plane").setVisible(k == "WorkPlane")
+        self.widget("lux").setEnabled(k in ("Uniform", "Spot", "WorkPlane"))
+
+    def browse(self):
+        from PySide import QtGui
+        path, _ = QtGui.QFileDialog.getOpenFileName(
+            self.form, "Illuminance image", os.path.dirname(self.widget("image").text()),
+            "Images (*.exr *.hdr *.tif *.tiff *.png *.jpg);;All files (*)")
+        if path:
+            self.widget("image").setText(path)
+
+    def command(self):
+        """The Python source that adds the target (what OK records)."""
+        k = self.kind()
+        sp = obj_src(self.space)
+        lux = get_value(self.widget("lux"))
+        T = "invrad_wb.app.targets"
+        if k != "WorkPlane" and not self.faces:
+            from ..errors import SceneError
+            raise SceneError(f"a {k.lower()} target needs faces: select faces of the room",
+                             self.space.Label)
+        if k == "Uniform":
+            return _call(f"{T}.add_uniform_target", sp, self.faces, lux)
+        if k == "Spot":
+            centre = [round(get_value(self.widget(f"centre_{a}")), 6) for a in "xyz"]
+            return _call(f"{T}.add_spot_target", sp, self.faces[0], centre,
+                         get_value(self.widget("radius_m")), lux,
+                         falloff=get_value(self.widget("falloff")).lower())
+        if k == "Texture":
+            return _call(f"{T}.add_texture_target", sp, self.faces[0],
+                         get_value(self.widget("image")), get_value(self.widget("lux_scale")))
+        if k == "Shade":
+            return _call(f"{T}.add_shade_target", sp, self.faces)
+        return _call(f"{T}.set_work_plane", sp, lux, get_value(self.widget("height_m")),
+                     get_value(self.widget("margin_m")))
+
+    def getStandardButtons(self):
+        from PySide import QtGui
+        return int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
+
+    def accept(self):
+        import FreeCADGui
+        try:
+            cmd = self.command()
+            do_command("import invrad_wb.app.targets", cmd)
+        except Exception as exc:
+            messages.exception("Set target", exc)
+            return False
+        params.save_target({"kind": self.kind(),
+                            **{k: get_value(self.widget(k)) for k in
+                               ("lux", "radius_m", "lux_scale", "image", "height_m",
+                                "margin_m", "falloff")}})
+        FreeCADGui.Control.closeDialog()
+        return True
+
+    def reject(self):
+        import FreeCADGui
+        FreeCADGui.Control.closeDialog()
+        return True
+
+
+# ------------------------------------------------------------------------- repeak
+class RepeakPanel:
+    """New threshold and neighbourhood for the stored votes of the last locate run."""
+
+    def __init__(self, doc):
+        from . import runner
+        self.doc = doc
+        global ACTIVE
+        ACTIVE = self
+        self.form = load_ui("repeak.ui", "repeak.svg")
+        st = runner.stored(doc)
+        s = st.result.locate_result.settings if st is not None else params.load_locate()
+        set_value(self.widget("threshold"), s.get("threshold"))
+        set_value(self.widget("neighbourhood_m"), s.get("neighbourhood_m"))
+        if st is not None:
+            self.widget("info_label").setText(
+                f"Last run: {len(st.result.luminaires)} luminaire(s) in"
+                f" {', '.join(st.result.building.room_names)}. The fixtures of these rooms"
+                " are replaced.")
+
+    def widget(self, name):
+        w = _widget(self.form, name)
+        if w is None:
+            raise KeyError(f"repeak.ui has no widget {name!r}")
+        return w
+
+    def getStandardButtons(self):
+        from PySide import QtGui
+        return int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
+
+    def accept(self):
+        import FreeCADGui
+        from PySide import QtCore
+        th = get_value(self.widget("threshold"))
+        nb = get_value(self.widget("neighbourhood_m"))
+        FreeCADGui.Control.closeDialog()
+        QtCore.QTimer.singleShot(0, lambda: do_command(
+            "import invrad_wb.gui.runner",
+            _call("invrad_wb.gui.runner.repeak", doc_src(self.doc), threshold=th,
+                  neighbourhood_m=nb)))
+        return True
+
+    def reject(self):
+        import FreeCADGui
+        FreeCADGui.Control.closeDialog()
+        return True

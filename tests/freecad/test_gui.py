@@ -1,0 +1,485 @@
+"""The workbench's GUI part: resources, start-up, settings, display, selection, actions.
+
+Most tests run headless under freecadcmd (the GUI modules import FreeCADGui, PySide and
+pivy only inside their functions); :class:`TestGuiUnderXvfb` starts the real GUI under
+Xvfb with ``tests/freecad/gui_smoke.py --quick`` (every command once, screenshots) and is
+skipped where ``xvfb-run`` or ``freecad`` is missing or ``INVRAD_NO_GUI`` is set.
+"""
+import dataclasses
+import json
+import os
+import shutil
+import sys
+import types
+import xml.dom.minidom
+
+import numpy as np
+
+import FreeCAD
+
+from fctest import (ROOT, FreeCADTestCase, make_box_space, make_walled_room,
+                    needs_locate)
+from invrad_wb.app import document, fixtures, pipeline, results, targets
+from invrad_wb.app.pipeline import PipelineSettings
+from invrad_wb.core.locate import LocateSettings
+from invrad_wb.core.luminaires import Luminaire
+from invrad_wb.errors import SceneError
+from invrad_wb.gui import commands, display, messages, params, runner, selection, taskpanel
+
+TEST_ROOT = "User parameter:BaseApp/Preferences/Mod/InvRadTest"
+
+
+class ParamsIsolated(FreeCADTestCase):
+    """Settings go to a parameter group of their own, removed afterwards."""
+
+    def setUp(self):
+        super().setUp()
+        self._root = params.ROOT
+        params.ROOT = TEST_ROOT
+        params.reset()
+        messages.LOG.clear()
+
+    def tearDown(self):
+        params.reset()
+        FreeCAD.ParamGet("User parameter:BaseApp/Preferences/Mod").RemGroup("InvRadTest")
+        params.ROOT = self._root
+        super().tearDown()
+
+
+def _ui_widgets(path):
+    dom = xml.dom.minidom.parse(path)
+    return {w.getAttribute("name"): w.getAttribute("class")
+            for w in dom.getElementsByTagName("widget") if w.getAttribute("name")}
+
+
+class TestResources(FreeCADTestCase):
+
+    def test_every_command_has_an_svg_icon_and_texts(self):
+        names = set()
+        for cls in commands.COMMANDS:
+            self.assertTrue(cls.NAME.startswith("InvRad_"), cls.NAME)
+            res = cls().GetResources()
+            self.assertTrue(res["MenuText"] and res["ToolTip"], cls.NAME)
+            self.assertTrue(res["Pixmap"].endswith(".svg") and os.path.isfile(res["Pixmap"]),
+                            res["Pixmap"])
+            svg = xml.dom.minidom.parse(res["Pixmap"]).documentElement
+            self.assertEqual(svg.tagName, "svg")
+            names.add(cls.NAME)
+        self.assertEqual(len(names), len(commands.COMMANDS))
+        for entry in commands.TOOLBAR + commands.MENU + commands.CONTEXT:
+            self.assertTrue(entry == "Separator" or entry in names, entry)
+        self.assertTrue(os.path.isfile(commands.WORKBENCH_ICON))
+
+    def test_locate_panel_has_a_widget_for_every_setting(self):
+        widgets = _ui_widgets(taskpanel.ui_path("locate_settings.ui"))
+        for f in dataclasses.fields(LocateSettings):
+            self.assertIn(f.name, widgets, f"locate_settings.ui lacks {f.name}")
+        for name in taskpanel.LocatePanel.RUN_FIELDS + ("rooms_label", "reset_defaults"):
+            self.assertIn(name, widgets)
+        for name, choices in params.CHOICES.items():
+            self.assertEqual(widgets[name], "QComboBox", name)
+        # optional settings: a spin box whose minimum reads "auto"
+        dom = xml.dom.minidom.parse(taskpanel.ui_path("locate_settings.ui"))
+        special = {w.getAttribute("name") for w in dom.getElementsByTagName("widget")
+                   for p in w.childNodes
+                   if getattr(p, "tagName", "") == "property"
+                   and p.getAttribute("name") == "specialValueText"}
+        self.assertEqual(special, set(params.OPTIONAL))
+
+    def test_target_and_repeak_panels(self):
+        w = _ui_widgets(taskpanel.ui_path("target.ui"))
+        for name in ("kind", "lux", "centre_x", "centre_y", "centre_z", "radius_m",
+                     "falloff", "image", "browse", "lux_scale", "height_m", "margin_m",
+                     "group_spot", "group_texture", "group_work_plane", "room_label",
+                     "faces_label"):
+            self.assertIn(name, w)
+        w = _ui_widgets(taskpanel.ui_path("repeak.ui"))
+        self.assertEqual((w["threshold"], w["neighbourhood_m"]),
+                         ("QDoubleSpinBox", "QDoubleSpinBox"))
+
+    def test_package_xml_declares_the_workbench_and_its_python_dependencies(self):
+        meta = FreeCAD.Metadata(os.path.join(ROOT, "package.xml"))
+        self.assertTrue(meta.supportsCurrentFreeCAD())
+        (wb,) = meta.Content["workbench"]
+        self.assertEqual(wb.Classname, "InvRadWorkbench")
+        self.assertEqual(wb.Subdirectory, "./")
+        self.assertTrue(os.path.isfile(os.path.join(ROOT, wb.Icon)))
+        self.assertTrue(os.path.isfile(os.path.join(ROOT, meta.Icon)))
+        deps = {d["package"]: d for d in meta.Depend}
+        for name in ("numpy", "pyopencl", "trimesh", "OpenImageIO", "ifcopenshell"):
+            self.assertIn(name, deps)
+        self.assertEqual(deps["numpy"]["version_lt"], "2")
+
+
+class _FakeWorkbench:
+    pass
+
+
+class TestInitGui(FreeCADTestCase):
+    """InitGui.py as FreeCAD 0.20 runs it: exec() inside a function, no __file__."""
+
+    def run_initgui(self):
+        added = []
+        fake = types.ModuleType("FreeCADGui")
+        fake.Workbench = _FakeWorkbench
+        fake.addWorkbench = added.append
+        path = os.path.join(ROOT, "InitGui.py")
+        saved_path, saved_mod = list(sys.path), sys.modules.get("FreeCADGui")
+        sys.modules["FreeCADGui"] = fake
+        before = set(sys.modules)
+
+        def runner_like_freecad(Dir):            # noqa: N803 - FreeCAD's own name
+            with open(path, encoding="utf-8") as f:
+                exec(f.read())
+        try:
+            runner_like_freecad(ROOT)
+            path_after = list(sys.path)
+        finally:
+            if saved_mod is None:
+                sys.modules.pop("FreeCADGui", None)
+            else:
+                sys.modules["FreeCADGui"] = saved_mod
+            sys.path[:] = saved_path
+        self.path_after = path_after
+        return added, {m for m in set(sys.modules) - before if m.startswith("invrad_wb")}
+
+    def test_registers_the_workbench_without_importing_the_package(self):
+        added, loaded = self.run_initgui()
+        self.assertEqual(loaded, set(), "InitGui.py must not import the package")
+        (wb,) = added
+        self.assertEqual(type(wb).__name__, "InvRadWorkbench")
+        self.assertEqual(wb.GetClassName(), "Gui::PythonWorkbench")
+        self.assertEqual(wb.MenuText, "InvRad")
+        self.assertTrue(os.path.isfile(wb.Icon), wb.Icon)
+
+    def test_site_packages_from_the_environment(self):
+        """FreeCAD 0.20's GUI clears PYTHONPATH; $INVRAD_SITE_PACKAGES replaces it."""
+        os.environ["INVRAD_SITE_PACKAGES"] = self.tmp + os.pathsep + "/nonexistent/x"
+        try:
+            self.run_initgui()
+        finally:
+            del os.environ["INVRAD_SITE_PACKAGES"]
+        p = self.path_after
+        self.assertIn(self.tmp, p)
+        self.assertNotIn("/nonexistent/x", p)
+        site = [i for i, x in enumerate(p) if x.endswith(("site-packages", "dist-packages"))
+                and x != self.tmp]
+        self.assertLess(p.index(self.tmp), site[0])
+
+    def test_register_does_nothing_without_a_gui(self):
+        self.assertFalse(FreeCAD.GuiUp)
+        self.assertEqual(commands.register(), [])
+
+
+class TestParams(ParamsIsolated):
+
+    def test_defaults_are_the_core_defaults(self):
+        self.assertEqual(params.load_locate(), dataclasses.asdict(LocateSettings()))
+        run = params.load_run()
+        self.assertEqual(run["flux_lm"], 3000.0)
+        self.assertTrue(run["interreflection"])
+
+    def test_round_trip_of_every_kind(self):
+        loc = dict(vote_model="ellipse", pixel_m=0.05, votes_per_m2=250.0,
+                   weighting="both", occlusion=False, dummy_planes=False, dummy_count=3,
+                   dummy_lowest_m=0.0, two_sided_dummies=True, threshold=100.0,
+                   neighbourhood_m=0.5, refine=False, optimiser="es", indirect="none",
+                   max_candidates=12, shade_limit_lux=5.0, seed=7)
+        params.save_locate(loc)
+        got = params.load_locate()
+        for k, v in loc.items():
+            self.assertEqual(got[k], v, k)
+            self.assertEqual(type(got[k]), type(v), k)
+        params.save_locate({"occlusion": True, "votes_per_m2": None, "dummy_count": None})
+        got = params.load_locate()
+        self.assertIs(got["occlusion"], True)
+        self.assertIsNone(got["votes_per_m2"])
+        self.assertIsNone(got["dummy_count"])
+        LocateSettings.from_dict(got)
+
+    def test_a_bad_stored_value_falls_back_to_its_default_only(self):
+        params.save_locate({"threshold": 100.0, "seed": 3})
+        params.group("Locate").SetFloat("threshold", 999.0)
+        params.group("Locate").SetString("vote_model", "nonsense")
+        got = params.load_locate()
+        self.assertEqual(got["threshold"], LocateSettings().threshold)
+        self.assertEqual(got["vote_model"], "exact")
+        self.assertEqual(got["seed"], 3)
+
+    def test_pipeline_settings(self):
+        params.save_run({"flux_lm": 1234.0, "resolution_m": 0.25, "backend": "numpy"})
+        s = params.pipeline_settings(rooms=["Space"], run={"replace": False},
+                                     locate={"threshold": 50.0})
+        self.assertIsInstance(s, PipelineSettings)
+        self.assertEqual((s.flux_lm, s.resolution_m, s.backend, s.replace, s.rooms),
+                         (1234.0, 0.25, "numpy", False, ["Space"]))
+        self.assertEqual(s.locate["threshold"], 50.0)
+
+
+class TestDisplayNumpy(FreeCADTestCase):
+
+    def test_colours(self):
+        v = np.array([np.nan, 0.0, 250.0, 500.0, 900.0])
+        rgb = display.colours(v, 500.0)
+        np.testing.assert_allclose(rgb[0], display.NO_TARGET_RGB)
+        np.testing.assert_allclose(rgb[1], display.SHADE_RGB)
+        np.testing.assert_allclose(rgb[3], display.VIRIDIS[-1])
+        np.testing.assert_allclose(rgb[4], display.VIRIDIS[-1])     # clipped
+        np.testing.assert_allclose(rgb[2], display.VIRIDIS[4])
+        # outside target mode, 0 is the bottom of the scale
+        np.testing.assert_allclose(display.colours(v, 500.0, targets=False)[1],
+                                   display.VIRIDIS[0])
+
+    def test_colours_match_the_report_images(self):
+        try:
+            from invrad_wb.core import images
+            ref = images.false_colour(np.linspace(0, 500, 11), 0.0, 500.0)
+        except (ImportError, AttributeError, TypeError) as exc:
+            self.skipTest(f"report images not available: {exc}")
+        got = np.round(display.colours(np.linspace(0, 500, 11), 500.0, targets=False) * 255)
+        np.testing.assert_allclose(got, ref, atol=1)
+
+    def test_scale_and_legend(self):
+        self.assertEqual([display.nice_max(x) for x in (0, 1, 480, 500, 501, 730, 9e3)],
+                         [1.0, 1.0, 500.0, 500.0, 600.0, 800.0, 1e4])
+        lay = display.legend_layout("Target\nilluminance (lx)", 500.0,
+                                    [(display.SHADE_RGB, "0 (shade)")], over=True)
+        ys = [y for y, _ in lay["ticks"]]
+        self.assertEqual(ys, sorted(ys))
+        self.assertEqual(lay["ticks"][-1][1], "500+")
+        x0, y0, x1, y1 = lay["panel"]
+        self.assertTrue(-1 <= x0 < x1 <= 1 and -1 <= y0 < y1 <= 1)
+        for y, _, _ in lay["swatches"]:
+            self.assertTrue(y0 < y < lay["bar"][1])
+
+    def test_overlay_geometry_of_a_room(self):
+        space = make_walled_room(self.doc, size=(4.0, 3.0, 2.7))
+        targets.set_work_plane(space, 500.0)
+        targets.add_uniform_target(space, "walls", 150.0)
+        b = pipeline.prepare(self.doc, PipelineSettings(flux_lm=1.0, resolution_m=0.2))
+        g = display.overlay_geometry(b, b.scene.vertex_lux, offset_m=0.01)
+        sc = b.scene
+        self.assertEqual(len(g["surfaces"]) + len(g["work_plane"]), len(sc.faces))
+        self.assertEqual(g["vmax"], 500.0)
+        # every point moved 10 mm into the room
+        moved = g["points"] / 1000.0 - sc.vertices
+        np.testing.assert_allclose(np.linalg.norm(moved, axis=1), 0.01, atol=1e-9)
+        floor = (np.abs(sc.vertices[:, 2]) < 1e-9) & (sc.vertex_normals[:, 2] > 0.5)
+        self.assertTrue(floor.any())
+        np.testing.assert_allclose(g["points"][floor, 2], 10.0)
+        # outlines: the floor's boundary is the room's perimeter (3.8 m x 2.8 m inside)
+        groups = display.face_groups(b)
+        p = b.rooms[0]
+        floor_face = int(targets._faces_arg(space, "floor")[0][4:]) - 1
+        sel = groups == floor_face
+        e = display.boundary_edges(sc.faces[sel], groups[sel])
+        length = np.linalg.norm(sc.vertices[e[:, 0]] - sc.vertices[e[:, 1]], axis=1).sum()
+        self.assertAlmostEqual(length, 2 * (3.8 + 2.8), places=6)
+        self.assertEqual(int((groups == groups.max()).sum()), p.n_work_plane)
+        ((name, (x, y, z)),) = display.room_labels(b)
+        self.assertEqual(name, "Office")
+        np.testing.assert_allclose((x, y, z), (2000.0, 1500.0, 900.0), atol=1e-6)
+
+
+class TestSelection(FreeCADTestCase):
+
+    def setUp(self):
+        super().setUp()
+        self.space = make_walled_room(self.doc, label="Office")
+        self.walls = [o for o in self.doc.Objects if getattr(o, "IfcType", "") == "Wall"][0]
+
+    def test_space_faces_and_picked_point(self):
+        p = FreeCAD.Vector(1000, 1000, 0)
+        groups, point = selection.room_faces([(self.space, ["Face1", "Face3"], [p])])
+        self.assertEqual(groups, [(self.space, ["Face1", "Face3"])])
+        self.assertEqual(point, p)
+
+    def test_wall_faces_map_to_the_room(self):
+        subs = [f"Face{i + 1}" for i, f in enumerate(self.walls.Shape.Faces)
+                if selection.matching_space_faces(f, [self.space])]
+        self.assertEqual(len(subs), 4)
+        groups, _ = selection.room_faces([(self.walls, subs)])
+        self.assertEqual(sorted(groups[0][1]), sorted(targets._faces_arg(self.space,
+                                                                          "walls")))
+
+    def test_outer_faces_and_empty_selections_are_refused(self):
+        outer = [f"Face{i + 1}" for i, f in enumerate(self.walls.Shape.Faces)
+                 if abs(f.normalAt(0, 0).z) < 0.5
+                 and not selection.matching_space_faces(f, [self.space])]
+        with self.assertRaisesMessage(SceneError, "not on the boundary of any room"):
+            selection.room_faces([(self.walls, outer[:1])])
+        with self.assertRaisesMessage(SceneError, "select one or more faces of a room"):
+            selection.room_faces([(self.space, [])])
+
+    def test_rooms_of_targets_fixtures_and_faces(self):
+        store = make_box_space(self.doc, (6, 0, 0), (9, 3, 2.5), label="Store")
+        t = targets.add_uniform_target(store, "floor", 100.0)
+        (fx,) = fixtures.insert_fixtures(
+            self.doc, [(self.space, [Luminaire([1, 1, 2.7], [0, 0, -1], 1000.0)])])
+        self.assertEqual(selection.rooms([(t, [])]), [store])
+        self.assertEqual(selection.rooms([(fx, []), (self.space, ["Face2"]), (t, [])]),
+                         [self.space, store])
+
+
+def down(x, y, z=2.7, flux=2000.0):
+    return Luminaire([x, y, z], [0, 0, -1], flux)
+
+
+class TestResults(FreeCADTestCase):
+    """The app-side functions the Recalculate/Verify commands call."""
+
+    def setUp(self):
+        super().setUp()
+        self.office = make_walled_room(self.doc, label="Office")
+        targets.set_work_plane(self.office, 500.0)
+        targets.add_uniform_target(self.office, "walls", 150.0)
+        self.settings = PipelineSettings(flux_lm=2000.0, resolution_m=0.4,
+                                         interreflection=False)
+
+    def test_verify_reads_the_fixtures_of_the_document(self):
+        fixtures.insert_fixtures(self.doc, [(self.office, [down(1.2, 1.5), down(2.8, 1.5)])])
+        before = document.snapshot(self.doc)
+        vr = results.verify(self.doc, self.settings)
+        self.assertUnchanged(before)
+        self.assertEqual(len(vr.luminaires), 2)
+        parts = {r["part"]: r for r in vr.rows}
+        self.assertEqual(set(parts), {"all targets", "work plane", "surfaces"})
+        wp = parts["work plane"]
+        self.assertAlmostEqual(wp["target_em"], 500.0)
+        self.assertTrue(0 < wp["emin"] <= wp["em"] <= wp["emax"])
+        self.assertAlmostEqual(wp["u0"], wp["emin"] / wp["em"])
+        self.assertEqual(parts["all targets"]["luminaires"], 2)
+        # moving a fixture by hand changes the verification
+        fx = fixtures.room_fixtures(self.office)[0]
+        fx.Placement.Base = FreeCAD.Vector(400, 400, 2700)
+        vr2 = results.verify(self.doc, self.settings)
+        self.assertNotAlmostEqual(vr2.achieved.sum(), vr.achieved.sum())
+
+    def test_sheet_is_one_undo_step_and_is_not_exported(self):
+        fixtures.insert_fixtures(self.doc, [(self.office, [down(2.0, 1.5)])])
+        vr = results.verify(self.doc, self.settings)
+        n = self.doc.UndoCount
+        sheet = results.write_sheet(self.doc, vr.rows, note="Report: x")
+        self.assertEqual(self.doc.UndoCount, n + 1)
+        self.assertEqual(sheet.get("A1"), "Room")
+        self.assertEqual(sheet.get("A2"), "Office")
+        col = "ABCDEFGHIJKLMNOP"[[k for k, _ in results.SHEET_COLUMNS].index("em")]
+        self.assertAlmostEqual(float(sheet.get(f"{col}2")), vr.rows[0]["em"],
+                               delta=0.06 * vr.rows[0]["em"])
+        results.write_sheet(self.doc, vr.rows)               # replaced, not added
+        self.assertEqual(len(self.doc.findObjects("Spreadsheet::Sheet")), 1)
+        from invrad_wb.app import ifcexport
+        self.assertTrue(ifcexport._is_internal(sheet))
+        self.doc.undo()
+        self.doc.undo()
+        self.assertIsNone(self.doc.getObject(results.SHEET_NAME))
+
+    def test_metrics_fallback_without_a_report(self):
+        b = pipeline.prepare(self.doc, self.settings)
+        t = b.scene.vertex_lux
+        rows = results.room_metrics(b, t, np.nan_to_num(t) * 1.1, [])
+        wp = [r for r in rows if r["part"] == "work plane"][0]
+        self.assertAlmostEqual(wp["em"], 550.0)
+        self.assertAlmostEqual(wp["rmse_pct"], 10.0)
+        self.assertAlmostEqual(wp["max_rel_dev_pct"], 10.0)
+        self.assertEqual(wp["within_tol_pct"], 100.0)
+
+    def test_insert_refuses_a_deleted_room(self):
+        b = pipeline.prepare(self.doc, self.settings)
+        self.doc.removeObject(self.office.Name)
+        with self.assertRaisesMessage(SceneError, "was deleted"):
+            results.insert(self.doc, b, [])
+
+
+class TestRunnerHeadless(ParamsIsolated):
+    """The commands' actions under freecadcmd: same code, no dialogs, no thread."""
+
+    def test_errors_are_reported_and_leave_the_document_unchanged(self):
+        self.doc.addObject("Part::Box", "Box")
+        before = document.snapshot(self.doc)
+        self.assertIsNone(runner.locate(self.doc))
+        level, title, text = messages.LOG[-1]
+        self.assertEqual((level, title), ("error", "Locate luminaires"))
+        self.assertIn("no rooms (Arch Spaces)", text)
+        self.assertIn("not changed", text)
+        self.assertUnchanged(before)
+        self.assertIsNone(runner.repeak(self.doc, threshold=50.0))
+        self.assertIn("run Locate luminaires first", messages.LOG[-1][2])
+        space = make_box_space(self.doc)
+        targets.add_uniform_target(space, "floor", 300.0)
+        before = document.snapshot(self.doc)
+        self.assertIsNone(runner.locate(self.doc, run={"flux_lm": -5.0}))
+        self.assertIn("flux", messages.LOG[-1][2])
+        self.assertIsNone(runner.locate(self.doc, locate={"threshold": 999.0}))
+        self.assertIn("threshold", messages.LOG[-1][2])
+        self.assertUnchanged(before)
+
+    def test_cancel_leaves_the_document_unchanged(self):
+        from invrad_wb.gui import progress
+        space = make_box_space(self.doc)
+        targets.add_uniform_target(space, "floor", 300.0)
+        before = document.snapshot(self.doc)
+        orig = progress.Job.progress
+        progress.Job.progress = lambda self, f, m: False
+        try:
+            self.assertIsNone(runner.locate(self.doc))
+        finally:
+            progress.Job.progress = orig
+        self.assertEqual(messages.LOG[-1][0], "warning")
+        self.assertIn("cancelled", messages.LOG[-1][2])
+        self.assertUnchanged(before)
+
+    @needs_locate
+    def test_locate_repeak_verify(self):
+        space = make_walled_room(self.doc, label="Office")
+        targets.set_work_plane(space, 400.0)
+        params.save_run({"resolution_m": 0.4, "interreflection": False})
+        n = self.doc.UndoCount
+        res = runner.locate(self.doc, run={"flux_lm": 2000.0})
+        self.assertIsNotNone(res, messages.LOG[-1:])
+        self.assertEqual(self.doc.UndoCount, n + 1)
+        self.assertEqual(len(fixtures.room_fixtures(space)), len(res.luminaires))
+        self.assertIs(runner.stored(self.doc).result, res)
+        lums = runner.repeak(self.doc, threshold=120.0, neighbourhood_m=0.5)
+        self.assertIsNotNone(lums, messages.LOG[-1:])
+        self.assertEqual(self.doc.UndoCount, n + 2)
+        self.assertEqual(len(fixtures.room_fixtures(space)), len(lums))
+        self.assertEqual(params.load_locate()["threshold"], 120.0)
+        rep = self.path("report")
+        vr = runner.verify(self.doc, report_dir=rep)
+        self.assertIsNotNone(vr, messages.LOG[-1:])
+        self.assertEqual(self.doc.UndoCount, n + 3)
+        self.assertTrue(os.path.isfile(os.path.join(rep, "summary.json")))
+        with open(os.path.join(rep, "summary.json")) as fh:
+            self.assertTrue(json.load(fh)["metrics"])
+        self.assertIsNotNone(self.doc.getObject(results.SHEET_NAME))
+        runner.forget(self.doc.Name)
+        self.assertIsNone(runner.stored(self.doc))
+
+
+def _gui_available():
+    if os.environ.get("INVRAD_NO_GUI"):
+        return "INVRAD_NO_GUI is set"
+    for exe in ("xvfb-run", os.environ.get("INVRAD_FREECAD", "freecad")):
+        if not shutil.which(exe):
+            return f"{exe} not found"
+    return None
+
+
+class TestGuiUnderXvfb(FreeCADTestCase):
+    """The real GUI: tests/freecad/gui_smoke.py --quick (about a minute)."""
+
+    def test_smoke(self):
+        why = _gui_available()
+        if why:
+            self.skipTest(why)
+        import gui_smoke
+        out = self.path("smoke")
+        rc = gui_smoke.relaunch(["--quick", "--quiet", "--out", out, "--timeout", "600"])
+        with open(os.path.join(out, "gui_smoke.json")) as fh:
+            data = json.load(fh)
+        failed = [c for c in data["checks"] if not c["ok"]]
+        self.assertEqual(failed, [], f"messages: {data.get('messages', [])[-5:]}")
+        self.assertTrue(data["finished"])
+        self.assertEqual(rc, 0)
+        self.assertGreaterEqual(len(data["checks"]), 40)
