@@ -2,7 +2,8 @@
 #   make demo   set up (first time: Debian packages + venv) and locate the luminaires of the
 #               bundled example, with vote maps and a verification report under out/
 #   make test   set up and run every test: pytest on the core, then FreeCAD's under freecadcmd
-# Other targets: make setup, make bench, make examples (regenerate examples/), make clean.
+# Other targets: make setup, make bench, make gui-smoke (GUI under Xvfb, screenshots),
+# make examples (regenerate examples/), make clean.
 
 VENV   := .venv
 PY     := $(VENV)/bin/python
@@ -10,7 +11,7 @@ SITE    = $(shell $(PY) -c 'import site; print(site.getsitepackages()[0])')
 FCPATH  = PYTHONPATH=$(SITE):$(CURDIR) QT_QPA_PLATFORM=offscreen
 OUT    := out
 
-.PHONY: setup demo test test-core test-freecad bench examples clean
+.PHONY: setup demo test test-core test-freecad gui-smoke bench examples clean
 
 setup:
 	@./.ci/setup.sh
@@ -30,9 +31,13 @@ test-core:
 test-freecad:
 	$(FCPATH) freecadcmd tests/freecad/run.py
 
+gui-smoke: setup
+	$(PY) tests/freecad/gui_smoke.py --fzk
+
 bench: setup
 	$(PY) bench/bench_render.py
 	$(PY) bench/bench_locate.py
+	$(PY) bench/bench_random.py
 
 examples: setup
 	$(PY) examples/make_examples.py
