@@ -175,6 +175,27 @@ def check_backend(backend):
     return backend
 
 
+def float4(a, w=None):
+    """(k, 3) values -> (k, 4) float32 for ``float4`` kernel arguments; ``w`` fills column 3."""
+    import numpy as np
+    a = np.asarray(a, dtype=np.float64).reshape(-1, 3)
+    out = np.zeros((len(a), 4), np.float32)
+    out[:, :3] = a
+    if w is not None:
+        out[:, 3] = w
+    return out
+
+
+def device_buffer(env, array):
+    """A read-only device copy of a host array (empty arrays get a 4-element stand-in)."""
+    import numpy as np
+    a = np.ascontiguousarray(array)
+    if a.size == 0:
+        a = np.zeros(4, a.dtype)
+    mf = env.cl.mem_flags
+    return env.cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
+
+
 def round_up(n, m):
     return ((int(n) + m - 1) // m) * m
 

@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import constants as C
 from .bvh import BVH, segments_occluded_numpy
-from .clenv import get_env, check_backend, launch_chunked
+from .clenv import get_env, check_backend, launch_chunked, float4
 from .luminaires import emitter_samples
 
 
@@ -54,14 +54,6 @@ def direct_illuminance_numpy(points, normals, luminaires, bvh=None, occlusion=Tr
     return out
 
 
-def _f4(a, w=None):
-    a = np.asarray(a, dtype=np.float64)
-    out = np.zeros((len(a), 4), np.float32)
-    out[:, :3] = a
-    if w is not None:
-        out[:, 3] = w
-    return out
-
 
 def direct_illuminance_opencl(points, normals, luminaires, bvh=None, occlusion=True):
     """Direct illuminance on the OpenCL device (same contract as the numpy twin)."""
@@ -79,10 +71,10 @@ def direct_illuminance_opencl(points, normals, luminaires, bvh=None, occlusion=T
     mf = cl.mem_flags
     bufs = bvh.cl_buffers(env)
     out = np.empty(n, np.float32)
-    d_pts = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=_f4(points))
-    d_nrm = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=_f4(normals))
-    d_epos = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=_f4(pos))
-    d_enrm = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=_f4(nrm, flux))
+    d_pts = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=float4(points))
+    d_nrm = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=float4(normals))
+    d_epos = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=float4(pos))
+    d_enrm = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=float4(nrm, flux))
     d_out = cl.Buffer(env.ctx, mf.WRITE_ONLY, out.nbytes)
     launch_chunked(env, knl, n, (d_pts, d_nrm, np.int32(len(pos)), d_epos, d_enrm,
                                  np.float32(C.RAY_EPS_M)), (*bufs, d_out),

@@ -39,7 +39,7 @@ from .raster import locate_points
 
 # ---------------------------------------------------------------------------- colours
 #: viridis, matplotlib's values at 9 evenly spaced points, interpolated linearly
-#: (identical to :data:`invrad_wb.gui.display.VIRIDIS`, so the 3D view reads the same)
+#: (the workbench overlay, :mod:`invrad_wb.gui.display`, uses it too)
 VIRIDIS = np.array([[68, 1, 84], [71, 44, 122], [59, 81, 139], [44, 113, 142],
                     [33, 144, 141], [39, 173, 129], [92, 200, 99], [170, 220, 50],
                     [253, 231, 37]], dtype=np.float64)
@@ -110,7 +110,7 @@ def diverging(values, limit=DEVIATION_LIMIT):
 def nice_max(value):
     """A round top of scale >= ``value`` (1, 1.5, 2, 2.5, 3, 4, 5, 6, 8 x 10^k).
 
-    The same rule as the workbench overlay (:func:`invrad_wb.gui.display.nice_max`).
+    The workbench overlay (:mod:`invrad_wb.gui.display`) uses this rule too.
     """
     v = float(value)
     if not np.isfinite(v) or v <= 0:

@@ -76,7 +76,7 @@ import numpy as np
 from .. import constants as C
 from ..errors import SettingsError
 from .bvh import BVH
-from .clenv import check_backend, get_env, round_up
+from .clenv import check_backend, get_env, round_up, float4
 
 #: Patches per OpenCL work-item (float16 lanes) and triangles per near-field vector.
 PATCH_LANES = 16
@@ -436,11 +436,6 @@ def _form_factors_numpy(points, normals, point_plane, ps, point_patch, vis):
     return out
 
 
-def _f4(a):
-    out = np.zeros((len(a), 4), np.float32)
-    out[:, :3] = a
-    return out
-
 
 def _form_factors_opencl(points, normals, point_plane, ps, point_patch, vis, centre):
     """Form factors with ``kernels/radiosity.cl`` (float32); see :func:`form_factor_matrix`."""
@@ -475,8 +470,8 @@ def _form_factors_opencl(points, normals, point_plane, ps, point_patch, vis, cen
         e = min(k, s + rows)
         c = e - s
         d_pts = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR,
-                          hostbuf=_f4(points[s:e] - centre))
-        d_nrm = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=_f4(normals[s:e]))
+                          hostbuf=float4(points[s:e] - centre))
+        d_nrm = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=float4(normals[s:e]))
         d_inf = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR,
                           hostbuf=np.ascontiguousarray(info[s:e]))
         knl(env.queue, (round_up(c, 8), nblk), None, np.int32(c), np.int32(ppad),

@@ -20,7 +20,7 @@ import numpy as np
 from .. import constants as C
 from ..errors import SettingsError
 from .bvh import segments_occluded_numpy
-from .clenv import get_env, round_up, launch_chunked
+from .clenv import get_env, round_up, launch_chunked, float4, device_buffer
 from .formfactor import _g1, _x_max_unit
 
 WEIGHTINGS = ("illumination", "distance", "both", "none")
@@ -178,22 +178,14 @@ def cast_exact_numpy(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
     return out
 
 
-def _f4(a, w=None):
-    a = np.asarray(a, dtype=np.float64).reshape(-1, 3)
-    out = np.zeros((len(a), 4), np.float32)
-    out[:, :3] = a
-    if w is not None:
-        out[:, 3] = w
-    return out
-
 
 def canvas_device_arrays(canvas):
     """Per-map arrays and 16-pixel work blocks for the vote kernels."""
     maps = canvas.maps
-    origin = _f4([m.origin for m in maps])
-    u = _f4([m.u for m in maps])
-    v = _f4([m.v for m in maps])
-    n = _f4([m.normal for m in maps], [m.offset for m in maps])
+    origin = float4([m.origin for m in maps])
+    u = float4([m.u for m in maps])
+    v = float4([m.v for m in maps])
+    n = float4([m.normal for m in maps], [m.offset for m in maps])
     info = np.array([[m.start, m.stride, m.shape[1], m.shape[0]] for m in maps], np.int32)
     blocks = []
     for mi, m in enumerate(maps):
@@ -228,10 +220,7 @@ def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
         lnE = np.log(np.maximum(vote_lux, 1e-30) / flux)
 
     def buf(a):
-        a = np.ascontiguousarray(a)
-        if a.size == 0:
-            a = np.zeros(4, a.dtype)
-        return cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
+        return device_buffer(env, a)
 
     if occlusion:
         bvh_bufs = bvh.cl_buffers(env)
@@ -239,7 +228,7 @@ def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
         from .bvh import BVH
         bvh_bufs = BVH(np.zeros((0, 3, 3))).cl_buffers(env)
     if use_shade:
-        sp, sn = _f4(shade.positions), _f4(shade.normals)
+        sp, sn = float4(shade.positions), float4(shade.normals)
         ln_lim = float(np.log(shade_limit_lux / flux))
         ns = len(shade)
     else:
@@ -250,7 +239,7 @@ def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
     launch_chunked(env, knl, nb,
                    (buf(blocks), buf(origin), buf(u), buf(v), buf(n), buf(info),
                     np.float32(canvas.pixel), np.int32(len(points)),
-                    buf(_f4(points.positions, lnE)), buf(_f4(points.normals)),
+                    buf(float4(points.positions, lnE)), buf(float4(points.normals)),
                     buf(np.ascontiguousarray(W, np.float32)), np.int32(ns), buf(sp), buf(sn),
                     np.float32(ln_lim), np.float32(C.RAY_EPS_M), np.float32(baseline)),
                    (*bvh_bufs, d_out),

@@ -22,7 +22,7 @@ import numpy as np
 
 from .. import constants as C
 from .bvh import BVH, segments_occluded_numpy
-from .clenv import get_env, launch_chunked
+from .clenv import get_env, launch_chunked, float4, device_buffer
 from .table import load_voting_table
 
 FIXED_POINT = 65536.0
@@ -177,18 +177,10 @@ def cast_ellipse_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
     occlusion = bvh is not None and bvh.n_triangles > 0
     knl = env.kernel("votes_ellipse", "ellipse_votes", [f"-D OCCLUSION={int(occlusion)}"])
 
-    def f4(a, w=None):
-        o = np.zeros((len(a), 4), np.float32)
-        o[:, :3] = a
-        if w is not None:
-            o[:, 3] = w
-        return o
+    f4 = float4
 
     def buf(a):
-        a = np.ascontiguousarray(a)
-        if a.size == 0:
-            a = np.zeros(4, a.dtype)
-        return cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
+        return device_buffer(env, a)
 
     maps = canvas.maps
     m_origin = f4(np.array([m.origin for m in maps]))

@@ -24,12 +24,12 @@ headless; the coin part runs only with FreeCAD's GUI.
 """
 import numpy as np
 
-#: The colour map: viridis (matplotlib's values at 9 points, linearly interpolated), the
-#: map of the HTML report's images (:mod:`invrad_wb.core.images`), so that the 3D view
-#: and the report read the same.
-VIRIDIS = np.array([[68, 1, 84], [71, 44, 122], [59, 81, 139], [44, 113, 142],
-                    [33, 144, 141], [39, 173, 129], [92, 200, 99], [170, 220, 50],
-                    [253, 231, 37]], dtype=np.float64) / 255.0
+from ..core import images as _images
+
+#: The colour map and the scale rule are the report's (:mod:`invrad_wb.core.images`), so
+#: that the 3D view and the report read the same: viridis, RGB in [0, 1] here.
+VIRIDIS = _images.VIRIDIS / 255.0
+nice_max = _images.nice_max
 #: Colours (RGB in [0, 1]) of vertices without a target (the report's grey) and of shade
 #: targets (0 lx, "must stay dark"; darker than the map's low end).
 NO_TARGET_RGB = (150 / 255.0, 150 / 255.0, 150 / 255.0)
@@ -47,18 +47,6 @@ def colour_map(x):
     i = np.minimum(np.floor(t).astype(np.int64), len(VIRIDIS) - 2)
     f = (t - i)[..., None]
     return VIRIDIS[i] * (1 - f) + VIRIDIS[i + 1] * f
-
-
-def nice_max(value):
-    """A round upper end of the scale >= ``value`` (1, 1.5, 2, 2.5, 3, 4, 5, 6, 8 x 10^k)."""
-    v = float(value)
-    if not np.isfinite(v) or v <= 0:
-        return 1.0
-    k = np.floor(np.log10(v))
-    for m in (1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0):
-        if m * 10 ** k >= v * (1 - 1e-9):
-            return float(m * 10 ** k)
-    return float(10 ** (k + 1))
 
 
 def ticks(vmax, n=5):
