@@ -15,8 +15,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import numpy as np  # noqa: E402
 
 from invrad_wb.core.clenv import opencl_available, get_env  # noqa: E402
-from invrad_wb.core.locate import locate, occluding_faces  # noqa: E402
-from invrad_wb.core.bvh import BVH  # noqa: E402
+from invrad_wb.core.locate import locate  # noqa: E402
 from invrad_wb.core.sampling import voting_points  # noqa: E402
 from invrad_wb.core.scenarios import known_scene, match, SCENARIOS  # noqa: E402
 from invrad_wb.core.votemaps import build_canvas  # noqa: E402
@@ -72,7 +71,6 @@ def accuracy_table(backend, models, rhos, repeat):
             ok = all(r[3]["found"] == r[3]["true"] and r[3]["spurious"] == 0
                      and r[3]["max_error_cm"] < 10 for r in sel)
             worst = max(r[3]["max_error_cm"] or 99 for r in sel)
-            per_room = np.median([r[4] / len(r[3]["errors_cm"] or [1]) for r in sel])
             tot = np.median([r[4] for r in sel])
             print(f"  {model:8s} rho {rho:.1f}: all found, none spurious: {ok};"
                   f" worst error {worst:.2f} cm; median {tot:.2f} s per scene")

@@ -29,14 +29,13 @@ sets. Invrad's target objects are left out of the export.
 from dataclasses import dataclass, field
 import math
 import os
-import shutil
 import tempfile
 
 import numpy as np
 
 from ..errors import SceneError
 from . import settings as S
-from .document import activate, describe, object_type
+from .document import activate, describe
 from .fixtures import all_fixtures, fixture_luminaire, fixture_room
 from .rooms import find_spaces, space_uid
 

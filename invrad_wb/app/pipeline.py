@@ -19,7 +19,7 @@ leaves the document exactly as it was.
 
 GUI commands call :func:`run` (or :func:`prepare` to preview meshes and targets).
 """
-from dataclasses import dataclass, field, asdict
+from dataclasses import dataclass, field
 import json
 import os
 import time

@@ -111,7 +111,6 @@ def add_box_occluder(mb, lo, hi, room=0, reflectance=0.5, skip_bottom=None, skip
     hi = np.asarray(hi, dtype=np.float64)
     x0, y0, z0 = lo
     x1, y1, z1 = hi
-    c = (lo + hi) / 2
     quads = [
         ([x0, y0, z0], [x1, y0, z0], [x1, y0, z1], [x0, y0, z1], [0, -1, 0]),
         ([x0, y1, z0], [x1, y1, z0], [x1, y1, z1], [x0, y1, z1], [0, 1, 0]),

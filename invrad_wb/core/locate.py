@@ -20,15 +20,13 @@ dummy planes):
 re-runs steps 4-5 with a new threshold/neighbourhood without voting again.
 """
 from dataclasses import dataclass, field, asdict
-import os
 import time
 
 import numpy as np
 
-from .. import constants as C
 from ..errors import Cancelled, SceneError, SettingsError
 from .bvh import BVH
-from .clenv import check_backend, get_env
+from .clenv import check_backend
 from .luminaires import Luminaire
 from .peaks import find_peaks
 from .refine import Light, RefineProblem, greedy_select, swap_search

@@ -972,7 +972,6 @@ class RadiosityModel:
         """The :class:`GatherOperator` of the scene's vertices (built once)."""
         if self._vertex_op is None:
             t = time.perf_counter()
-            sc = self.scene
             pts, nrm = self.vertex_receivers()
             self._vertex_op = self.gather(pts, nrm, self.vertex_patch)
             self.timings["vertex_gather"] = time.perf_counter() - t

@@ -20,7 +20,7 @@ different light on each plane, so such vertices are split: after construction ev
 belongs to exactly one plane (``vertex_plane``), and ``vertex_source`` maps it back to the
 vertex index of the input arrays.
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 import functools
 
 import numpy as np

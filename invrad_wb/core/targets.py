@@ -44,7 +44,7 @@ texture targets in the given order (a later one replaces an earlier one where it
 value); then spots add to it taking the maximum (a spot on a 100 lx uniform surface rises
 from 100 lx to its peak; a spot alone fades to 0 lx at its rim); shades come last and win.
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Optional, Sequence
 
 import numpy as np

@@ -247,7 +247,6 @@ def dummy_layer_heights(scene, room, spacing, count=None, lowest=None):
     """
     sel = (scene.face_room == room) & ~scene.face_virtual
     n = scene.face_normals[sel]
-    z = scene.face_centroids[sel][:, 2]
     tri = scene.triangles[sel]
     up, down = n[:, 2] > 0.3, n[:, 2] < -0.3
     if not up.any() or not down.any():

@@ -20,7 +20,7 @@ import numpy as np
 from .. import constants as C
 from ..errors import SettingsError
 from .bvh import segments_occluded_numpy
-from .clenv import get_env, round_up, launch_chunked, float4, device_buffer
+from .clenv import get_env, launch_chunked, float4, device_buffer
 from .formfactor import _g1, _x_max_unit
 
 WEIGHTINGS = ("illumination", "distance", "both", "none")
