@@ -19,7 +19,6 @@ Usage: python tables/make_voting_table.py [--levels 512] [--q-min 1e-4] [--check
        [--bench]
 """
 import argparse
-import hashlib
 import json
 import math
 import os
@@ -34,6 +33,7 @@ sys.path.insert(0, os.path.dirname(HERE))
 
 from invrad_wb.core import formfactor as ff  # noqa: E402
 from invrad_wb.core.atomic import atomic_path, atomic_write_text  # noqa: E402
+from invrad_wb.core.table import sha256  # noqa: E402
 
 #: Bump when the generator's numbers change; table.py checks FORMAT, not this.
 VERSION = 1
@@ -113,14 +113,6 @@ def summary(arrs, angles, q):
             "median_over_angles": float(np.median(fe[:, jj])),
             "thesis_max_over_angles": float(ft[:, jj].max())}
     return out
-
-
-def sha256(path):
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 def check(npz_path, n, k, k_orth, n_check, seed=7):

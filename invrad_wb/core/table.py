@@ -199,7 +199,8 @@ def table_paths(folder=None):
     return (os.path.join(folder, TABLE_NAME + ".npz"), os.path.join(folder, TABLE_NAME + ".json"))
 
 
-def _sha256(path):
+def sha256(path):
+    """Hex sha256 of a file (the checksum recorded next to generated tables)."""
     h = hashlib.sha256()
     with open(path, "rb") as fh:
         for chunk in iter(lambda: fh.read(1 << 20), b""):
@@ -247,7 +248,7 @@ def load_voting_table(folder=None, verify=True, reload=False):
         if meta.get("format") != FORMAT or "sha256" not in meta:
             raise InvradError(f"voting table {js} has format {meta.get('format')!r}, "
                               f"this invrad reads format {FORMAT}; {REGENERATE}")
-        if verify and _sha256(npz) != meta["sha256"]:
+        if verify and sha256(npz) != meta["sha256"]:
             raise InvradError(f"voting table {npz} is corrupt: its sha256 does not match "
                               f"{js}; {REGENERATE}")
         try:
