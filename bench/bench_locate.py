@@ -14,13 +14,13 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import numpy as np  # noqa: E402
 
-from invrad_wb.core.clenv import opencl_available, get_env  # noqa: E402
-from invrad_wb.core.locate import locate  # noqa: E402
-from invrad_wb.core.sampling import voting_points  # noqa: E402
-from invrad_wb.core.scenarios import known_scene, match, SCENARIOS  # noqa: E402
-from invrad_wb.core.votemaps import build_canvas  # noqa: E402
-from invrad_wb.core.votes import vote_weights, cast_exact_numpy, cast_exact_opencl  # noqa: E402
-from invrad_wb.core.votes_ellipse import (cast_ellipse_numpy, cast_ellipse_opencl,  # noqa: E402
+from invrad_wb.core.accel.clenv import opencl_available, get_env  # noqa: E402
+from invrad_wb.core.inverse.locate import locate  # noqa: E402
+from invrad_wb.core.inverse.sampling import voting_points  # noqa: E402
+from invrad_wb.core.synthetic.scenarios import known_scene, match, SCENARIOS  # noqa: E402
+from invrad_wb.core.inverse.votemaps import build_canvas  # noqa: E402
+from invrad_wb.core.inverse.votes import vote_weights, cast_exact_numpy, cast_exact_opencl  # noqa: E402
+from invrad_wb.core.inverse.votes_ellipse import (cast_ellipse_numpy, cast_ellipse_opencl,  # noqa: E402
                                           ellipse_votes_params)
 
 

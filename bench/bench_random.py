@@ -17,11 +17,11 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import numpy as np  # noqa: E402
 
-from invrad_wb.core import generate as g  # noqa: E402
-from invrad_wb.core.locate import locate  # noqa: E402
-from invrad_wb.core.luminaires import Luminaire  # noqa: E402
-from invrad_wb.core.render import render  # noqa: E402
-from invrad_wb.core.scenarios import match  # noqa: E402
+from invrad_wb.core.synthetic import generate as g  # noqa: E402
+from invrad_wb.core.inverse.locate import locate  # noqa: E402
+from invrad_wb.core.model.luminaires import Luminaire  # noqa: E402
+from invrad_wb.core.forward.render import render  # noqa: E402
+from invrad_wb.core.synthetic.scenarios import match  # noqa: E402
 
 
 def random_scene(rng, interreflection):

@@ -13,10 +13,10 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import numpy as np  # noqa: E402
 
-from invrad_wb.core import generate as g  # noqa: E402
-from invrad_wb.core.clenv import opencl_available, get_env  # noqa: E402
-from invrad_wb.core.luminaires import Luminaire  # noqa: E402
-from invrad_wb.core.render import render  # noqa: E402
+from invrad_wb.core.synthetic import generate as g  # noqa: E402
+from invrad_wb.core.accel.clenv import opencl_available, get_env  # noqa: E402
+from invrad_wb.core.model.luminaires import Luminaire  # noqa: E402
+from invrad_wb.core.forward.render import render  # noqa: E402
 
 
 def best_of(fn, repeat):

@@ -10,10 +10,10 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from invrad_wb.core import generate as g  # noqa: E402
-from invrad_wb.core.luminaires import Luminaire, write_luminaires_json  # noqa: E402
-from invrad_wb.core.render import render  # noqa: E402
-from invrad_wb.core.sceneio import write_scene  # noqa: E402
+from invrad_wb.core.synthetic import generate as g  # noqa: E402
+from invrad_wb.core.model.luminaires import Luminaire, write_luminaires_json  # noqa: E402
+from invrad_wb.core.forward.render import render  # noqa: E402
+from invrad_wb.core.io.sceneio import write_scene  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 

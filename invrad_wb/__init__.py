@@ -14,18 +14,18 @@ __version__ = "0.1.0"
 
 
 def locate(scene, flux_lm, settings=None, **kwargs):
-    """Find luminaire positions; see :func:`invrad_wb.core.locate.locate`."""
-    from .core.locate import locate as _locate
+    """Find luminaire positions; see :func:`invrad_wb.core.inverse.locate.locate`."""
+    from invrad_wb.core.inverse.locate import locate as _locate
     return _locate(scene, flux_lm, settings=settings, **kwargs)
 
 
 def render(scene, luminaires, **kwargs):
-    """Illuminance at the scene's vertices; see :func:`invrad_wb.core.render.render`."""
-    from .core.render import render as _render
+    """Illuminance at the scene's vertices; see :func:`invrad_wb.core.forward.render.render`."""
+    from invrad_wb.core.forward.render import render as _render
     return _render(scene, luminaires, **kwargs)
 
 
 def read_scene(path, **kwargs):
-    """Read a scene file; see :func:`invrad_wb.core.sceneio.read_scene`."""
-    from .core.sceneio import read_scene as _read
+    """Read a scene file; see :func:`invrad_wb.core.io.sceneio.read_scene`."""
+    from invrad_wb.core.io.sceneio import read_scene as _read
     return _read(path, **kwargs)

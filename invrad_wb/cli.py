@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from .errors import InvradError
+from invrad_wb.errors import InvradError
 
 
 def _scene_args(p):
@@ -40,15 +40,15 @@ def _scene_args(p):
 
 
 def _read(args):
-    from .core.sceneio import read_scene
+    from invrad_wb.core.io.sceneio import read_scene
     return read_scene(args.scene, lux=args.lux, texture=args.texture,
                       texture_max_lux=args.texture_max_lux, unit=args.unit)
 
 
 def _cmd_render(args):
-    from .core.luminaires import load_luminaires
-    from .core.render import render
-    from .core.sceneio import write_scene
+    from invrad_wb.core.model.luminaires import load_luminaires
+    from invrad_wb.core.forward.render import render
+    from invrad_wb.core.io.sceneio import write_scene
     scene = _read(args)
     lums = load_luminaires(args.luminaires)
     t = time.time()
@@ -62,7 +62,7 @@ def _cmd_render(args):
 
 
 def _settings_from_args(args):
-    from .core.locate import LocateSettings
+    from invrad_wb.core.inverse.locate import LocateSettings
     s = LocateSettings()
     for f in fields(LocateSettings):
         v = getattr(args, f.name, None)
@@ -79,8 +79,8 @@ def _settings_from_args(args):
 
 
 def _cmd_locate(args):
-    from .core.atomic import atomic_write_text
-    from .core.locate import locate
+    from invrad_wb.core.io.atomic import atomic_write_text
+    from invrad_wb.core.inverse.locate import locate
     scene = _read(args)
     settings = _settings_from_args(args)
 
@@ -106,9 +106,9 @@ def _cmd_locate(args):
 
 
 def _cmd_verify(args):
-    from .core.luminaires import load_luminaires
-    from .core.render import render
-    from .core.report import build_report
+    from invrad_wb.core.model.luminaires import load_luminaires
+    from invrad_wb.core.forward.render import render
+    from invrad_wb.core.output.report import build_report
     scene = _read(args)
     lums = load_luminaires(args.luminaires)
     achieved = render(scene, lums, interreflection=not args.no_interreflection,
@@ -119,9 +119,9 @@ def _cmd_verify(args):
 
 
 def _cmd_example(args):
-    from .core.luminaires import write_luminaires_json
-    from .core.scenarios import known_scene, SCENARIOS
-    from .core.sceneio import write_scene
+    from invrad_wb.core.model.luminaires import write_luminaires_json
+    from invrad_wb.core.synthetic.scenarios import known_scene, SCENARIOS
+    from invrad_wb.core.io.sceneio import write_scene
     if args.name not in SCENARIOS:
         raise InvradError(f"unknown example {args.name!r}; choose one of {', '.join(SCENARIOS)}")
     scene, lums = known_scene(args.name, reflectance=args.reflectance, cell=args.cell,
@@ -228,7 +228,7 @@ def build_parser():
     p.set_defaults(func=_cmd_info)
 
     try:
-        from . import freecad_cli
+        from invrad_wb import freecad_cli
         freecad_cli.add_parser(sub)
     except ImportError:
         pass

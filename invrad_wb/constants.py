@@ -4,12 +4,22 @@ All physical quantities are SI: metres, lux, lumens, candela.
 """
 import os
 
-#: Root of the checkout / installed workbench (holds kernels/ and tables/).
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-KERNELS_DIR = os.path.join(ROOT, "kernels")
-TABLES_DIR = os.path.join(ROOT, "tables")
-RESOURCES_DIR = os.path.join(ROOT, "resources")
-EXAMPLES_DIR = os.path.join(ROOT, "examples")
+#: The package folder and the checkout / workbench folder above it.
+PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(PACKAGE_DIR)
+
+
+def _data_dir(name):
+    """``kernels/``, ``tables/`` or ``resources/``: inside the package when installed
+    (``pip install .`` maps them to ``invrad_wb/<name>``), else at the checkout's top level
+    (the FreeCAD workbench layout, and editable installs)."""
+    inside = os.path.join(PACKAGE_DIR, name)
+    return inside if os.path.isdir(inside) else os.path.join(ROOT, name)
+
+
+KERNELS_DIR = _data_dir("kernels")
+TABLES_DIR = _data_dir("tables")
+RESOURCES_DIR = _data_dir("resources")
 
 #: Geometric tolerance in metres: points closer than this are the same point,
 #: planes whose offsets differ by less are the same plane.

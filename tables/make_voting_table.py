@@ -5,8 +5,8 @@ For every angle ``alpha`` between the voting point's normal and the luminaire pl
 and every level ``q = e / e_max`` below the maximum it stores the deformed ellipse
 ``(a, b, d, x_m, y_m)`` of the contour ``e`` at *unit distance*; the distance dimension of
 the thesis' table is exact scaling (``e ~ 1/h^2``, lengths ~ ``h``, see
-``invrad_wb/core/formfactor.py``), which also lifts its 0.1-10 m limit. Layout, axes and the
-interpolation the vote kernel must use are documented in ``invrad_wb/core/table.py`` and
+``invrad_wb/core/inverse/formfactor.py``), which also lifts its 0.1-10 m limit. Layout, axes and the
+interpolation the vote kernel must use are documented in ``invrad_wb/core/inverse/table.py`` and
 ``tables/README.md``.
 
 Every entry is fitted from the thesis' starting values (no warm start), so any entry can be
@@ -31,13 +31,13 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
-from invrad_wb.core import formfactor as ff  # noqa: E402
-from invrad_wb.core.atomic import atomic_path, atomic_write_text  # noqa: E402
-from invrad_wb.core.table import sha256  # noqa: E402
+from invrad_wb.core.inverse import formfactor as ff  # noqa: E402
+from invrad_wb.core.io.atomic import atomic_path, atomic_write_text  # noqa: E402
+from invrad_wb.core.inverse.table import sha256  # noqa: E402
 
 #: Bump when the generator's numbers change; table.py checks FORMAT, not this.
 VERSION = 1
-#: Layout version of the npz; invrad_wb.core.table refuses other formats.
+#: Layout version of the npz; invrad_wb.core.inverse.table refuses other formats.
 FORMAT = 1
 #: Columns of (a, b, d, x_m, y_m) that are lengths (stored in units of h * r_max).
 LENGTHS = [0, 1, 3, 4]

@@ -17,7 +17,7 @@ def pytest_configure(config):
 
 
 def pytest_collection_modifyitems(config, items):
-    from invrad_wb.core import clenv
+    from invrad_wb.core.accel import clenv
     if clenv.opencl_available():
         return
     skip = pytest.mark.skip(reason="no OpenCL device")

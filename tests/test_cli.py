@@ -46,7 +46,7 @@ def test_example_locate_verify_round_trip(tmp_path):
     out = tmp_path / "rendered.ply"
     run("render", str(scene), "--luminaires", str(truth), "-o", str(out),
         "--no-interreflection", check=True)
-    from invrad_wb.core.sceneio import read_scene
+    from invrad_wb.core.io.sceneio import read_scene
     a, b = read_scene(str(scene)), read_scene(str(out))
     assert np.allclose(a.vertex_lux, b.vertex_lux, rtol=1e-4, atol=1e-3)
 
@@ -79,8 +79,8 @@ def test_errors_are_one_line_with_status_2(tmp_path, args, needle):
 
 
 def test_millimetre_file_needs_unit(tmp_path):
-    from invrad_wb.core import generate as g
-    from invrad_wb.core.sceneio import write_scene
+    from invrad_wb.core.synthetic import generate as g
+    from invrad_wb.core.io.sceneio import write_scene
     s = g.box_room((6, 4, 3), cell=1.0)
     s.vertices = s.vertices * 1000.0
     path = tmp_path / "mm.ply"

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from invrad_wb.core import formfactor as ff
+from invrad_wb.core.inverse import formfactor as ff
 from invrad_wb.errors import InvradError, SettingsError
 
 ALPHAS_DEG = (5.0, 30.0, 60.0, 90.0, 120.0, 135.0, 170.0, 180.0)

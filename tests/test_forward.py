@@ -2,11 +2,11 @@
 import numpy as np
 import pytest
 
-from invrad_wb.core import generate as g
-from invrad_wb.core.bvh import BVH, segments_occluded_bruteforce, segments_occluded_numpy
-from invrad_wb.core.direct import direct_illuminance_numpy, direct_illuminance_opencl
-from invrad_wb.core.luminaires import Luminaire, disk_quadrature, load_luminaires
-from invrad_wb.core.render import render
+from invrad_wb.core.synthetic import generate as g
+from invrad_wb.core.geometry.bvh import BVH, segments_occluded_bruteforce, segments_occluded_numpy
+from invrad_wb.core.forward.direct import direct_illuminance_numpy, direct_illuminance_opencl
+from invrad_wb.core.model.luminaires import Luminaire, disk_quadrature, load_luminaires
+from invrad_wb.core.forward.render import render
 from invrad_wb.errors import LuminaireError
 
 BACKENDS = [direct_illuminance_numpy, pytest.param(direct_illuminance_opencl,
@@ -66,7 +66,7 @@ def test_bvh_numpy_matches_bruteforce(rng):
 
 @pytest.mark.opencl
 def test_bvh_opencl_matches_bruteforce(rng):
-    from invrad_wb.core.occlusion import segments_occluded_opencl
+    from invrad_wb.core.forward.occlusion import segments_occluded_opencl
     s = g.pillar_room(cell=0.3)
     bvh = BVH(s.triangles)
     p, q = _random_segments(rng, 2000, [0, 0, 0], [6, 4, 3])

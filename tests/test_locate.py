@@ -2,17 +2,17 @@
 import numpy as np
 import pytest
 
-from invrad_wb.core.clenv import opencl_available
-from invrad_wb.core import generate as g
-from invrad_wb.core.bvh import BVH
-from invrad_wb.core.locate import locate, LocateSettings, occluding_faces, room_is_convex
-from invrad_wb.core.luminaires import Luminaire
-from invrad_wb.core.peaks import find_peaks
-from invrad_wb.core.render import render
-from invrad_wb.core.sampling import voting_points
-from invrad_wb.core.scenarios import known_scene, match, SCENARIOS
-from invrad_wb.core.votemaps import build_canvas
-from invrad_wb.core.votes import (vote_weights, cast_exact_numpy, cast_exact_opencl,
+from invrad_wb.core.accel.clenv import opencl_available
+from invrad_wb.core.synthetic import generate as g
+from invrad_wb.core.geometry.bvh import BVH
+from invrad_wb.core.inverse.locate import locate, LocateSettings, occluding_faces, room_is_convex
+from invrad_wb.core.model.luminaires import Luminaire
+from invrad_wb.core.inverse.peaks import find_peaks
+from invrad_wb.core.forward.render import render
+from invrad_wb.core.inverse.sampling import voting_points
+from invrad_wb.core.synthetic.scenarios import known_scene, match, SCENARIOS
+from invrad_wb.core.inverse.votemaps import build_canvas
+from invrad_wb.core.inverse.votes import (vote_weights, cast_exact_numpy, cast_exact_opencl,
                                   emax_per_lumen)
 from invrad_wb.errors import Cancelled, SettingsError, SceneError
 
@@ -130,7 +130,7 @@ def test_locate_direct_light_scenarios(name):
 def test_repeak_does_not_vote_again(monkeypatch):
     scene, true = known_scene("two_ceiling", reflectance=0.0, backend=BACKEND)
     r = locate(scene, 3000.0, backend=BACKEND)
-    import invrad_wb.core.locate as L
+    import invrad_wb.core.inverse.locate as L
 
     def boom(*a, **k):
         raise AssertionError("votes cast again")
@@ -191,7 +191,7 @@ def test_progress_can_cancel():
 
 @pytest.mark.opencl
 def test_ellipse_votes_opencl_matches_numpy_twin():
-    from invrad_wb.core.votes_ellipse import cast_ellipse_numpy, cast_ellipse_opencl
+    from invrad_wb.core.inverse.votes_ellipse import cast_ellipse_numpy, cast_ellipse_opencl
     s = _small_case()
     pts = voting_points(s, density=30)
     canvas = build_canvas(s, 0, pixel=0.15, dummy_spacing=0.3)
@@ -207,8 +207,8 @@ def test_ellipse_votes_opencl_matches_numpy_twin():
 
 def test_ellipse_votes_lie_on_the_true_contour():
     # every vote of one point lies where a luminaire gives that point its illuminance
-    from invrad_wb.core.votes_ellipse import cast_ellipse_numpy
-    from invrad_wb.core.sampling import VotingPoints
+    from invrad_wb.core.inverse.votes_ellipse import cast_ellipse_numpy
+    from invrad_wb.core.inverse.sampling import VotingPoints
     s = g.box_room((6, 6, 3), cell=1.0)
     canvas = build_canvas(s, 0, pixel=0.05, dummy=False)
     k = next(i for i, m in enumerate(canvas.maps) if m.normal[2] < -0.9)

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from invrad_wb import constants as C
-from invrad_wb.core import clenv, generate
-from invrad_wb.core import radiosity as R
-from invrad_wb.core.luminaires import Luminaire
-from invrad_wb.core.render import render, scene_bvh
-from invrad_wb.core.scene import Scene
+from invrad_wb.core.accel import clenv; from invrad_wb.core.synthetic import generate
+from invrad_wb.core.forward import radiosity as R
+from invrad_wb.core.model.luminaires import Luminaire
+from invrad_wb.core.forward.render import render, scene_bvh
+from invrad_wb.core.model.scene import Scene
 from invrad_wb.errors import DeviceError, SettingsError
 
 HAVE_CL = clenv.opencl_available()

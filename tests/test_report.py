@@ -11,12 +11,12 @@ import os
 import numpy as np
 import pytest
 
-from invrad_wb.core import generate as g
-from invrad_wb.core import images as im
-from invrad_wb.core import report as R
-from invrad_wb.core.luminaires import Luminaire
-from invrad_wb.core.render import render
-from invrad_wb.core.report import build_report, describe_plane, room_metrics
+from invrad_wb.core.synthetic import generate as g
+from invrad_wb.core.output import images as im
+from invrad_wb.core.output import report as R
+from invrad_wb.core.model.luminaires import Luminaire
+from invrad_wb.core.forward.render import render
+from invrad_wb.core.output.report import build_report, describe_plane, room_metrics
 from invrad_wb.errors import SceneError
 
 H = 2.5          # luminaire height over the floor (m)

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from invrad_wb.core import generate as g
-from invrad_wb.core.scene import Scene, winding_number
+from invrad_wb.core.synthetic import generate as g
+from invrad_wb.core.model.scene import Scene, winding_number
 from invrad_wb.errors import SceneError
 
 

@@ -6,8 +6,8 @@ import os
 import numpy as np
 import pytest
 
-from invrad_wb.core import generate, sceneio
-from invrad_wb.core.scene import Scene
+from invrad_wb.core.synthetic import generate; from invrad_wb.core.io import sceneio
+from invrad_wb.core.model.scene import Scene
 from invrad_wb.errors import SceneError, SettingsError
 
 trimesh = pytest.importorskip("trimesh")

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from invrad_wb import constants as C
-from invrad_wb.core import formfactor as ff
-from invrad_wb.core.table import VotingTable, load_voting_table, table_paths
+from invrad_wb.core.inverse import formfactor as ff
+from invrad_wb.core.inverse.table import VotingTable, load_voting_table, table_paths
 from invrad_wb.errors import InvradError
 
 

@@ -1,13 +1,13 @@
-"""Target specifications -> per-vertex lux (invrad_wb.core.targets), without FreeCAD."""
+"""Target specifications -> per-vertex lux (invrad_wb.core.model.targets), without FreeCAD."""
 import math
 
 import numpy as np
 import pytest
 
-from invrad_wb.core import targets as T
-from invrad_wb.core.generate import box_room, sloped_room
-from invrad_wb.core.luminaires import Luminaire
-from invrad_wb.core.scene import Scene
+from invrad_wb.core.model import targets as T
+from invrad_wb.core.synthetic.generate import box_room, sloped_room
+from invrad_wb.core.model.luminaires import Luminaire
+from invrad_wb.core.model.scene import Scene
 from invrad_wb.errors import InvradError, SceneError
 
 
@@ -290,7 +290,7 @@ def test_work_plane_receives_light_through_a_virtual_scene(room):
     virtual = np.r_[np.zeros(len(f), bool), np.ones(len(wt), bool)]
     lux = np.r_[np.full(len(v), np.nan), wl]
     sc = Scene(verts, faces, vertex_lux=lux, face_virtual=virtual)
-    from invrad_wb.core.render import render
+    from invrad_wb.core.forward.render import render
     lum = Luminaire([2.0, 1.5, 2.7], [0, 0, -1], 1000.0)
     got = render(sc, [lum], interreflection=False, backend="numpy")
     on_wp = sc.face_virtual[np.repeat(np.arange(len(sc.faces)), 3)]

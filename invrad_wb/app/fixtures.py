@@ -24,11 +24,11 @@ removes the fixtures a previous invrad run put into the same rooms (``Generator`
 """
 import numpy as np
 
-from ..core.luminaires import Luminaire
-from ..errors import LuminaireError, SceneError
-from . import settings as S
-from .document import describe, object_type, transaction
-from .units import direction, m_to_mm, mm_to_m, vector_mm
+from invrad_wb.core.model.luminaires import Luminaire
+from invrad_wb.errors import LuminaireError, SceneError
+from invrad_wb.app import settings as S
+from invrad_wb.app.document import describe, object_type, transaction
+from invrad_wb.app.units import direction, m_to_mm, mm_to_m, vector_mm
 
 LIGHT_FIXTURE = "Light Fixture"
 
@@ -206,7 +206,7 @@ def insert_fixtures(doc, per_room, replace=True, name="Insert luminaires"):
 
 def remove_fixtures(doc, spaces=None):
     """Remove the invrad fixtures of some rooms (all rooms if None), one undoable step."""
-    from .rooms import find_spaces
+    from invrad_wb.app.rooms import find_spaces
     spaces = find_spaces(doc) if spaces is None else spaces
     with transaction(doc, "Remove luminaires"):
         n = 0

@@ -33,11 +33,11 @@ import tempfile
 
 import numpy as np
 
-from ..errors import SceneError
-from . import settings as S
-from .document import activate, describe
-from .fixtures import all_fixtures, fixture_luminaire, fixture_room
-from .rooms import find_spaces, space_uid
+from invrad_wb.errors import SceneError
+from invrad_wb.app import settings as S
+from invrad_wb.app.document import activate, describe
+from invrad_wb.app.fixtures import all_fixtures, fixture_luminaire, fixture_room
+from invrad_wb.app.rooms import find_spaces, space_uid
 
 
 @dataclass
@@ -58,8 +58,8 @@ def _is_internal(obj):
     """invrad's own bookkeeping objects, never exported: targets, their group and the
     metrics spreadsheet of Verify and report (FreeCAD's exporter would write a sheet
     as an IfcBuildingElementProxy)."""
-    from .results import SHEET_NAME
-    from .targets import is_target
+    from invrad_wb.app.results import SHEET_NAME
+    from invrad_wb.app.targets import is_target
     return is_target(obj) or (obj.TypeId == "App::DocumentObjectGroup"
                               and obj.Name.startswith("InvRadTargets")) \
         or (obj.TypeId == "Spreadsheet::Sheet" and obj.Name.startswith(SHEET_NAME))
@@ -126,7 +126,7 @@ def _set_requirements(ifc, doc, info):
     """Pset_SpaceLightingRequirements.Illuminance from each room's WorkPlane target."""
     import ifcopenshell.api.pset as PS
     import ifcopenshell.util.element as E
-    from .targets import work_plane_target
+    from invrad_wb.app.targets import work_plane_target
     for space in find_spaces(doc):
         wp = work_plane_target(space)
         if wp is None or not (math.isfinite(wp.Lux) and wp.Lux >= 0):
@@ -257,7 +257,7 @@ def _merge(doc, base_ifc, out_path):
 def _freecad_export(doc, out_path):
     import exportIFC
     import ifcopenshell
-    from .document import transaction
+    from invrad_wb.app.document import transaction
     objs = [o for o in doc.Objects if not _is_internal(o)]
     if not objs:
         raise SceneError("nothing to export", doc.Label)

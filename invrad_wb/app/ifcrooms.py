@@ -31,10 +31,10 @@ import time
 
 import numpy as np
 
-from ..errors import Cancelled, SceneError
-from . import settings as S
-from .document import activate, transaction
-from .units import MM_PER_M
+from invrad_wb.errors import Cancelled, SceneError
+from invrad_wb.app import settings as S
+from invrad_wb.app.document import activate, transaction
+from invrad_wb.app.units import MM_PER_M
 
 
 @dataclass
@@ -163,7 +163,7 @@ def invrad_fixture_data(entity, unit_scale):
     """A Luminaire from an IfcLightFixture written by invrad, or None if it is not one."""
     import ifcopenshell.util.element as E
     import ifcopenshell.util.placement as P
-    from ..core.luminaires import Luminaire
+    from invrad_wb.core.model.luminaires import Luminaire
     pset = E.get_psets(entity).get(S.IFC_LUMINAIRE_PSET)
     if not pset or entity.ObjectPlacement is None:
         return None
@@ -224,8 +224,8 @@ def import_ifc(path, doc=None, elements=False, progress=None):
     import Arch
     import ifcopenshell.geom
     import ifcopenshell.util.unit as U
-    from . import fixtures as FX
-    from . import targets as TG
+    from invrad_wb.app import fixtures as FX
+    from invrad_wb.app import targets as TG
     unit_scale = U.calculate_unit_scale(ifc)
     settings = geometry_settings()
     result = IfcImport(doc=doc, path=path, spaces=[], storeys={}, buildings=[])

@@ -4,13 +4,13 @@
 rooms asked for):
 
 1. meshes the room's boundary surfaces (metres, inward normals, per-surface reflectance)
-   and evaluates its targets into lux per vertex (:mod:`invrad_wb.core.targets`); the
+   and evaluates its targets into lux per vertex (:mod:`invrad_wb.core.model.targets`); the
    work plane joins as virtual faces (transparent, non-reflecting, never a mounting
    plane: ``Scene(face_virtual=...)``);
-2. builds ONE :class:`~invrad_wb.core.scene.Scene` of the building with a room id per
+2. builds ONE :class:`~invrad_wb.core.model.scene.Scene` of the building with a room id per
    room, and lets the core's ``locate`` find the luminaires room by room;
 3. verifies them with a forward render (with interreflection by default);
-4. writes a report (:func:`invrad_wb.core.report.build_report`, plus ``summary.json``);
+4. writes a report (:func:`invrad_wb.core.output.report.build_report`, plus ``summary.json``);
 5. inserts the luminaires as light fixtures, as one undoable transaction.
 
 Nothing in the document changes before step 5, and step 5 is all-or-nothing: a failed or
@@ -26,12 +26,12 @@ import time
 
 import numpy as np
 
-from ..core import targets as CT
-from ..errors import Cancelled, SceneError, SettingsError
-from . import settings as S
-from .document import describe
-from .rooms import find_spaces, get_space, mesh_room, room_shape
-from .targets import has_targets, room_specs
+from invrad_wb.core.model import targets as CT
+from invrad_wb.errors import Cancelled, SceneError, SettingsError
+from invrad_wb.app import settings as S
+from invrad_wb.app.document import describe
+from invrad_wb.app.rooms import find_spaces, get_space, mesh_room, room_shape
+from invrad_wb.app.targets import has_targets, room_specs
 
 
 @dataclass
@@ -157,7 +157,7 @@ def prepare(doc, settings, progress=None):
         No rooms, an open room, a target on a missing face, a bad lux value... naming the
         object at fault.
     """
-    from ..core.scene import Scene
+    from invrad_wb.core.model.scene import Scene
     t0 = time.perf_counter()
     report = _progress(progress, 0.0, 1.0)
     spaces = select_rooms(doc, settings.rooms)
@@ -241,7 +241,7 @@ def run(doc, settings, progress=None, locate=None, building=None):
         Return False to cancel: raises Cancelled and leaves the document unchanged.
     locate : callable, optional
         ``locate(scene, flux_lm=..., settings=..., progress=..., backend=...)`` returning an
-        object with ``.luminaires``; default :func:`invrad_wb.core.locate.locate`.
+        object with ``.luminaires``; default :func:`invrad_wb.core.inverse.locate.locate`.
     building : BuildingScene, optional
         The result of :func:`prepare` for these settings, when the caller has made it
         already (the GUI meshes the rooms in the main thread and runs the rest, with
@@ -259,7 +259,7 @@ def run(doc, settings, progress=None, locate=None, building=None):
     timings["prepare"] = building.seconds
     scene = building.scene
     if locate is None:
-        from ..core.locate import locate
+        from invrad_wb.core.inverse.locate import locate
     t = time.perf_counter()
     result = locate(scene, flux_lm=flux, settings=settings.locate,
                     progress=_progress(progress, 0.1, 0.75), backend=settings.backend)
@@ -273,7 +273,7 @@ def run(doc, settings, progress=None, locate=None, building=None):
     step = _progress(progress, 0.75, 0.9)
     step(0.0, f"verify {len(lums)} luminaire(s)")
     t = time.perf_counter()
-    from ..core.render import render
+    from invrad_wb.core.forward.render import render
     achieved = render(scene, lums, interreflection=settings.interreflection,
                       backend=settings.backend)
     timings["verify"] = time.perf_counter() - t
@@ -301,7 +301,7 @@ def run(doc, settings, progress=None, locate=None, building=None):
     _progress(progress, 0.97, 1.0)(0.0, "insert fixtures")
     fixtures = []
     if settings.insert:
-        from .fixtures import insert_fixtures
+        from invrad_wb.app.fixtures import insert_fixtures
         t = time.perf_counter()
         fixtures = insert_fixtures(doc, [(p.space, per_room[p.room_id])
                                          for p in building.rooms],
@@ -320,7 +320,7 @@ def run(doc, settings, progress=None, locate=None, building=None):
 
 
 def _write_json(path, data):
-    from ..core.atomic import atomic_write_text
+    from invrad_wb.core.io.atomic import atomic_write_text
 
     def default(o):
         if isinstance(o, np.ndarray):
@@ -336,9 +336,9 @@ def write_report(out_dir, building, target, achieved, luminaires, summary):
     os.makedirs(out_dir, exist_ok=True)
     out = None
     try:
-        from ..core.report import build_report
+        from invrad_wb.core.output.report import build_report
     except ImportError as exc:
-        summary["report"] = f"no HTML report: invrad_wb.core.report is not available ({exc})"
+        summary["report"] = f"no HTML report: invrad_wb.core.output.report is not available ({exc})"
     else:
         out = build_report(building.scene, target, achieved, luminaires, out_dir,
                            room_names=building.room_names)

@@ -5,7 +5,7 @@ The workbench keeps the :class:`~invrad_wb.app.pipeline.PipelineResult` of the l
 document:
 
 * :func:`repeak` post-processes the stored votes again with a new threshold and
-  neighbourhood (:meth:`invrad_wb.core.locate.LocateResult.repeak`) and replaces the rooms'
+  neighbourhood (:meth:`invrad_wb.core.inverse.locate.LocateResult.repeak`) and replaces the rooms'
   fixtures, one undoable transaction;
 * :func:`verify` solves forward (direct + interreflected light) for the light fixtures that
   are in the document now (moved, deleted or added by hand included), computes the
@@ -22,17 +22,17 @@ import time
 
 import numpy as np
 
-from ..errors import SceneError
-from .document import transaction
-from .fixtures import fixture_luminaire, insert_fixtures, room_fixtures
-from .pipeline import _progress, prepare, write_report, _write_json
+from invrad_wb.errors import SceneError
+from invrad_wb.app.document import transaction
+from invrad_wb.app.fixtures import fixture_luminaire, insert_fixtures, room_fixtures
+from invrad_wb.app.pipeline import _progress, prepare, write_report, _write_json
 
 #: Name of the metrics spreadsheet (its Label is :data:`SHEET_LABEL`).
 SHEET_NAME = "InvRadReport"
 SHEET_LABEL = "Lighting report"
 
 #: Columns of the metrics sheet: (key of a metrics row, header). The keys are those of
-#: the report's metrics (:func:`invrad_wb.core.report.room_metrics`), so that the sheet
+#: the report's metrics (:func:`invrad_wb.core.output.report.room_metrics`), so that the sheet
 #: shows the report's own numbers.
 SHEET_COLUMNS = [
     ("room", "Room"),
@@ -264,7 +264,7 @@ def verify(doc, settings, progress=None, building=None, luminaires=None):
     scene = building.scene
     t = time.perf_counter()
     if luminaires:
-        from ..core.render import render
+        from invrad_wb.core.forward.render import render
         achieved = render(scene, luminaires, interreflection=settings.interreflection,
                           backend=settings.backend)
     else:
@@ -272,7 +272,7 @@ def verify(doc, settings, progress=None, building=None, luminaires=None):
     timings["render"] = time.perf_counter() - t
     target = scene.vertex_lux.copy() if scene.vertex_lux is not None \
         else scene.vertex_targets()
-    from .pipeline import _room_stats
+    from invrad_wb.app.pipeline import _room_stats
     summary = {"document": doc.Label, "resolution_m": settings.resolution_m,
                "interreflection": bool(settings.interreflection),
                "rooms": _room_stats(scene, target, achieved, building.rooms),

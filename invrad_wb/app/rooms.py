@@ -18,11 +18,11 @@ import time
 
 import numpy as np
 
-from ..errors import SceneError, SettingsError
-from . import settings as S
-from .document import describe, object_type
-from .meshing import refine, signed_volume, triangle_normals
-from .units import mm_to_m, points_mm_to_m
+from invrad_wb.errors import SceneError, SettingsError
+from invrad_wb.app import settings as S
+from invrad_wb.app.document import describe, object_type
+from invrad_wb.app.meshing import refine, signed_volume, triangle_normals
+from invrad_wb.app.units import mm_to_m, points_mm_to_m
 
 SURFACE_KINDS = ("floor", "wall", "ceiling")
 

@@ -36,11 +36,11 @@ import os
 
 import numpy as np
 
-from ..core import targets as CT
-from ..errors import SceneError
-from . import settings as S
-from .document import describe, object_type, transaction
-from .units import mm_to_m, m_to_mm, vector_mm
+from invrad_wb.core.model import targets as CT
+from invrad_wb.errors import SceneError
+from invrad_wb.app import settings as S
+from invrad_wb.app.document import describe, object_type, transaction
+from invrad_wb.app.units import mm_to_m, m_to_mm, vector_mm
 
 TYPE = "InvRadTarget"
 KINDS = ["Uniform", "Spot", "Texture", "Shade", "WorkPlane", "Reflectance"]
@@ -150,7 +150,7 @@ def all_targets(doc):
 # --------------------------------------------------------------------------- creation
 def _faces_arg(space, faces):
     """'floor'/'walls'/'ceiling'/'all', 'Face3', 3 (1-based), or a list -> ['FaceN', ...]."""
-    from .rooms import faces_by_kind
+    from invrad_wb.app.rooms import faces_by_kind
     if faces is None:
         return []
     if isinstance(faces, (str, int)):
@@ -167,7 +167,7 @@ def _faces_arg(space, faces):
         else:
             raise SceneError(f"face {f!r}: give 'FaceN', a 1-based face number or one of"
                              " floor, walls, ceiling, all", space.Label)
-    from .rooms import face_count
+    from invrad_wb.app.rooms import face_count
     n = face_count(space)
     for sub in out:
         if not sub[4:].isdigit() or not 1 <= int(sub[4:]) <= max(n, 1) or n == 0:
@@ -410,7 +410,7 @@ def apply_targets_file(doc, path):
     Returns the file's top-level options (``flux_lm``, ``resolution_m``) as a dict.
     """
     import json
-    from .rooms import get_space
+    from invrad_wb.app.rooms import get_space
     try:
         with open(path, "r", encoding="utf-8") as fh:
             data = json.load(fh)

@@ -19,8 +19,8 @@ InvRad_Settings             the locate settings, without running
 """
 import os
 
-from .. import constants as C
-from . import messages
+from invrad_wb import constants as C
+from invrad_wb.gui import messages
 
 ICON_DIR = os.path.join(C.RESOURCES_DIR, "icons")
 WORKBENCH_ICON = os.path.join(ICON_DIR, "invrad.svg")
@@ -44,7 +44,7 @@ def _no_task_dialog():
 
 
 def _busy():
-    from . import progress
+    from invrad_wb.gui import progress
     return progress.busy()
 
 
@@ -76,7 +76,7 @@ class SetTarget(_Command):
 
     def Activated(self):
         import FreeCADGui
-        from . import selection, taskpanel
+        from invrad_wb.gui import selection, taskpanel
         try:
             try:
                 groups, point = selection.room_faces()
@@ -89,7 +89,7 @@ class SetTarget(_Command):
                     return
                 raise
             if len(groups) > 1:
-                from ..errors import SceneError
+                from invrad_wb.errors import SceneError
                 raise SceneError("the selected faces belong to "
                                  f"{len(groups)} rooms; select faces of one room")
             space, faces = groups[0]
@@ -108,8 +108,8 @@ class MarkShade(_Command):
     TIP = "The selected faces of a room must stay dark (a 0 lx target)"
 
     def Activated(self):
-        from . import selection
-        from .taskpanel import _call, do_command, obj_src
+        from invrad_wb.gui import selection
+        from invrad_wb.gui.taskpanel import _call, do_command, obj_src
         try:
             groups, _ = selection.room_faces()
             lines = ["import invrad_wb.app.targets"]
@@ -129,7 +129,7 @@ class ToggleTargets(_Command):
            " (display only: nothing is added to the document)")
 
     def Activated(self):
-        from .taskpanel import do_command
+        from invrad_wb.gui.taskpanel import do_command
         doc = _active_doc()
         do_command("import invrad_wb.gui.display",
                    f"invrad_wb.gui.display.toggle_targets(App.getDocument({doc.Name!r}))")
@@ -144,7 +144,7 @@ class Locate(_Command):
 
     def Activated(self):
         import FreeCADGui
-        from . import selection, taskpanel
+        from invrad_wb.gui import selection, taskpanel
         try:
             rooms = selection.rooms()
             FreeCADGui.Control.showDialog(taskpanel.LocatePanel(_active_doc(), rooms))
@@ -164,14 +164,14 @@ class Repeak(_Command):
 
     def Activated(self):
         import FreeCADGui
-        from . import taskpanel
+        from invrad_wb.gui import taskpanel
         try:
             FreeCADGui.Control.showDialog(taskpanel.RepeakPanel(_active_doc()))
         except Exception as exc:
             messages.exception(self.MENU, exc)
 
     def IsActive(self):
-        from . import runner
+        from invrad_wb.gui import runner
         return super().IsActive() and _no_task_dialog() and \
             runner.stored(_active_doc()) is not None
 
@@ -185,8 +185,8 @@ class Verify(_Command):
            " the per-room metrics into a spreadsheet")
 
     def Activated(self):
-        from . import selection
-        from .taskpanel import _call, do_command, doc_src
+        from invrad_wb.gui import selection
+        from invrad_wb.gui.taskpanel import _call, do_command, doc_src
         doc = _active_doc()
         rooms = [r.Name for r in selection.rooms()] or None
         do_command("import invrad_wb.gui.runner",
@@ -201,7 +201,7 @@ class Settings(_Command):
 
     def Activated(self):
         import FreeCADGui
-        from . import taskpanel
+        from invrad_wb.gui import taskpanel
         try:
             FreeCADGui.Control.showDialog(taskpanel.LocatePanel(_active_doc(), run=False))
         except Exception as exc:
@@ -249,14 +249,14 @@ class DocumentObserver:
         self._pending = set()
 
     def _relevant(self, obj):
-        from ..app.document import object_type
+        from invrad_wb.app.document import object_type
         try:
             return object_type(obj) in ("InvRadTarget", "Space")
         except Exception:
             return False
 
     def _schedule(self, obj):
-        from . import display
+        from invrad_wb.gui import display
         try:
             doc = obj.Document
         except Exception:
@@ -270,7 +270,7 @@ class DocumentObserver:
 
     def _refresh(self, name):
         import FreeCAD
-        from . import display
+        from invrad_wb.gui import display
         self._pending.discard(name)
         if name in FreeCAD.listDocuments():
             display.refresh(FreeCAD.getDocument(name))
@@ -290,7 +290,7 @@ class DocumentObserver:
             self._schedule(obj)
 
     def slotDeletedDocument(self, doc):
-        from . import display, runner
+        from invrad_wb.gui import display, runner
         runner.forget(doc.Name)
         display.forget(doc.Name)
 

@@ -24,9 +24,9 @@ headless; the coin part runs only with FreeCAD's GUI.
 """
 import numpy as np
 
-from ..core import images as _images
+from invrad_wb.core.output import images as _images
 
-#: The colour map and the scale rule are the report's (:mod:`invrad_wb.core.images`), so
+#: The colour map and the scale rule are the report's (:mod:`invrad_wb.core.output.images`), so
 #: that the 3D view and the report read the same: viridis, RGB in [0, 1] here.
 VIRIDIS = _images.VIRIDIS / 255.0
 nice_max = _images.nice_max
@@ -460,7 +460,7 @@ def show(doc, building, values, title, mode_name, targets=True, vmax=None):
     up); larger values take the top colour and the top tick reads "<vmax>+". Returns the
     top of the scale (lux)."""
     import FreeCAD
-    from . import params
+    from invrad_wb.gui import params
     if not FreeCAD.GuiUp:
         return None
     opts = params.load_display()
@@ -500,8 +500,8 @@ def show(doc, building, values, title, mode_name, targets=True, vmax=None):
 
 def show_targets(doc, rooms=None):
     """Evaluate the rooms' targets on fine display meshes and show them."""
-    from ..app.pipeline import PipelineSettings, prepare
-    from . import params
+    from invrad_wb.app.pipeline import PipelineSettings, prepare
+    from invrad_wb.gui import params
     opts = params.load_display()
     building = prepare(doc, PipelineSettings(flux_lm=1.0, resolution_m=opts["resolution_m"],
                                              rooms=rooms))
@@ -523,7 +523,7 @@ def toggle_targets(doc=None):
     Errors (no rooms, a bad target) are reported, not raised, like every GUI action.
     """
     import FreeCAD
-    from . import messages
+    from invrad_wb.gui import messages
     doc = doc or FreeCAD.ActiveDocument
     if doc is None:
         return False

@@ -61,7 +61,7 @@ def error(title, text, details=None):
 
 def exception(title, exc):
     """Report an exception: invrad errors as their message, others with the traceback."""
-    from ..errors import Cancelled, InvradError
+    from invrad_wb.errors import Cancelled, InvradError
     if isinstance(exc, Cancelled):
         warning(title, f"{exc}\nThe document was not changed.")
     elif isinstance(exc, InvradError):

@@ -4,7 +4,7 @@ Group ``User parameter:BaseApp/Preferences/Mod/InvRad`` (Tools > Edit parameters
 
 * ``Run``: the pipeline options of :class:`invrad_wb.app.pipeline.PipelineSettings` that a
   user chooses (flux, mesh resolution, interreflection, backend, replace);
-* ``Locate``: every field of :class:`invrad_wb.core.locate.LocateSettings`, under its own
+* ``Locate``: every field of :class:`invrad_wb.core.inverse.locate.LocateSettings`, under its own
   name; options whose default is "automatic" (``None`` in the core, e.g. ``votes_per_m2``)
   are stored as text, empty meaning automatic;
 * ``Target``: the last values of the target task panel;
@@ -16,7 +16,7 @@ are SI: lumens, metres, lux.
 import dataclasses
 import math
 
-from ..app import settings as S
+from invrad_wb.app import settings as S
 
 ROOT = "User parameter:BaseApp/Preferences/Mod/InvRad"
 
@@ -71,7 +71,7 @@ def group(name):
 
 def locate_fields():
     """``{name: (kind, default)}`` for every LocateSettings field."""
-    from ..core.locate import LocateSettings
+    from invrad_wb.core.inverse.locate import LocateSettings
     out = {}
     for f in dataclasses.fields(LocateSettings):
         default = f.default
@@ -154,8 +154,8 @@ def _save(name, schema, values):
 
 def load_locate():
     """The stored locate settings as a checked dict (bad stored values -> defaults)."""
-    from ..core.locate import LocateSettings
-    from ..errors import SettingsError
+    from invrad_wb.core.inverse.locate import LocateSettings
+    from invrad_wb.errors import SettingsError
     fields = locate_fields()
     values = _load("Locate", fields)
     try:
@@ -209,7 +209,7 @@ def reset():
 
 def pipeline_settings(rooms=None, report_dir=None, insert=True, run=None, locate=None):
     """A PipelineSettings from the stored values (``run``/``locate`` dicts override)."""
-    from ..app.pipeline import PipelineSettings
+    from invrad_wb.app.pipeline import PipelineSettings
     r = load_run()
     r.update(run or {})
     loc = load_locate()

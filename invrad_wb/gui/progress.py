@@ -103,7 +103,7 @@ def run(title, work, poll_ms=100):
     global CURRENT, DIALOG
     import FreeCAD
     if CURRENT is not None:
-        from ..errors import InvradError
+        from invrad_wb.errors import InvradError
         raise InvradError("another invrad run is still going on; wait for it or cancel it")
     job = Job()
     CURRENT = job

@@ -21,8 +21,8 @@ from dataclasses import dataclass
 import os
 import time
 
-from . import messages, params
-from . import progress as P
+from invrad_wb.gui import messages, params
+from invrad_wb.gui import progress as P
 
 #: Fixture colour in the 3D view (a light warm yellow), set on new fixtures in the GUI.
 FIXTURE_RGB = (1.0, 0.85, 0.25)
@@ -53,7 +53,7 @@ def _doc(doc):
     import FreeCAD
     doc = doc or FreeCAD.ActiveDocument
     if doc is None:
-        from ..errors import SceneError
+        from invrad_wb.errors import SceneError
         raise SceneError("no active document: open or create one with rooms (Arch Spaces)")
     if isinstance(doc, str):
         doc = FreeCAD.getDocument(doc)
@@ -95,8 +95,8 @@ def locate(doc=None, rooms=None, run=None, locate=None):
     title = "Locate luminaires"
     try:
         doc = _doc(doc)
-        from ..app import pipeline, results
-        from ..core.locate import LocateSettings
+        from invrad_wb.app import pipeline, results
+        from invrad_wb.core.inverse.locate import LocateSettings
         settings = params.pipeline_settings(rooms=_room_keys(rooms), insert=False, run=run,
                                             locate=locate)
         pipeline.check_flux(settings.flux_lm)
@@ -136,13 +136,13 @@ def repeak(doc=None, threshold=None, neighbourhood_m=None):
     title = "Recalculate peaks"
     try:
         doc = _doc(doc)
-        from ..app import results
-        from ..errors import SceneError
+        from invrad_wb.app import results
+        from invrad_wb.errors import SceneError
         st = stored(doc)
         if st is None:
             raise SceneError("no locate result for this document in this session: run"
                              " Locate luminaires first", doc.Label)
-        from ..core.locate import LocateSettings
+        from invrad_wb.core.inverse.locate import LocateSettings
         probe = dict(st.result.locate_result.settings)
         if threshold is not None:
             probe["threshold"] = float(threshold)
@@ -196,7 +196,7 @@ def verify(doc=None, rooms=None, report_dir=None, show=True):
     title = "Verify and report"
     try:
         doc = _doc(doc)
-        from ..app import pipeline, results
+        from invrad_wb.app import pipeline, results
         out = report_dir or default_report_dir(doc)
         settings = params.pipeline_settings(rooms=_room_keys(rooms), report_dir=out,
                                             insert=False)
@@ -215,7 +215,7 @@ def verify(doc=None, rooms=None, report_dir=None, show=True):
         st.verified = vr
     if show:
         try:
-            from . import display
+            from invrad_wb.gui import display
             scale = getattr(vr.report, "scale", None) or {}
             display.show_achieved(doc, vr.building, vr.achieved, scale.get("lux_max"))
         except Exception as exc:               # the display is a nicety, not the result

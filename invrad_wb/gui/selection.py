@@ -9,9 +9,9 @@ The functions take a selection as ``FreeCADGui.Selection.getSelectionEx()`` retu
 (objects with ``Object``, ``SubElementNames``, ``PickedPoints``) or, headless, a list of
 ``(object, [sub-element names], [picked points])``; only :func:`current` needs the GUI.
 """
-from ..app.document import describe, object_type
-from ..app.rooms import find_spaces, is_space, room_shape
-from ..errors import SceneError
+from invrad_wb.app.document import describe, object_type
+from invrad_wb.app.rooms import find_spaces, is_space, room_shape
+from invrad_wb.errors import SceneError
 
 #: Coplanarity tolerances: mm, and |cos| of the angle between the normals.
 DIST_TOL_MM = 1.0
@@ -156,8 +156,8 @@ def room_faces(sel=None):
 def rooms(sel=None):
     """The rooms the selection is about (Spaces; the rooms of selected faces, targets,
     fixtures), in order, without duplicates; [] when the selection names none."""
-    from ..app.fixtures import fixture_room, is_fixture
-    from ..app.targets import is_target
+    from invrad_wb.app.fixtures import fixture_room, is_fixture
+    from invrad_wb.app.targets import is_target
     out = []
     for s in _items(sel):
         obj = s.Object

@@ -11,8 +11,8 @@ option's value as item data (:data:`invrad_wb.gui.params.CHOICES`); ``QCheckBox`
 """
 import os
 
-from .. import constants as C
-from . import messages, params
+from invrad_wb import constants as C
+from invrad_wb.gui import messages, params
 
 UI_DIR = os.path.join(C.RESOURCES_DIR, "ui")
 
@@ -166,9 +166,9 @@ class LocatePanel:
 
     def check(self):
         """The panel's values, checked; raises SettingsError naming the bad one."""
-        from ..app.pipeline import check_flux
-        from ..app.rooms import check_resolution
-        from ..core.locate import LocateSettings
+        from invrad_wb.app.pipeline import check_flux
+        from invrad_wb.app.rooms import check_resolution
+        from invrad_wb.core.inverse.locate import LocateSettings
         run, loc = self.values()
         check_flux(run["flux_lm"])
         check_resolution(run["resolution_m"])
@@ -217,21 +217,21 @@ class TargetPanel:
     """A new lighting target on selected faces of one room (or its work plane)."""
 
     def __init__(self, space, faces, point_mm=None, kind=None):
-        from ..app.units import mm_to_m
+        from invrad_wb.app.units import mm_to_m
         self.space = space
         global ACTIVE
         ACTIVE = self
         self.faces = list(faces)
         self.form = load_ui("target.ui", "set_target.svg")
         fill_combo(self.widget("kind"), TARGET_KINDS)
-        from ..app.targets import FALLOFFS
+        from invrad_wb.app.targets import FALLOFFS
         fill_combo(self.widget("falloff"), [(f, f) for f in FALLOFFS])
         stored = params.load_target()
         for k in ("lux", "radius_m", "lux_scale", "image", "height_m", "margin_m",
                   "falloff"):
             set_value(self.widget(k), stored[k])
         if point_mm is None and self.faces:
-            from ..app.rooms import room_shape
+            from invrad_wb.app.rooms import room_shape
             point_mm = room_shape(space).Faces[int(self.faces[0][4:]) - 1].CenterOfMass
         if point_mm is not None:
             c = mm_to_m(point_mm)
@@ -275,7 +275,7 @@ class TargetPanel:
         lux = get_value(self.widget("lux"))
         T = "invrad_wb.app.targets"
         if k != "WorkPlane" and not self.faces:
-            from ..errors import SceneError
+            from invrad_wb.errors import SceneError
             raise SceneError(f"a {k.lower()} target needs faces: select faces of the room",
                              self.space.Label)
         if k == "Uniform":
@@ -323,7 +323,7 @@ class RepeakPanel:
     """New threshold and neighbourhood for the stored votes of the last locate run."""
 
     def __init__(self, doc):
-        from . import runner
+        from invrad_wb.gui import runner
         self.doc = doc
         global ACTIVE
         ACTIVE = self

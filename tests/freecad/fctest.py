@@ -33,10 +33,10 @@ def has_module(name):
         return False
 
 
-needs_locate = unittest.skipUnless(has_module("invrad_wb.core.locate"),
-                                   "needs the locate core (invrad_wb.core.locate)")
-needs_radiosity = unittest.skipUnless(has_module("invrad_wb.core.radiosity"),
-                                      "needs the radiosity model (invrad_wb.core.radiosity)")
+needs_locate = unittest.skipUnless(has_module("invrad_wb.core.inverse.locate"),
+                                   "needs the locate core (invrad_wb.core.inverse.locate)")
+needs_radiosity = unittest.skipUnless(has_module("invrad_wb.core.forward.radiosity"),
+                                      "needs the radiosity model (invrad_wb.core.forward.radiosity)")
 needs_fzk = unittest.skipUnless(os.path.isfile(FZK), f"sample building {FZK} not found")
 
 

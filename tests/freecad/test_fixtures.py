@@ -5,7 +5,7 @@ import FreeCAD
 
 from fctest import FreeCADTestCase, make_walled_room
 from invrad_wb.app import document, fixtures
-from invrad_wb.core.luminaires import Luminaire
+from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.errors import LuminaireError, SceneError
 
 

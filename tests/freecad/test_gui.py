@@ -21,8 +21,8 @@ from fctest import (ROOT, FreeCADTestCase, make_box_space, make_walled_room,
                     needs_locate)
 from invrad_wb.app import document, fixtures, pipeline, results, targets
 from invrad_wb.app.pipeline import PipelineSettings
-from invrad_wb.core.locate import LocateSettings
-from invrad_wb.core.luminaires import Luminaire
+from invrad_wb.core.inverse.locate import LocateSettings
+from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.errors import SceneError
 from invrad_wb.gui import commands, display, messages, params, runner, selection, taskpanel
 
@@ -232,7 +232,7 @@ class TestDisplayNumpy(FreeCADTestCase):
 
     def test_colours_match_the_report_images(self):
         try:
-            from invrad_wb.core import images
+            from invrad_wb.core.output import images
             ref = images.false_colour(np.linspace(0, 500, 11), 0.0, 500.0)
         except (ImportError, AttributeError, TypeError) as exc:
             self.skipTest(f"report images not available: {exc}")

@@ -8,7 +8,7 @@ import FreeCAD
 
 from fctest import FZK, FZK_ROOMS, FreeCADTestCase, make_walled_room, needs_fzk
 from invrad_wb.app import fixtures, ifcexport, ifcrooms, rooms, targets
-from invrad_wb.core.luminaires import Luminaire
+from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.errors import SceneError
 
 
@@ -80,7 +80,7 @@ class TestFZKImport(FreeCADTestCase):
                 E.get_psets(q).get("BaseQuantities", {}).get("GrossVolume")
             if vol:
                 self.assertAlmostEqual(m.volume, vol, delta=0.02 * vol, msg=s.Label)
-            from invrad_wb.core.scene import Scene
+            from invrad_wb.core.model.scene import Scene
             Scene(m.vertices, m.triangles, source=s.Label)   # refuses outward rooms
         print(f"\n    FZK meshing at 0.3 m: {sum(times):.2f} s for 7 rooms", end=" ")
 

@@ -11,8 +11,8 @@ from fctest import (FreeCADTestCase, fake_locate, make_box_space, make_walled_ro
                     needs_locate)
 from invrad_wb.app import document, fixtures, pipeline, rooms, targets
 from invrad_wb.app.pipeline import PipelineSettings
-from invrad_wb.core import targets as CT
-from invrad_wb.core.luminaires import Luminaire
+from invrad_wb.core.model import targets as CT
+from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.errors import Cancelled, InvradError, SceneError, SettingsError
 
 
@@ -191,7 +191,7 @@ class TestBadDocuments(FreeCADTestCase):
 def texture_targets_from(space, lums, faces, folder, px=48):
     """Target images on ``faces``: the direct light of known luminaires (forward solver)."""
     import OpenImageIO as oiio
-    from invrad_wb.core.direct import direct_illuminance
+    from invrad_wb.core.forward.direct import direct_illuminance
     m = rooms.mesh_room(space, 0.5)
     frames = CT.surface_frames(m.vertices, m.triangles, m.triangle_face)
     for face in faces:

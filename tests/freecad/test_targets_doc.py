@@ -8,7 +8,7 @@ import FreeCAD
 
 from fctest import FreeCADTestCase, face_of_kind, make_walled_room
 from invrad_wb.app import document, rooms, targets
-from invrad_wb.core import targets as CT
+from invrad_wb.core.model import targets as CT
 from invrad_wb.errors import SceneError
 
 

@@ -5,7 +5,7 @@ import FreeCAD
 
 from fctest import FZK, ROOT, FreeCADTestCase, needs_fzk
 from invrad_wb.app import fixtures, ifcexport, rooms
-from invrad_wb.core.luminaires import Luminaire
+from invrad_wb.core.model.luminaires import Luminaire
 
 
 class TestInit(FreeCADTestCase):

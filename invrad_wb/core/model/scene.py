@@ -1,7 +1,7 @@
 """The room scene: triangles in metres (Z up), planes, rooms, reflectance and target illuminance.
 
 A :class:`Scene` is what every part of invrad works on. It is built from arrays (see
-:mod:`invrad_wb.core.sceneio` for files) and checked on construction, so that later stages
+:mod:`invrad_wb.core.io.sceneio` for files) and checked on construction, so that later stages
 can trust it:
 
 * ``vertices (n, 3) float64`` metres, ``faces (m, 3) int64``, counter-clockwise seen from
@@ -25,8 +25,8 @@ import functools
 
 import numpy as np
 
-from .. import constants as C
-from ..errors import SceneError
+from invrad_wb import constants as C
+from invrad_wb.errors import SceneError
 
 
 @dataclass

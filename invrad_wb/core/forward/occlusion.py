@@ -1,12 +1,12 @@
 """Occlusion of arbitrary segments on the OpenCL device (``kernels/occlusion.cl``).
 
-Numpy twin: :func:`invrad_wb.core.bvh.segments_occluded_numpy` (and the brute-force
-reference :func:`invrad_wb.core.bvh.segments_occluded_bruteforce`).
+Numpy twin: :func:`invrad_wb.core.geometry.bvh.segments_occluded_numpy` (and the brute-force
+reference :func:`invrad_wb.core.geometry.bvh.segments_occluded_bruteforce`).
 """
 import numpy as np
 
-from .. import constants as C
-from .clenv import get_env, launch_chunked
+from invrad_wb import constants as C
+from invrad_wb.core.accel.clenv import get_env, launch_chunked
 
 
 def segments_occluded_opencl(bvh, p, q, eps=C.RAY_EPS_M):

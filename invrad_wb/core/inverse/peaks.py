@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SettingsError
+from invrad_wb.errors import SettingsError
 
 
 @dataclass

@@ -16,8 +16,8 @@ import json
 
 import numpy as np
 
-from .. import constants as C
-from ..errors import LuminaireError
+from invrad_wb import constants as C
+from invrad_wb.errors import LuminaireError
 
 
 @dataclass
@@ -150,7 +150,7 @@ def emitter_samples(luminaires):
     qp, qw = disk_quadrature()
     for i, lum in enumerate(luminaires):
         if lum.radius_m > 0:
-            from .scene import plane_basis
+            from invrad_wb.core.model.scene import plane_basis
             u, v = plane_basis(lum.normal)
             p = lum.position + lum.radius_m * (qp[:, :1] * u + qp[:, 1:] * v)
             pos.append(p)
@@ -170,7 +170,7 @@ def emitter_samples(luminaires):
 
 def write_luminaires_json(path, luminaires, **extra):
     """Write ``{"luminaires": [...], **extra}`` atomically."""
-    from .atomic import atomic_write_text
+    from invrad_wb.core.io.atomic import atomic_write_text
     data = {"luminaires": [l.to_dict() for l in luminaires]}
     data.update(extra)
     atomic_write_text(path, json.dumps(data, indent=2, default=_json_default) + "\n")

@@ -13,8 +13,8 @@ import os
 
 import numpy as np
 
-from .atomic import atomic_write_text
-from .images import save_png, save_exr
+from invrad_wb.core.io.atomic import atomic_write_text
+from invrad_wb.core.output.images import save_png, save_exr
 
 
 def _mark(rgb, i, j, colour, r=2):

@@ -15,9 +15,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import SettingsError
-from .raster import locate_points, plane_triangles_2d
-from .scene import plane_basis
+from invrad_wb.errors import SettingsError
+from invrad_wb.core.geometry.raster import locate_points, plane_triangles_2d
+from invrad_wb.core.model.scene import plane_basis
 
 
 @dataclass
@@ -120,7 +120,7 @@ class FaceTest:
         sel = np.flatnonzero(np.all((self.lo <= q + tol) & (self.hi >= q - tol), axis=1))
         if len(sel) == 0:
             return False
-        from .raster import barycentric_2d
+        from invrad_wb.core.geometry.raster import barycentric_2d
         b = barycentric_2d(self.tri[sel], np.broadcast_to(q, (len(sel), 2)))
         return bool(np.any(np.all(b >= -tol, axis=1)))
 

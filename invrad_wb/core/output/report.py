@@ -32,7 +32,7 @@ a failed run leaves the previous report untouched.
 
 Deviation images show ``(E - T) / T``; on shade targets (T = 0) the achieved light in % of
 the room's mean target. Illuminance images share one linear scale for the whole report:
-0 to :func:`~invrad_wb.core.images.nice_max` of the larger of the highest target and the
+0 to :func:`~invrad_wb.core.output.images.nice_max` of the larger of the highest target and the
 99th percentile of the achieved illuminance on target points (``lux_range`` overrides).
 """
 from dataclasses import dataclass, field
@@ -47,10 +47,10 @@ import tempfile
 
 import numpy as np
 
-from .. import constants as C
-from ..errors import SceneError
-from . import images as im
-from .images import describe_plane, room_floor_z  # noqa: F401 - part of this API
+from invrad_wb import constants as C
+from invrad_wb.errors import SceneError
+from invrad_wb.core.output import images as im
+from invrad_wb.core.output.images import describe_plane, room_floor_z  # noqa: F401 - part of this API
 
 #: colour scale of the deviation images: -50 % .. +50 %
 DEVIATION_LIMIT = im.DEVIATION_LIMIT
@@ -526,7 +526,7 @@ def build_report(scene, target_vertex_lux, achieved_vertex_lux, luminaires, out_
     ----------
     scene : Scene
     target_vertex_lux, achieved_vertex_lux : (n,) float64, lux per scene vertex
-        (``scene.vertex_targets()`` and :func:`invrad_wb.core.render.render`)
+        (``scene.vertex_targets()`` and :func:`invrad_wb.core.forward.render.render`)
     luminaires : list of Luminaire (``room`` groups them; None = room of the nearest face)
     out_dir : folder (created); files are replaced atomically, ``index.html`` last
     room_names : sequence or dict, room id -> name (default 'room <id>')

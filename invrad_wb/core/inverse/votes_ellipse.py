@@ -20,10 +20,10 @@ Shade points forbid pixels as in the exact model (:func:`shade_forbidden`).
 """
 import numpy as np
 
-from .. import constants as C
-from .bvh import BVH, segments_occluded_numpy
-from .clenv import get_env, launch_chunked, float4, device_buffer
-from .table import load_voting_table
+from invrad_wb import constants as C
+from invrad_wb.core.geometry.bvh import BVH, segments_occluded_numpy
+from invrad_wb.core.accel.clenv import get_env, launch_chunked, float4, device_buffer
+from invrad_wb.core.inverse.table import load_voting_table
 
 FIXED_POINT = 65536.0
 K_MIN, K_MAX = 16, 1024
@@ -70,7 +70,7 @@ def ellipse_votes_params(canvas, points, W, vote_lux, flux, table=None):
 
 def shade_forbidden(canvas, shade, limit_lux, flux, bvh=None, backend="numpy"):
     """(canvas.size,) bool: pixels whose luminaire would give a shade point > limit lux."""
-    from .votes import cast_exact_numpy, cast_exact_opencl
+    from invrad_wb.core.inverse.votes import cast_exact_numpy, cast_exact_opencl
     if shade is None or len(shade) == 0 or limit_lux is None:
         return np.zeros(canvas.size, dtype=bool)
     # the exact-vote machinery with a unit vote everywhere: forbidden pixels come back 0
@@ -85,7 +85,7 @@ class _UnitProbe:
     """No voting points: the exact kernel then returns its baseline except where forbidden."""
 
     def __init__(self, canvas):
-        from .sampling import VotingPoints
+        from invrad_wb.core.inverse.sampling import VotingPoints
         z = np.zeros((0, 3))
         self.points = VotingPoints(z, z, np.zeros(0, np.int64), np.zeros(0, np.int64),
                                    z, np.zeros(0), np.zeros(0), 1.0)
@@ -97,7 +97,7 @@ def cast_ellipse_numpy(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
                        shade_limit_lux=None, table=None):
     """Deformed-ellipse votes, numpy twin of ``kernels/votes_ellipse.cl``.
 
-    Same parameters and result as :func:`invrad_wb.core.votes.cast_exact_numpy`.
+    Same parameters and result as :func:`invrad_wb.core.inverse.votes.cast_exact_numpy`.
     """
     P = ellipse_votes_params(canvas, points, W, vote_lux, flux, table)
     acc = np.zeros(canvas.size, np.float64)

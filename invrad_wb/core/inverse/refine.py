@@ -31,9 +31,9 @@ import time
 
 import numpy as np
 
-from .. import constants as C
-from ..errors import Cancelled, SettingsError
-from .bvh import segments_occluded_numpy
+from invrad_wb import constants as C
+from invrad_wb.errors import Cancelled, SettingsError
+from invrad_wb.core.geometry.bvh import segments_occluded_numpy
 
 
 @dataclass(eq=False)

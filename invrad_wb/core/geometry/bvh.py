@@ -15,7 +15,7 @@ correct reference, :func:`segments_occluded_numpy` the fast numpy twin of the ke
 """
 import numpy as np
 
-from .. import constants as C
+from invrad_wb import constants as C
 
 #: Triangles per leaf; must match the vector width used in kernels/bvh.h.
 LEAF = 16

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from .scene import Scene
+from invrad_wb.core.model.scene import Scene
 
 
 class MeshBuilder:

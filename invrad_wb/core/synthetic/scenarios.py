@@ -6,9 +6,9 @@ and true luminaires.
 """
 import numpy as np
 
-from . import generate as g
-from .luminaires import Luminaire
-from .render import render
+from invrad_wb.core.synthetic import generate as g
+from invrad_wb.core.model.luminaires import Luminaire
+from invrad_wb.core.forward.render import render
 
 #: name -> builder(reflectance) -> (scene without targets, luminaires)
 _BUILDERS = {}

@@ -22,7 +22,7 @@ Three input forms, chosen by :func:`read_scene` from the file name:
 
 Coordinates are converted to metres at this boundary (``unit``). Every error is a
 :class:`SceneError` naming the file and the offending face/vertex/pixel and value. Writes
-are atomic (:mod:`invrad_wb.core.atomic`): a failed write leaves any earlier file intact.
+are atomic (:mod:`invrad_wb.core.io.atomic`): a failed write leaves any earlier file intact.
 
 After reading, a scene carries two extra attributes:
 
@@ -37,10 +37,10 @@ import struct
 
 import numpy as np
 
-from .. import constants as C
-from ..errors import InvradError, SceneError, SettingsError
-from .atomic import atomic_path
-from .scene import Scene, _check_lux, plane_basis
+from invrad_wb import constants as C
+from invrad_wb.errors import InvradError, SceneError, SettingsError
+from invrad_wb.core.io.atomic import atomic_path
+from invrad_wb.core.model.scene import Scene, _check_lux, plane_basis
 
 #: Length units accepted by ``unit=`` and their size in metres.
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}

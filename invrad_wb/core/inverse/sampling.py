@@ -16,9 +16,9 @@ import os
 
 import numpy as np
 
-from .. import constants as C
-from ..errors import InvradError, SettingsError
-from .raster import locate_points, plane_triangles_2d
+from invrad_wb import constants as C
+from invrad_wb.errors import InvradError, SettingsError
+from invrad_wb.core.geometry.raster import locate_points, plane_triangles_2d
 
 
 @dataclass

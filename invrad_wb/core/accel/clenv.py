@@ -11,8 +11,8 @@ import os
 import threading
 import warnings
 
-from .. import constants as C
-from ..errors import DeviceError
+from invrad_wb import constants as C
+from invrad_wb.errors import DeviceError
 
 _lock = threading.Lock()
 _env = None
@@ -168,7 +168,7 @@ def check_backend(backend):
                 _warned = True
             return "numpy"
     if backend not in BACKENDS:
-        from ..errors import SettingsError
+        from invrad_wb.errors import SettingsError
         raise SettingsError(f"backend must be one of {BACKENDS + ('auto',)}, got {backend!r}")
     if backend == "opencl":
         get_env()

@@ -34,8 +34,8 @@ import math
 
 import numpy as np
 
-from .atomic import atomic_path
-from .raster import locate_points
+from invrad_wb.core.io.atomic import atomic_path
+from invrad_wb.core.geometry.raster import locate_points
 
 # ---------------------------------------------------------------------------- colours
 #: viridis, matplotlib's values at 9 evenly spaced points, interpolated linearly

@@ -2,14 +2,14 @@
 
 ``render(scene, luminaires)`` is what the CLI ``render`` command, the tests (scenes with a
 known answer) and the verification report use: direct light with occlusion
-(:mod:`invrad_wb.core.direct`) plus, optionally, interreflected light from a radiosity solve
-(:mod:`invrad_wb.core.radiosity`).
+(:mod:`invrad_wb.core.forward.direct`) plus, optionally, interreflected light from a radiosity solve
+(:mod:`invrad_wb.core.forward.radiosity`).
 """
 import numpy as np
 
-from .bvh import BVH
-from .clenv import check_backend
-from .direct import direct_illuminance
+from invrad_wb.core.geometry.bvh import BVH
+from invrad_wb.core.accel.clenv import check_backend
+from invrad_wb.core.forward.direct import direct_illuminance
 
 
 def scene_bvh(scene):
@@ -49,7 +49,7 @@ def render(scene, luminaires, interreflection=True, occlusion=True, backend="aut
                                 occlusion=occlusion, backend=backend)
     indirect = np.zeros_like(direct)
     if interreflection:
-        from .radiosity import RadiosityModel
+        from invrad_wb.core.forward.radiosity import RadiosityModel
         model = RadiosityModel.for_scene(scene, backend=backend, patch_size=patch_size,
                                          occlusion=occlusion)
         indirect = model.indirect_at_vertices(direct)

@@ -73,10 +73,10 @@ import warnings
 
 import numpy as np
 
-from .. import constants as C
-from ..errors import SettingsError
-from .bvh import BVH
-from .clenv import check_backend, get_env, round_up, float4
+from invrad_wb import constants as C
+from invrad_wb.errors import SettingsError
+from invrad_wb.core.geometry.bvh import BVH
+from invrad_wb.core.accel.clenv import check_backend, get_env, round_up, float4
 
 #: Patches per OpenCL work-item (float16 lanes) and triangles per near-field vector.
 PATCH_LANES = 16
@@ -486,9 +486,9 @@ def _form_factors_opencl(points, normals, point_plane, ps, point_patch, vis, cen
 def _segments_occluded(bvh, p, q, backend):
     """(k,) bool: is the segment p -> q blocked by the scene (see :mod:`.bvh`)?"""
     if backend != "opencl":
-        from .bvh import segments_occluded_numpy
+        from invrad_wb.core.geometry.bvh import segments_occluded_numpy
         return segments_occluded_numpy(bvh, p, q)
-    from .occlusion import segments_occluded_opencl
+    from invrad_wb.core.forward.occlusion import segments_occluded_opencl
     return segments_occluded_opencl(bvh, p, q)
 
 

@@ -5,7 +5,7 @@ One vote = a voting point at distance ``h`` in front of a luminaire plane, with 
 ``e = E / F`` (lx/lm). Its answer is the set of luminaire positions on the plane that give
 ``e``: a deformed ellipse around the maximum of the distribution. Conventions (the plane
 frame ``w``, ``v = n x w``, the foot point, ``beta``) are those of
-:mod:`invrad_wb.core.formfactor`.
+:mod:`invrad_wb.core.inverse.formfactor`.
 
 What is stored (``tables/voting_table.npz``, made by ``tables/make_voting_table.py``)
 -------------------------------------------------------------------------------------
@@ -26,7 +26,7 @@ The table is stored at unit distance ``h = 1`` only: the distribution obeys
 * Per angle (float64 ``(A,)``; float32 ``angle_info (A, 4)`` = these four columns):
   ``e_max`` (lx/lm at h = 1), ``x_max`` (in units of h), ``rotation`` (rad), ``r_max =
   sqrt(1 + x_max^2)`` (distance from the voting point to the maximum, units of h). All have
-  closed forms (:func:`invrad_wb.core.formfactor.maximum_closed_form`); :meth:`lookup`
+  closed forms (:func:`invrad_wb.core.inverse.formfactor.maximum_closed_form`); :meth:`lookup`
   evaluates them exactly rather than interpolating.
 * ``params`` float32 ``(A, L, 5)``, C order: ``params[i, j, :] = (a, b, d, x_m, y_m)`` with
   lengths in units of ``h * r_max[i]``; flat index ``(i * L + j) * 5 + p``. Scaling by the
@@ -34,7 +34,7 @@ The table is stored at unit distance ``h = 1`` only: the distribution obeys
   where all lengths grow like ``1/alpha``.
 * ``fit_error`` float32 ``(A, L)``: largest distance between the stored ellipse and the
   true contour, relative to the contour's equivalent radius ``sqrt(area/pi)`` (see
-  :func:`invrad_wb.core.formfactor.geometric_error`); ``fit_error_mean`` the mean;
+  :func:`invrad_wb.core.inverse.formfactor.geometric_error`); ``fit_error_mean`` the mean;
   ``r_eq`` float32 ``(A, L)`` that radius in units of ``h * r_max``. ``fit_error[:, 0] = 0``.
 
 Lookup (what the vote kernel must reproduce; :meth:`VotingTable.lookup` is its numpy twin)
@@ -64,9 +64,9 @@ import threading
 
 import numpy as np
 
-from .. import constants as C
-from ..errors import InvradError
-from .formfactor import _g1, _x_max_unit
+from invrad_wb import constants as C
+from invrad_wb.errors import InvradError
+from invrad_wb.core.inverse.formfactor import _g1, _x_max_unit
 
 #: npz layout this module reads (``format`` in the npz and the json).
 FORMAT = 1

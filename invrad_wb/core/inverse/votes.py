@@ -7,7 +7,7 @@ lambertian luminaire of flux ``F`` gives exactly ``E`` (thesis 3.2.5). Two vote 
 * ``exact``: the true iso-illuminance contour evaluated per pixel (``kernels/votes_exact.cl``
   and :func:`cast_exact_numpy`); no ellipse-fit error, any plane orientation.
 * ``ellipse``: the thesis' deformed ellipse from the precomputed voting table, sampled and
-  rasterised (:mod:`invrad_wb.core.votes_ellipse`).
+  rasterised (:mod:`invrad_wb.core.inverse.votes_ellipse`).
 
 Weights per (map, point), :func:`vote_weights`: the declining tests of thesis 4.2.3 (no
 vote to the point's own plane, to planes it lies behind, from points with no light), the
@@ -17,11 +17,11 @@ i.e. the maximum a luminaire on that map can give the point relative to the best
 """
 import numpy as np
 
-from .. import constants as C
-from ..errors import SettingsError
-from .bvh import segments_occluded_numpy
-from .clenv import get_env, launch_chunked, float4, device_buffer
-from .formfactor import _g1, _x_max_unit
+from invrad_wb import constants as C
+from invrad_wb.errors import SettingsError
+from invrad_wb.core.geometry.bvh import segments_occluded_numpy
+from invrad_wb.core.accel.clenv import get_env, launch_chunked, float4, device_buffer
+from invrad_wb.core.inverse.formfactor import _g1, _x_max_unit
 
 WEIGHTINGS = ("illumination", "distance", "both", "none")
 
@@ -30,7 +30,7 @@ def emax_per_lumen(h, cos_alpha):
     """Maximum illuminance per lumen a luminaire on a plane can give a point (closed form).
 
     The point lies ``h`` metres in front of the plane and its normal makes the angle alpha
-    with the luminaire normal (see :func:`invrad_wb.core.formfactor.maximum_closed_form`).
+    with the luminaire normal (see :func:`invrad_wb.core.inverse.formfactor.maximum_closed_form`).
 
     Returns
     -------
@@ -225,7 +225,7 @@ def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
     if occlusion:
         bvh_bufs = bvh.cl_buffers(env)
     else:
-        from .bvh import BVH
+        from invrad_wb.core.geometry.bvh import BVH
         bvh_bufs = BVH(np.zeros((0, 3, 3))).cl_buffers(env)
     if use_shade:
         sp, sn = float4(shade.positions), float4(shade.normals)

@@ -3,7 +3,7 @@
 An architect does not type lux per vertex: she says "500 lx on this desk face", "a bright
 spot here", "keep this wall dark", "this image on that wall", "300 lx on the work plane".
 This module turns such *target specifications* into the per-vertex ``vertex_lux`` of a
-:class:`~invrad_wb.core.scene.Scene`. It knows nothing of FreeCAD: surfaces are plain
+:class:`~invrad_wb.core.model.scene.Scene`. It knows nothing of FreeCAD: surfaces are plain
 integer ids (the workbench uses FreeCAD's face index), positions are metres.
 
 The room mesh
@@ -49,8 +49,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from ..errors import SceneError
-from .scene import plane_basis, winding_number
+from invrad_wb.errors import SceneError
+from invrad_wb.core.model.scene import plane_basis, winding_number
 
 FALLOFFS = ("cosine", "gaussian", "flat")
 

@@ -24,15 +24,15 @@ import time
 
 import numpy as np
 
-from ..errors import Cancelled, SceneError, SettingsError
-from .bvh import BVH
-from .clenv import check_backend
-from .luminaires import Luminaire
-from .peaks import find_peaks
-from .refine import Light, RefineProblem, greedy_select, swap_search
-from .sampling import voting_points, default_density
-from .votemaps import build_canvas
-from .votes import vote_weights, cast_exact_numpy, cast_exact_opencl
+from invrad_wb.errors import Cancelled, SceneError, SettingsError
+from invrad_wb.core.geometry.bvh import BVH
+from invrad_wb.core.accel.clenv import check_backend
+from invrad_wb.core.model.luminaires import Luminaire
+from invrad_wb.core.inverse.peaks import find_peaks
+from invrad_wb.core.inverse.refine import Light, RefineProblem, greedy_select, swap_search
+from invrad_wb.core.inverse.sampling import voting_points, default_density
+from invrad_wb.core.inverse.votemaps import build_canvas
+from invrad_wb.core.inverse.votes import vote_weights, cast_exact_numpy, cast_exact_opencl
 
 VOTE_MODELS = ("exact", "ellipse")
 #: luminaires stay this far above a work plane (nothing is mounted right above a desk)
@@ -198,7 +198,7 @@ class LocateResult:
 
     def save_vote_maps(self, folder):
         """Write each map's votes (greyscale PNG, jointly scaled) and the raw EXR."""
-        from .votemap_images import save_vote_maps
+        from invrad_wb.core.output.votemap_images import save_vote_maps
         return save_vote_maps(self, folder)
 
 
@@ -389,7 +389,7 @@ class _Indirect:
     """Interreflected light at the voting points for a set of luminaires (radiosity)."""
 
     def __init__(self, scene, points, backend):
-        from .radiosity import RadiosityModel
+        from invrad_wb.core.forward.radiosity import RadiosityModel
         self.scene = scene
         self.backend = backend
         self.model = RadiosityModel.for_scene(scene, backend=backend)
@@ -397,8 +397,8 @@ class _Indirect:
         self.gather = self.model.gather(points.positions, points.normals, patch)
 
     def __call__(self, lights, flux):
-        from .direct import direct_illuminance
-        from .render import scene_bvh
+        from invrad_wb.core.forward.direct import direct_illuminance
+        from invrad_wb.core.forward.render import scene_bvh
         lums = [Luminaire(L.position, L.normal, flux) for L in lights]
         # direct light at the patches' representative points (a patch's mean in render;
         # the difference is second order for the interreflected part)
@@ -721,7 +721,7 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
                 out = cast(canvas, pts, W, vl, flux, bvh=occ, shade=shade,
                            shade_limit_lux=shade_limit)
             else:
-                from .votes_ellipse import cast_ellipse
+                from invrad_wb.core.inverse.votes_ellipse import cast_ellipse
                 out = cast_ellipse(canvas, pts, W, vl, flux, bvh=occ, shade=shade,
                                    shade_limit_lux=shade_limit, backend=backend)
             timings["votes"] += time.time() - t0
@@ -731,7 +731,7 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
         # refinement problem
         occluded_fn = None
         if occ is not None and backend == "opencl":
-            from .occlusion import segments_occluded_opencl
+            from invrad_wb.core.forward.occlusion import segments_occluded_opencl
             occluded_fn = lambda p, q, _b=occ: segments_occluded_opencl(_b, p, q)
         prob = RefineProblem(positions=pts.positions, normals=pts.normals, target=pts.lux,
                              flux=flux, area=pts.area, bvh=occ, inside=_make_inside(canvas),

@@ -35,7 +35,7 @@ Geometry and conventions (used throughout invrad, also by the vote kernel)
   - h^2 - x^2``; the sets ``{e >= level}`` are convex.
 * Scale invariance (exact): ``e(h, alpha, x, y) = e(1, alpha, x/h, y/h) / h^2``. Every
   length below scales with ``h`` and every level with ``1/h^2``; the voting table is
-  therefore stored at unit distance only (see :mod:`invrad_wb.core.table`).
+  therefore stored at unit distance only (see :mod:`invrad_wb.core.inverse.table`).
 * The maximum has a closed form (derived here, not in the thesis): on ``y = 0``
   ``d/dx [(x s - c) / (1 + x^2)^2] = 0`` gives ``3 s x^2 - 4 c x - s = 0``, so at ``h = 1``
   ``x_max = (2c + sqrt(4c^2 + 3s^2)) / (3s) = s / (sqrt(4c^2 + 3s^2) - 2c)``
@@ -80,7 +80,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..errors import SettingsError
+from invrad_wb.errors import SettingsError
 
 #: Number of contour samples per fit (thesis 3.2.4: 20 are enough, figure 3.8).
 DEFAULT_SAMPLES = 20

@@ -1,16 +1,16 @@
 """Direct illuminance at receiver points from lambertian luminaires, with occlusion.
 
 ``E = sum_k F_k * cos(theta_l) * cos(theta_s) / (pi * r^2) * V`` over the emitter samples of
-:func:`invrad_wb.core.luminaires.emitter_samples` (one per point luminaire, a quadrature per
+:func:`invrad_wb.core.model.luminaires.emitter_samples` (one per point luminaire, a quadrature per
 disk). Two implementations with one signature: :func:`direct_illuminance_numpy` (the twin)
 and :func:`direct_illuminance_opencl` (``kernels/direct.cl``).
 """
 import numpy as np
 
-from .. import constants as C
-from .bvh import BVH, segments_occluded_numpy
-from .clenv import get_env, check_backend, launch_chunked, float4
-from .luminaires import emitter_samples
+from invrad_wb import constants as C
+from invrad_wb.core.geometry.bvh import BVH, segments_occluded_numpy
+from invrad_wb.core.accel.clenv import get_env, check_backend, launch_chunked, float4
+from invrad_wb.core.model.luminaires import emitter_samples
 
 
 def _geometry(points, normals, c, n, flux):
