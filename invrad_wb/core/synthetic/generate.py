@@ -187,3 +187,12 @@ def floor_of_rooms(rooms=((4.0, 4.0), (4.0, 4.0), (5.0, 4.0), (3.0, 4.0)), heigh
         origins.append((x, 0.0, 0.0))
         x += w + wall
     return mb.scene(), np.array(origins)
+
+
+def with_reflectances(scene, ceiling=0.7, walls=0.5, floor=0.2):
+    """The scene with reflectances by face orientation (the usual 0.7 / 0.5 / 0.2)."""
+    nz = scene.face_normals[:, 2]
+    rho = np.where(nz < -0.3, ceiling, np.where(nz > 0.3, floor, walls))
+    return Scene(scene.vertices, scene.faces, face_room=scene.face_room,
+                 face_reflectance=rho, face_virtual=scene.face_virtual, source=scene.source,
+                 check_winding=False)

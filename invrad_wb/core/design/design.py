@@ -1,0 +1,252 @@
+"""Lighting design from requirements: every room of a scene, least installed watts.
+
+``design(scene, spec)`` takes a scene (rooms with reflectances; targets optional) and a
+:class:`~invrad_wb.core.design.spec.DesignSpec`, and returns a :class:`DesignResult`: per
+room the chosen luminaires (catalogue type, position, facing, flux after dimming), the
+exact maintained figures on the EN 12464-1 grid (Em, Emin, Emax, U0), pass/fail of each
+requirement, installed watts and W/m^2, and a plain-language explanation where the
+catalogue cannot meet a requirement (the closest design is returned then).
+"""
+from dataclasses import dataclass, field
+import time
+
+import numpy as np
+
+from invrad_wb.errors import Cancelled, SettingsError
+from invrad_wb.core.design.evaluate import RoomModel
+from invrad_wb.core.design.room import DesignRoom
+from invrad_wb.core.design.search import RoomSearch, run_search
+
+#: shade points per room at most (deterministic subsample beyond)
+MAX_SHADE_POINTS = 2000
+
+
+@dataclass
+class RoomDesign:
+    room: int
+    name: str
+    requirement: object
+    luminaires: list
+    metrics: object = None
+    candidate: object = None
+    area_m2: float = 0.0
+    size_m: tuple = (0.0, 0.0)
+    grid_points: np.ndarray = field(default=None, repr=False)
+    notes: list = field(default_factory=list)
+    exact_solves: int = 0
+    seconds: float = 0.0
+    reflectance: dict = field(default_factory=dict)
+
+    @property
+    def watts(self):
+        return 0.0 if self.candidate is None else self.candidate.watts
+
+    @property
+    def verdicts(self):
+        """{'Em': bool, 'U0': bool, 'shade': bool} (empty without a requirement)."""
+        if self.metrics is None:
+            return {}
+        r, m = self.requirement, self.metrics
+        return {"Em": m.em >= r.lux - 1e-9, "U0": m.u0 >= r.u0 - 1e-9,
+                "shade": bool(self.candidate.ok or m.shade_max <= self._shade_limit)}
+
+    _shade_limit = 5.0
+
+    @property
+    def compliant(self):
+        return bool(self.verdicts) and all(self.verdicts.values())
+
+    def schedule(self):
+        """Luminaire schedule: {type: (count, lm each at full output, W each, dim)}."""
+        out = {}
+        for lum in self.luminaires:
+            t = lum.extra.get("type")
+            out.setdefault(t, 0)
+            out[t] += 1
+        return out
+
+    def to_dict(self):
+        d = {"room": self.room, "name": self.name, "area_m2": round(self.area_m2, 3),
+             "size_m": [round(float(x), 3) for x in self.size_m],
+             "reflectance": self.reflectance, "notes": self.notes,
+             "exact_solves": self.exact_solves, "seconds": round(self.seconds, 3)}
+        if self.requirement is not None:
+            d["requirement"] = self.requirement.to_dict()
+        if self.metrics is not None:
+            m = self.metrics
+            d.update({"em_lux": round(m.em, 2), "emin_lux": round(m.emin, 2),
+                      "emax_lux": round(m.emax, 2), "u0": round(m.u0, 3),
+                      "shade_max_lux": round(m.shade_max, 3),
+                      "pass": {k: bool(v) for k, v in self.verdicts.items()},
+                      "compliant": self.compliant, "watts": round(self.watts, 2),
+                      "w_per_m2": round(self.watts / max(self.area_m2, 1e-9), 3),
+                      "layout": self.candidate.geom.describe(),
+                      "dim": round(self.candidate.dim, 4),
+                      "grid_points": int(self.metrics.lux is not None and
+                                         len(self.grid_points))})
+            d["schedule"] = self.schedule()
+        return d
+
+
+@dataclass
+class DesignResult:
+    rooms: list
+    spec: object
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def luminaires(self):
+        return [lum for r in self.rooms for lum in r.luminaires]
+
+    @property
+    def watts(self):
+        return sum(r.watts for r in self.rooms)
+
+    @property
+    def compliant(self):
+        return all(r.compliant for r in self.rooms if r.requirement is not None)
+
+    def to_dict(self):
+        return {"luminaires": [lum.to_dict() for lum in self.luminaires],
+                "rooms": [r.to_dict() for r in self.rooms],
+                "maintenance_factor": self.spec.maintenance_factor,
+                "catalogue": [e.to_dict() for e in self.spec.catalogue],
+                "total_watts": round(self.watts, 2), "compliant": self.compliant,
+                "timings": {k: round(v, 3) for k, v in self.timings.items()}}
+
+
+def _room_names(scene, room_names):
+    ids = [int(r) for r in scene.rooms]
+    if room_names is None:
+        return {r: None for r in ids}
+    if isinstance(room_names, dict):
+        return {r: room_names.get(r) for r in ids}
+    return {r: (room_names[r] if r < len(room_names) else None) for r in ids}
+
+
+def check_rooms(spec, names):
+    """Refuse spec room keys that name no room of the scene."""
+    known = {str(r) for r in names} | {n for n in names.values() if n}
+    for key in spec.rooms:
+        if key != "*" and key not in known:
+            shown = ", ".join(sorted(known, key=str)[:12])
+            raise SettingsError(f"{spec.source}: rooms: {key!r} is not a room of the scene"
+                                f" (rooms: {shown})")
+
+
+def _shade_points(scene, room):
+    """Vertices of the room that must stay dark (target 0 lx): points and normals."""
+    if not scene.has_targets:
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    t = scene.vertex_targets()
+    real = np.zeros(len(scene.vertices), bool)
+    sel = (scene.face_room == room) & ~scene.face_virtual
+    real[np.unique(scene.faces[sel])] = True
+    idx = np.flatnonzero(real & (t == 0))
+    if len(idx) > MAX_SHADE_POINTS:
+        idx = idx[np.linspace(0, len(idx) - 1, MAX_SHADE_POINTS).astype(int)]
+    return scene.vertices[idx], scene.vertex_normals[idx]
+
+
+def _explain(rd, search, entries):
+    """Plain-language notes on a non-compliant or wasteful design."""
+    r, m, c = rd.requirement, rd.metrics, rd.candidate
+    if m.em < r.lux:
+        strongest = max(entries, key=lambda e: e.flux_lm)
+        rd.notes.append(f"too dark: the closest design gives Em {m.em:.0f} lx of the"
+                        f" {r.lux:.0f} lx required with {len(rd.luminaires)} luminaires;"
+                        f" the catalogue's strongest entry is {strongest.name}"
+                        f" ({strongest.flux_lm:.0f} lm)")
+    if m.u0 < r.u0:
+        rd.notes.append(f"uniformity U0 {m.u0:.2f} is below the required {r.u0:.2f}:"
+                        " no layout of the catalogue's luminaires spreads the light evenly"
+                        " enough at the mounting allowed")
+    if m.shade_max > search.rs.shade_limit_lux:
+        rd.notes.append(f"a point that must stay dark receives {m.shade_max:.1f} lx"
+                        f" (limit {search.rs.shade_limit_lux:g} lx)")
+    if c.ok and m.em > 1.5 * r.lux and c.dim >= 1.0:
+        weakest = min(entries, key=lambda e: e.flux_lm)
+        rd.notes.append(f"Em {m.em:.0f} lx is {m.em / r.lux:.1f} x the {r.lux:.0f} lx"
+                        f" required: fewer luminaires would not be uniform enough and the"
+                        f" catalogue has nothing weaker than {weakest.name}"
+                        f" ({weakest.flux_lm:.0f} lm) or dimmable")
+
+
+def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimming=True,
+                fractions=None, photometry=None):
+    """Design one room (see :func:`design`); returns a :class:`RoomDesign`."""
+    t0 = time.perf_counter()
+    rs = spec.room_spec(room, name)
+    label = name or f"room {room}"
+    droom = DesignRoom(scene, room, label)
+    rd = RoomDesign(room, label, None, [], area_m2=droom.floor_area,
+                    size_m=tuple(droom.size), reflectance=_reflectances(scene, room))
+    if rs is None or rs.work_plane is None:
+        rd.notes.append("no lighting requirement for this room: nothing designed")
+        return rd
+    req = rd.requirement = rs.work_plane
+    points, _ = droom.grid(req.height_m, req.margin_m)
+    model = RoomModel(scene, droom, points, spec.maintenance_factor, backend,
+                      extra=_shade_points(scene, room))
+    mount_h = (rs.mounting.height_m if rs.mounting.kind != "ceiling"
+               else droom.top_z - droom.floor_z)
+    entries = spec.entries_for(rs, mount_h)
+    if not entries:
+        rd.notes.append(f"no catalogue entry may be mounted at {mount_h:.2f} m"
+                        f" ({rs.mounting.kind}): nothing designed")
+        return rd
+    search = RoomSearch(model, req, rs, entries, photometry, mixed=mixed, dimming=dimming,
+                        fractions=fractions)
+    if not search.geoms:
+        rd.notes.append(f"no position in this room suits a {rs.mounting.kind} mounting")
+        return rd
+    cand, met, n_exact = run_search(search)
+    rd.candidate, rd.metrics, rd.exact_solves = cand, met, n_exact
+    rd.luminaires = search.luminaires(cand)
+    rd.grid_points = points
+    rd._shade_limit = rs.shade_limit_lux
+    _explain(rd, search, entries)
+    rd.seconds = time.perf_counter() - t0
+    return rd
+
+
+def _reflectances(scene, room):
+    """Area-weighted mean reflectance of the room's floor, walls and ceiling."""
+    sel = (scene.face_room == room) & ~scene.face_virtual
+    nz = scene.face_normals[:, 2]
+    out = {}
+    for part, m in (("ceiling", nz < -0.3), ("walls", np.abs(nz) <= 0.3),
+                    ("floor", nz > 0.3)):
+        s = sel & m
+        if s.any():
+            a = scene.face_areas[s]
+            out[part] = round(float(np.sum(a * scene.face_reflectance[s]) / a.sum()), 3)
+    return out
+
+
+def design(scene, spec, room_names=None, backend="auto", progress=None, **kwargs):
+    """Design every room of ``scene`` that has a requirement in ``spec``.
+
+    Parameters
+    ----------
+    scene : Scene
+    spec : DesignSpec
+    room_names : dict room id -> name, or sequence by id, optional (spec keys may use them)
+    backend : {'auto', 'opencl', 'numpy'}
+    progress : callable(fraction, message) -> bool, optional; returning False cancels
+    kwargs : passed to :func:`design_room` (mixed, dimming, fractions, photometry)
+
+    Returns
+    -------
+    DesignResult
+    """
+    names = _room_names(scene, room_names)
+    check_rooms(spec, names)
+    t0 = time.perf_counter()
+    rooms = []
+    for i, (room, name) in enumerate(names.items()):
+        if progress is not None and progress(i / len(names),
+                                             f"{name or f'room {room}'}: design") is False:
+            raise Cancelled("design cancelled")
+        rooms.append(design_room(scene, spec, room, name, backend=backend, **kwargs))
+    return DesignResult(rooms, spec, {"total": time.perf_counter() - t0})

@@ -1,0 +1,182 @@
+"""Light of candidate designs on a room's calculation grid: a fast model and the exact one.
+
+The design search compares thousands of layouts, so it uses a *fast model*: exact direct
+light of every luminaire at the grid points (intensity distribution, inverse square,
+cosine at the receiver; no shadows) plus interreflected light proportional to the flux
+in the room, ``E_ind(p) = g(p) * sum(F)``, where ``g`` (lx/lm per point) comes from an
+exact radiosity solve of a reference layout. A learned per-point correction ``c(p)``
+(exact / fast of the last exactly checked layout) absorbs what the fast model leaves out
+(shadows in non-convex rooms, the layout's own interreflection pattern).
+
+The *exact model* (:meth:`RoomModel.exact`) is what every verdict is based on: direct light
+with occlusion (:func:`~invrad_wb.core.forward.direct.direct_illuminance`) plus a radiosity
+solve of the room (:class:`~invrad_wb.core.forward.radiosity.RadiosityModel`), gathered at
+the grid points. Both scale the new installation's light by the maintenance factor.
+"""
+import math
+
+import numpy as np
+
+from invrad_wb import constants as C
+from invrad_wb.core.forward.direct import direct_illuminance
+from invrad_wb.core.forward.radiosity import RadiosityModel
+from invrad_wb.core.geometry.bvh import BVH
+from invrad_wb.core.geometry.meshing import refine
+from invrad_wb.core.geometry.raster import locate_points
+from invrad_wb.core.model.luminaires import Luminaire, disk_quadrature
+from invrad_wb.core.model.scene import Scene, plane_basis
+
+#: receivers per block of the fast model (bounds its memory: block x luminaires x 8 bytes)
+_BLOCK = 4096
+
+
+def room_mesh(scene, room):
+    """The room's faces as their own Scene, refined so radiosity patches can be small.
+
+    Returns the Scene (real faces of the room only) refined to edges of at most the
+    radiosity patch size that ~``RADIOSITY_TARGET_PATCHES`` patches would have.
+    """
+    sel = np.flatnonzero((scene.face_room == room) & ~scene.face_virtual)
+    tri_v = scene.vertices
+    faces = scene.faces[sel]
+    area = float(scene.face_areas[sel].sum())
+    edge = max(C.RADIOSITY_MIN_PATCH_M, math.sqrt(area / C.RADIOSITY_TARGET_PATCHES))
+    v, t, tags = refine(tri_v, faces, edge, tags=sel)
+    used, inv = np.unique(t.reshape(-1), return_inverse=True)
+    return Scene(v[used], inv.reshape(-1, 3), face_room=scene.face_room[tags],
+                 face_reflectance=scene.face_reflectance[tags], source=scene.source,
+                 check_winding=False)
+
+
+def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photometry=None):
+    """Direct illuminance per lumen: (k, L) lux/lm of L luminaires at k receivers, no shadows.
+
+    Parameters
+    ----------
+    points, normals : (k, 3) float64, receivers (metres, unit normals)
+    positions, lum_normals : (L, 3) float64, luminaire centres and facing directions
+    radius_m : float, disk radius (integrated by the disk quadrature of the luminaires module)
+    photometry : object with ``intensity_per_lm(local_dirs)``, optional
+        Intensity per lumen (cd/lm) for (..., 3) unit directions in the luminaire's frame
+        (x, y in its plane, z along its facing normal); None: lambertian ``cos(gamma) / pi``.
+    """
+    points = np.asarray(points, dtype=np.float64)
+    normals = np.asarray(normals, dtype=np.float64)
+    positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    lum_normals = np.asarray(lum_normals, dtype=np.float64).reshape(-1, 3)
+    qp, qw = disk_quadrature() if radius_m > 0 else (np.zeros((1, 2)), np.ones(1))
+    out = np.zeros((len(points), len(positions)))
+    for key in np.unique(np.round(lum_normals, 9), axis=0):
+        cols = np.flatnonzero(np.all(np.abs(lum_normals - key) < 1e-8, axis=1))
+        n = lum_normals[cols[0]]
+        u, v = plane_basis(n)
+        for q, w in zip(qp, qw):
+            c = positions[cols] + radius_m * (q[0] * u + q[1] * v)
+            for b in range(0, len(cols), max(1, _BLOCK * 64 // max(1, len(points)))):
+                cb = slice(b, b + max(1, _BLOCK * 64 // max(1, len(points))))
+                r = points[:, None, :] - c[None, cb]
+                r2 = np.maximum(np.einsum("kli,kli->kl", r, r), 1e-12)
+                d = r / np.sqrt(r2)[..., None]
+                cos_s = np.maximum(-np.einsum("ki,kli->kl", normals, d), 0.0)
+                if photometry is None:
+                    i_lm = np.maximum(d @ n, 0.0) / np.pi
+                else:
+                    i_lm = photometry.intensity_per_lm(np.stack([d @ u, d @ v, d @ n], -1))
+                out[:, cols[cb]] += w * i_lm * cos_s / r2
+    return out
+
+
+class RoomModel:
+    """Exact and fast light of designs in one room, on its calculation grid.
+
+    Parameters
+    ----------
+    scene : Scene (the whole input scene)
+    droom : DesignRoom
+    points : (k, 3) float64, calculation grid (work plane)
+    maintenance_factor : float
+    backend : str
+    extra_points : (j, 3) float64 and (j, 3) normals, optional
+        Further receivers evaluated along (e.g. points that must stay dark).
+    """
+
+    def __init__(self, scene, droom, points, maintenance_factor, backend="auto",
+                 extra=None):
+        self.droom = droom
+        self.mf = float(maintenance_factor)
+        self.backend = backend
+        self.mesh = room_mesh(scene, droom.room)
+        self.rad = RadiosityModel(self.mesh, backend=backend, occlusion=True)
+        blockers = self.rad.rooms[0].blockers if self.rad.rooms else np.zeros(0, int)
+        self.bvh = BVH(self.mesh.triangles[blockers]) if len(blockers) else None
+        n_wp = len(points)
+        ex_p, ex_n = extra if extra is not None else (np.zeros((0, 3)), np.zeros((0, 3)))
+        self.points = np.concatenate([points, ex_p])
+        self.normals = np.concatenate([np.tile([0.0, 0.0, 1.0], (n_wp, 1)), ex_n])
+        self.n_wp = n_wp
+        self._gather = self.rad.gather(self.points, self.normals, self._point_patches())
+        self.correction = np.ones(len(self.points))
+        self.indirect_per_lm = {}
+
+    def _point_patches(self):
+        """Patch below each receiver: the floor patch under a work-plane point (its room,
+        visibility row), the nearest patch's for other receivers."""
+        m = self.mesh
+        floor = np.flatnonzero(m.face_normals[:, 2] > 0.99)
+        idx, _ = locate_points(m.triangles[floor][..., :2], self.points[:, :2])
+        patch = np.where(idx >= 0, self.rad.face_patch[floor[np.maximum(idx, 0)]], -1)
+        miss = np.flatnonzero((idx < 0) | (np.arange(len(patch)) >= self.n_wp))
+        if len(miss):
+            cen = m.face_centroids
+            d = np.linalg.norm(cen[None] - self.points[miss, None], axis=2)
+            patch[miss] = self.rad.face_patch[np.argmin(d, axis=1)]
+        return patch
+
+    # ------------------------------------------------------------------ exact
+    def exact(self, luminaires):
+        """Maintained illuminance (k,) lux at the receivers: direct with shadows plus a
+        radiosity solve; and the direct part alone."""
+        occl = self.bvh is not None
+        d_v = direct_illuminance(self.mesh.vertices, self.mesh.vertex_normals, luminaires,
+                                 bvh=self.bvh, occlusion=occl, backend=self.backend)
+        b = self.rad.solve(self.rad.patch_direct_from_vertices(d_v))
+        indirect = self._gather(b)
+        direct = direct_illuminance(self.points, self.normals, luminaires, bvh=self.bvh,
+                                    occlusion=occl, backend=self.backend)
+        return self.mf * (direct + indirect), self.mf * direct
+
+    def calibrate(self, key, luminaires, fast_lux):
+        """Learn the indirect light per lumen of a catalogue entry (``key``; None: skip) from
+        an exact solve of ``luminaires``, and the per-point correction ``exact / fast``.
+
+        ``fast_lux``: the fast model's (maintained) lux of the same luminaires before this
+        call, or None. Returns the exact maintained lux.
+        """
+        total, direct = self.exact(luminaires)
+        if key is not None:
+            flux = sum(lum.flux_lm for lum in luminaires)
+            self.indirect_per_lm[key] = (total - direct) / (self.mf * flux)
+        if fast_lux is not None:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                c = np.where(fast_lux > 1e-9, total / fast_lux * self.correction, 1.0)
+            self.correction = np.clip(c, 0.2, 5.0)
+        return total
+
+    def fast(self, response, flux, keys):
+        """Fast maintained lux (k,) of luminaires with unit responses ``response`` (k, L),
+        fluxes ``flux`` (L,) lm and catalogue keys (L,) (for their indirect light)."""
+        e = response @ flux
+        for key in set(keys):
+            f = float(np.sum(flux[np.asarray(keys) == key]))
+            e = e + self.indirect_per_lm[key] * f
+        return self.mf * e * self.correction
+
+
+def luminaires_of(positions, normals, fluxes, entries, entry_index, room):
+    """Luminaire objects of a layout (the catalogue entry's name kept in ``extra``)."""
+    out = []
+    for p, n, f, k in zip(positions, normals, fluxes, entry_index):
+        e = entries[k]
+        out.append(Luminaire(p, n, float(f), e.radius_m, room=room,
+                             extra={"type": e.name}))
+    return out

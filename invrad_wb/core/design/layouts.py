@@ -1,0 +1,149 @@
+"""Candidate luminaire layouts of a room: rows and columns along the room's axes.
+
+A *grid* has ``ns x nt`` positions along the room's length and width. Along a side of length
+``L`` with ``n`` luminaires the spacing is ``s = L / (n - 1 + 2 f)`` and the first luminaire
+sits ``f * s`` from the wall: ``f = 0.5`` is the lighting designer's classic "half spacing
+at the walls"; ``f > 0.5`` pulls the rows inwards (more light on a work plane with a border
+zone), ``f < 0.5`` pushes them out (more light near the walls). Every layout is symmetric
+about the room's centre lines. Positions that fall outside a non-rectangular room (or have
+no ceiling above them) are dropped, so an L-shaped room gets a clipped regular grid.
+
+Each position also gets a *class*: 1 for the end columns (first and last along the room's
+length) when there are at least three columns, 0 otherwise; a mixed layout puts one
+catalogue entry on class 0 and another on class 1 (stronger ends against the darker walls,
+or weaker ones where walls reflect enough).
+"""
+from dataclasses import dataclass
+import itertools
+
+import numpy as np
+
+from invrad_wb.core.inverse.locate import WORK_PLANE_CLEARANCE_M
+
+#: edge fractions f tried along each axis (0.5 = half spacing at the walls); with many
+#: luminaires along an axis the walls matter less and fewer are tried
+EDGE_FRACTIONS = (0.5, 0.35, 0.65, 0.8, 1.0)
+EDGE_FRACTIONS_MANY = (0.5, 0.75, 1.0)
+MANY = 9
+#: luminaires keep this far from walls (metres, plus their radius)
+WALL_CLEARANCE_M = 0.15
+#: smallest spacing between luminaires of a grid (metres)
+MIN_SPACING_M = 0.8
+#: largest ratio of the spacings along the two axes of a grid
+MAX_SPACING_RATIO = 3.0
+
+
+@dataclass
+class Geometry:
+    """Positions of one candidate layout (catalogue entries are chosen later)."""
+
+    ns: int
+    nt: int
+    fs: float
+    ft: float
+    plan: np.ndarray        # (L, 2) plan (s, t), metres
+    positions: np.ndarray   # (L, 3) metres
+    normals: np.ndarray     # (L, 3) unit facing directions
+    cls: np.ndarray         # (L,) int, 0 inner, 1 end columns
+
+    @property
+    def count(self):
+        return len(self.positions)
+
+    def describe(self):
+        edge = ("half spacing at the walls" if self.fs == self.ft == 0.5 else
+                f"walls at {self.fs:.2f} / {self.ft:.2f} of the spacing")
+        return f"{self.ns} x {self.nt} grid, {edge}"
+
+
+def axis_positions(length, n, f):
+    """``n`` positions along a side of ``length`` metres with edge fraction ``f``."""
+    if n == 1:
+        return np.array([length / 2.0])
+    s = length / (n - 1 + 2.0 * f)
+    return f * s + s * np.arange(n)
+
+
+def mount(droom, plan, mounting, radius_m, wp_top_z):
+    """World positions and normals of plan points for a mounting, and which are valid.
+
+    ``ceiling``: on the ceiling above the point, facing along the ceiling's inward normal;
+    ``pendant``: ``mounting.height_m`` above the floor facing down, below the ceiling.
+    Points outside the room, within ``WALL_CLEARANCE_M + radius_m`` of a wall, or less than
+    ``WORK_PLANE_CLEARANCE_M`` above the work plane are invalid.
+    """
+    xy = droom.to_world(plan)
+    zc, nc = droom.ceiling_at(xy)
+    ok = np.isfinite(zc) & (droom.wall_distance(xy) >= WALL_CLEARANCE_M + radius_m)
+    if mounting.kind == "pendant":
+        z = np.full(len(xy), droom.floor_z + mounting.height_m)
+        ok &= z < np.where(np.isfinite(zc), zc, -np.inf) - 0.05
+        nrm = np.tile([0.0, 0.0, -1.0], (len(xy), 1))
+    else:
+        z, nrm = np.where(np.isfinite(zc), zc, 0.0), nc
+    ok &= z >= wp_top_z + WORK_PLANE_CLEARANCE_M
+    return np.c_[xy, z], nrm, ok
+
+
+def grid_counts(droom, n_min, n_max):
+    """(ns, nt) pairs with ``n_min <= ns * nt <= n_max`` whose spacings are sensible."""
+    ls, lt = droom.size
+    out = []
+    for ns in range(1, int(ls / MIN_SPACING_M) + 2):
+        for nt in range(1, int(lt / MIN_SPACING_M) + 2):
+            if not n_min <= ns * nt <= n_max:
+                continue
+            ss, st = ls / ns, lt / nt   # spacings at half-spacing edges
+            if ns > 1 and nt > 1 and max(ss / st, st / ss) > MAX_SPACING_RATIO:
+                continue
+            out.append((ns, nt))
+    return out
+
+
+def grid_geometries(droom, mounting, radius_m, wp_top_z, n_min, n_max,
+                    fractions=EDGE_FRACTIONS):
+    """Every candidate grid of the room (list of :class:`Geometry`), symmetric layouts only.
+
+    Parameters
+    ----------
+    droom : DesignRoom
+    mounting : spec.Mounting
+    radius_m : float, the largest luminaire radius among the entries that may be used
+    wp_top_z : float, height of the work plane (metres)
+    n_min, n_max : int, range of luminaire counts to consider
+    fractions : edge fractions tried along each axis
+    """
+    ls, lt = droom.size
+    raw, seen = [], set()
+    for ns, nt in grid_counts(droom, n_min, n_max):
+        fr_s = fractions if ns < MANY else tuple(f for f in EDGE_FRACTIONS_MANY
+                                                 if f in fractions) or fractions
+        fr_t = fractions if nt < MANY else tuple(f for f in EDGE_FRACTIONS_MANY
+                                                 if f in fractions) or fractions
+        for fs, ft in itertools.product(fr_s, fr_t):
+            fs = 0.5 if ns == 1 else fs
+            ft = 0.5 if nt == 1 else ft
+            if (ns, nt, fs, ft) in seen:
+                continue
+            seen.add((ns, nt, fs, ft))
+            s, t = axis_positions(ls, ns, fs), axis_positions(lt, nt, ft)
+            if ns > 1 and s[1] - s[0] < MIN_SPACING_M or nt > 1 and t[1] - t[0] < MIN_SPACING_M:
+                continue
+            plan = np.stack(np.meshgrid(s, t, indexing="ij"), -1).reshape(-1, 2)
+            cls = np.repeat((np.arange(ns) == 0) | (np.arange(ns) == ns - 1), nt)
+            cls = cls.astype(int) if ns >= 3 else np.zeros(len(plan), int)
+            raw.append((ns, nt, fs, ft, plan, cls))
+    if not raw:
+        return []
+    # one mounting query for all positions of all grids (the queries dominate otherwise)
+    plan_all = np.concatenate([r[4] for r in raw])
+    uniq, inv = np.unique(np.round(plan_all, 9), axis=0, return_inverse=True)
+    pos_u, nrm_u, ok_u = mount(droom, uniq, mounting, radius_m, wp_top_z)
+    out, start = [], 0
+    for ns, nt, fs, ft, plan, cls in raw:
+        k = inv.reshape(-1)[start:start + len(plan)]
+        start += len(plan)
+        ok = ok_u[k]
+        if ok.any():
+            out.append(Geometry(ns, nt, fs, ft, plan[ok], pos_u[k[ok]], nrm_u[k[ok]], cls[ok]))
+    return out

@@ -1,0 +1,346 @@
+"""The design search of one room: the compliant layout of least installed power.
+
+Candidates are symmetric grids (:mod:`.layouts`) of one catalogue entry, or of two entries
+(one on the end columns, one inside), each optionally dimmed as one group. The fast model
+(:mod:`.evaluate`) ranks all of them; the cheapest that complies is checked with the exact
+model, the fast model learns from it, and the ranking is repeated until the cheapest
+fast-compliant candidate has been checked exactly (or no cheaper one is left). Verdicts
+come from the exact model only.
+
+Compliance of a room (maintained values): ``Em >= lux`` and ``Emin / Em >= u0`` on the
+calculation grid, and the direct light on every "must stay dark" point at most the room's
+shade limit.
+"""
+from dataclasses import dataclass, field
+import itertools
+import math
+
+import numpy as np
+
+from invrad_wb.core.design.evaluate import unit_response, luminaires_of
+from invrad_wb.core.design.layouts import grid_geometries
+
+#: exact solves per room at most
+MAX_EXACT = 10
+#: relative slack of the fast model's compliance test (the exact check decides)
+FAST_SLACK = 0.0
+#: assumed utilisation factors of the lumen method, used only to bound the counts tried
+_UF_LOW, _UF_HIGH = 0.35, 1.1
+#: luminaires per room at most
+MAX_COUNT = 400
+
+
+def _spacing_log_ratio(g):
+    """|log(spacing along s / spacing along t)| of a grid (0 = square); a single row or
+    column counts the room's width as its spacing."""
+    ext = g.plan.max(axis=0) - g.plan.min(axis=0)
+    ss = ext[0] / (g.ns - 1) if g.ns > 1 else 2 * g.plan[0, 0]
+    st = ext[1] / (g.nt - 1) if g.nt > 1 else 2 * g.plan[0, 1]
+    return round(abs(math.log(max(ss, 1e-3) / max(st, 1e-3))), 3)
+
+
+@dataclass
+class Candidate:
+    geom: object
+    entries: tuple          # (entry index for class 0, for class 1)
+    dim: float              # common output fraction
+    watts: float
+    em: float               # fast-model maintained Em, lx (after dimming)
+    u0: float
+    shade_max: float
+    ok: bool
+
+    def key(self):
+        g = self.geom
+        return (g.ns, g.nt, g.fs, g.ft, self.entries)
+
+
+@dataclass
+class Metrics:
+    """Exact figures of a design on its room's grid (maintained lux)."""
+    em: float
+    emin: float
+    emax: float
+    u0: float
+    shade_max: float
+    lux: np.ndarray = field(repr=False, default=None)
+
+    @classmethod
+    def of(cls, lux, n_wp):
+        wp = lux[:n_wp]
+        em = float(np.mean(wp))
+        sh = float(np.max(lux[n_wp:])) if len(lux) > n_wp else 0.0
+        return cls(em, float(wp.min()), float(wp.max()),
+                   float(wp.min() / em) if em > 0 else 0.0, sh, lux)
+
+
+def complies(em, u0, shade, req, shade_limit, slack=0.0):
+    """Boolean array: requirement met (Em, U0 with relative ``slack``, shade)."""
+    return ((em >= req.lux * (1.0 - slack)) & (u0 >= req.u0 - slack)
+            & (shade <= shade_limit * (1.0 + slack)))
+
+
+class RoomSearch:
+    """Search state of one room (see module docstring).
+
+    Parameters
+    ----------
+    model : evaluate.RoomModel
+    req : spec.WorkPlaneRequirement
+    room_spec : spec.RoomSpec
+    entries : list of spec.CatalogueEntry allowed in the room
+    photometry : dict entry name -> photometry object or None
+    mixed : bool, also try two entries per layout
+    dimming : bool, use the entries' dimming ranges
+    fractions : edge fractions to try (layouts.EDGE_FRACTIONS; (0.5,) = classic grids)
+    """
+
+    def __init__(self, model, req, room_spec, entries, photometry=None, mixed=True,
+                 dimming=True, fractions=None):
+        self.model, self.req, self.rs = model, req, room_spec
+        self.entries = list(entries)
+        self.phot = photometry or {}
+        self.mixed, self.dimming = mixed, dimming
+        droom = model.droom
+        wp_z = droom.floor_z + req.height_m
+        need = req.lux * max(droom.floor_area, 1e-6) / model.mf   # lm on the floor area
+        # plausible counts per entry: the lumen method with utilisation factors
+        # between _UF_LOW and _UF_HIGH (2 more at the top for uniformity)
+        self.n_range = [(max(1, int(math.floor(need / (e.flux_lm * _UF_HIGH)))),
+                         max(2, int(math.ceil(need / (e.flux_lm * _UF_LOW))) + 2))
+                        for e in self.entries]
+        kw = {} if fractions is None else {"fractions": fractions}
+        self.geoms = grid_geometries(droom, room_spec.mounting,
+                                     max(e.radius_m for e in self.entries), wp_z,
+                                     min(r[0] for r in self.n_range),
+                                     min(max(r[1] for r in self.n_range), MAX_COUNT), **kw)
+        self.g_count = np.array([g.count for g in self.geoms], dtype=float)
+        self.g_ratio = np.array([_spacing_log_ratio(g) for g in self.geoms])
+        self.g_fdev = np.array([abs(g.fs - 0.5) + abs(g.ft - 0.5) for g in self.geoms])
+        self._responses()
+        self.checked = {}
+
+    def _optics(self, e):
+        return (e.radius_m, e.photometry)
+
+    def _responses(self):
+        """Per optical key and class: (G, k) unit-flux direct light sums, and counts."""
+        m = self.model
+        G = len(self.geoms)
+        self.N = np.zeros((G, 2))
+        self.S = {}
+        if G == 0:
+            return
+        pos = np.concatenate([g.positions for g in self.geoms])
+        nrm = np.concatenate([g.normals for g in self.geoms])
+        group = np.concatenate([2 * gi + g.cls for gi, g in enumerate(self.geoms)])
+        self.N = np.bincount(group, minlength=2 * G).reshape(G, 2).astype(float)
+        order = np.argsort(group, kind="stable")
+        gs = group[order]
+        block = max(1, 2_000_000 // max(1, len(m.points)))
+        for e in self.entries:
+            key = self._optics(e)
+            if key in self.S:
+                continue
+            out = np.zeros((2 * G, len(m.points)))
+            for b0 in range(0, len(order), block):
+                # whole groups per block so reduceat sums each group once
+                b1 = min(len(order), b0 + block)
+                cols = order[b0:b1]
+                r = unit_response(m.points, m.normals, pos[cols], nrm[cols], e.radius_m,
+                                  self.phot.get(e.name))
+                st = np.flatnonzero(np.r_[True, gs[b0 + 1:b1] != gs[b0:b1 - 1]])
+                np.add.at(out, gs[b0:b1][st], np.add.reduceat(r, st, axis=1).T)
+            self.S[key] = out.reshape(G, 2, -1).transpose(1, 0, 2)
+
+    def _calibrate_all(self):
+        """Indirect light per lumen of each entry, from a middle-sized grid of it."""
+        m = self.model
+        med = float(np.median([g.count for g in self.geoms]))
+        mid = min(self.geoms, key=lambda g: (abs(g.fs - 0.5) + abs(g.ft - 0.5),
+                                             abs(g.count - med)))
+        for k, e in enumerate(self.entries):
+            lums = luminaires_of(mid.positions, mid.normals, np.full(mid.count, e.flux_lm),
+                                 self.entries, np.full(mid.count, k), m.droom.room)
+            m.calibrate(e.name, lums, None)
+
+    def evaluate(self, pair, sel):
+        """Fast figures of geometries ``sel`` with entries ``pair`` (class 0, class 1)."""
+        m, n_wp = self.model, self.model.n_wp
+        e0, e1 = self.entries[pair[0]], self.entries[pair[1]]
+        s0, s1 = self.S[self._optics(e0)][0][sel], self.S[self._optics(e1)][1][sel]
+        N = self.N[sel]
+        direct = m.mf * (e0.flux_lm * s0 + e1.flux_lm * s1)
+        ind = (np.outer(N[:, 0] * e0.flux_lm, m.indirect_per_lm[e0.name])
+               + np.outer(N[:, 1] * e1.flux_lm, m.indirect_per_lm[e1.name]))
+        lux = (direct + m.mf * ind) * m.correction
+        em = lux[:, :n_wp].mean(axis=1)
+        u0 = lux[:, :n_wp].min(axis=1) / np.maximum(em, 1e-12)
+        shade = direct[:, n_wp:].max(axis=1) if lux.shape[1] > n_wp else np.zeros(len(em))
+        dmin = max(e0.dimming[0], e1.dimming[0]) if self.dimming else 1.0
+        dim = np.clip(self.req.lux / np.maximum(em, 1e-12), dmin, 1.0)
+        watts = dim * (N[:, 0] * e0.watts + N[:, 1] * e1.watts)
+        return em * dim, u0, shade * dim, dim, watts
+
+    def _pairs(self):
+        n = len(self.entries)
+        pairs = [(a, a) for a in range(n)]
+        if self.mixed:
+            pairs += [(a, b) for a, b in itertools.permutations(range(n), 2)]
+        return pairs
+
+    def _count_ok(self, pair):
+        """(G,) bool: the geometry's count is in the plausible range of the pair's entries."""
+        counts = self.N.sum(axis=1)
+        lo = min(self.n_range[k][0] for k in pair)
+        hi = max(self.n_range[k][1] for k in pair)
+        ok = (counts >= lo) & (counts <= hi)
+        if pair[0] != pair[1]:
+            ok &= self.N[:, 1] > 0
+        return ok
+
+    def table(self):
+        """Fast figures of every (geometry, entry pair) candidate, as arrays.
+
+        Returns a dict of (C,) arrays: ``geom``, ``pair`` (index into ``self._pairs()``),
+        ``em``, ``u0``, ``shade``, ``dim``, ``watts``, ``ok``; rows sorted best first
+        (least watts; ties: fewer luminaires, one entry, square spacing, half spacing).
+        """
+        cols = {k: [] for k in ("geom", "pair", "em", "u0", "shade", "dim", "watts")}
+        for pi, pair in enumerate(self._pairs()):
+            sel = np.flatnonzero(self._count_ok(pair))
+            if len(sel) == 0:
+                continue
+            em, u0, sh, dim, watts = self.evaluate(pair, sel)
+            for k, v in zip(("geom", "pair", "em", "u0", "shade", "dim", "watts"),
+                            (sel, np.full(len(sel), pi), em, u0, sh, dim, watts)):
+                cols[k].append(v)
+        t = {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in cols.items()}
+        t["geom"] = t["geom"].astype(int)
+        t["pair"] = t["pair"].astype(int)
+        t["ok"] = complies(t["em"], t["u0"], t["shade"], self.req, self.rs.shade_limit_lux,
+                           FAST_SLACK)
+        g = t["geom"]
+        mixed = np.array([a != b for a, b in self._pairs()])[t["pair"]] if len(g) else g
+        # watts within 0.5 % count as equal: then fewer luminaires win (dimmed layouts
+        # of many luminaires draw about what fewer at full output draw)
+        w_bucket = np.floor(np.log(np.maximum(t["watts"], 1e-9)) / np.log(1.005))
+        order = np.lexsort((t["watts"], self.g_fdev[g], self.g_ratio[g], mixed,
+                            self.g_count[g], w_bucket))
+        return {k: v[order] for k, v in t.items()}
+
+    def candidate(self, t, row):
+        """The :class:`Candidate` of row ``row`` of :meth:`table`."""
+        return Candidate(self.geoms[t["geom"][row]], self._pairs()[t["pair"][row]],
+                         float(t["dim"][row]), float(t["watts"][row]), float(t["em"][row]),
+                         float(t["u0"][row]), float(t["shade"][row]), bool(t["ok"][row]))
+
+    def candidates(self):
+        """All candidates with fast figures (list of :class:`Candidate`, best first)."""
+        t = self.table()
+        return [self.candidate(t, i) for i in range(len(t["geom"]))]
+
+    def luminaires(self, cand):
+        g = cand.geom
+        idx = np.asarray(cand.entries)[g.cls]
+        flux = np.array([self.entries[k].flux_lm for k in idx]) * cand.dim
+        return luminaires_of(g.positions, g.normals, flux, self.entries, idx,
+                             self.model.droom.room)
+
+    def check(self, cand, fast_lux=None):
+        """Exact figures of a candidate (cached); re-dims it to the exact Em."""
+        key = cand.key()
+        if key not in self.checked:
+            full = Candidate(cand.geom, cand.entries, 1.0, 0.0, 0, 0, 0, False)
+            lums = self.luminaires(full)
+            lux = self.model.calibrate(None, lums, fast_lux)
+            self.checked[key] = Metrics.of(lux, self.model.n_wp)
+        return self.checked[key]
+
+
+def _finalise(search, cand, exact_full):
+    """Dim a candidate on its exact figures; returns (candidate, metrics) after dimming."""
+    e0, e1 = (search.entries[k] for k in cand.entries)
+    dmin = max(e0.dimming[0], e1.dimming[0]) if search.dimming else 1.0
+    dim = float(np.clip(search.req.lux * 1.001 / max(exact_full.em, 1e-12), dmin, 1.0))
+    g = cand.geom
+    n = np.bincount(g.cls, minlength=2)
+    watts = dim * (n[0] * e0.watts + n[1] * e1.watts)
+    met = Metrics.of(exact_full.lux * dim, search.model.n_wp)
+    c = Candidate(g, cand.entries, dim, watts, met.em, met.u0, met.shade_max,
+                  bool(complies(met.em, met.u0, met.shade_max, search.req,
+                                search.rs.shade_limit_lux)))
+    return c, met
+
+
+def run_search(search):
+    """Best design of a room: (Candidate, Metrics, n_exact). Candidate.ok is the verdict."""
+    search._calibrate_all()
+    best = None       # (candidate, metrics) exact-compliant of least watts
+    closest = None    # best effort when nothing complies
+    req = search.req
+    for it in range(MAX_EXACT):
+        t = search.table()
+        if len(t["geom"]) == 0:
+            break
+        rows = np.flatnonzero(t["ok"])
+        if best is not None:
+            rows = rows[t["watts"][rows] < best[0].watts - 1e-9]
+        todo = next((search.candidate(t, r) for r in rows
+                     if search.candidate(t, r).key() not in search.checked), None)
+        if todo is None:
+            if best is not None or closest is not None:
+                break
+            score = np.minimum(np.minimum(t["em"] / req.lux, t["u0"] / max(req.u0, 1e-9)),
+                               1.0)
+            todo = search.candidate(t, int(np.lexsort((t["watts"], -score))[0]))
+            if todo.key() in search.checked:
+                break
+        fast = search.model.fast(*_fast_args(search, todo))
+        cand, met = _finalise(search, todo, search.check(todo, fast))
+        if cand.ok and (best is None or cand.watts < best[0].watts):
+            best = (cand, met)
+        score = min(met.em / req.lux, met.u0 / max(req.u0, 1e-9))
+        if not cand.ok and (closest is None or score > closest[2]):
+            closest = (cand, met, score)
+    if best is None and closest is None:
+        return None, None, len(search.checked)
+    result = best if best is not None else closest[:2]
+    return result[0], result[1], len(search.checked)
+
+
+def _fast_args(search, cand):
+    """(response, flux, keys) of a candidate at full output for RoomModel.fast."""
+    g = cand.geom
+    idx = np.asarray(cand.entries)[g.cls]
+    cols = []
+    for k in np.unique(idx):
+        e = search.entries[k]
+        sel = idx == k
+        cols.append((unit_response(search.model.points, search.model.normals,
+                                   g.positions[sel], g.normals[sel], e.radius_m,
+                                   search.phot.get(e.name)), sel, k))
+    resp = np.zeros((len(search.model.points), g.count))
+    for r, sel, _ in cols:
+        resp[:, sel] = r
+    flux = np.array([search.entries[k].flux_lm for k in idx])
+    keys = [search.entries[k].name for k in idx]
+    return resp, flux, keys
+
+
+def best_regular_grid(search):
+    """The lighting designer's reference: one catalogue entry, an ``ns x nt`` grid with half
+    spacing at the walls, no dimming; the compliant one of least watts by the exact model.
+
+    ``search`` must be built with ``fractions=(0.5,)``, ``mixed=False``, ``dimming=False``.
+    Candidates are checked exactly in order of watts (not trusting the fast model).
+    Returns (Candidate, Metrics) or None when no grid complies.
+    """
+    search._calibrate_all()
+    for cand in search.candidates():
+        if cand.em < 0.8 * search.req.lux or cand.u0 < search.req.u0 - 0.2:
+            continue  # hopeless by the fast model: not worth an exact solve
+        met = search.check(cand)
+        if complies(met.em, met.u0, met.shade_max, search.req, search.rs.shade_limit_lux):
+            return cand, met
+    return None

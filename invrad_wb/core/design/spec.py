@@ -1,0 +1,341 @@
+"""Design specifications: the architect's requirements and her luminaire catalogue.
+
+A design spec (``DESIGN.json``) says, per room, what light is required and which luminaires
+may be used; :func:`read_spec` / :func:`spec_from_dict` check it completely before any
+computation and name the offending key and value in one line::
+
+    {"maintenance_factor": 0.8,
+     "catalogue": [{"name": "DL-2000", "flux_lm": 2000, "watts": 15.0, "radius_m": 0.0,
+                    "dimming": [0.1, 1.0], "mounting": ["ceiling"],
+                    "photometry": "dl2000.ldt"}],
+     "rooms": {"0": {"work_plane": {"lux": 500, "u0": 0.6, "height_m": 0.75,
+                                    "margin_m": 0.5},
+                     "room_type": "office",
+                     "mounting": {"type": "pendant", "height_m": 2.5},
+                     "catalogue": ["DL-2000"],
+                     "shade_limit_lux": 5}}}
+
+Room keys are the PLY room id (``"0"``) or the room's name in FreeCAD/IFC; ``"*"`` applies to
+every room not listed. Requirements are *maintained* values (EN 12464-1): a new
+installation must give ``lux / maintenance_factor`` (CIE 97 simplified: one factor for lamp
+lumen depreciation, luminaire and room soiling). A room with a ``room_type`` but no
+``work_plane`` takes the EN 12464-1 values of that type (:mod:`.en12464`).
+
+Units: lux, lumens, watts, metres.
+"""
+from dataclasses import dataclass, field
+import json
+import math
+import os
+from typing import Optional
+
+from invrad_wb.errors import SettingsError
+
+#: Mounting kinds a catalogue entry or a room may allow.
+MOUNTINGS = ("ceiling", "pendant", "wall")
+#: Light a "must stay dark" point may receive before it vetoes a candidate (lux).
+DEFAULT_SHADE_LIMIT_LUX = 5.0
+#: EN 12464-1 border zone of a work plane that is a whole room (metres).
+DEFAULT_MARGIN_M = 0.5
+#: Usual desk height (metres).
+DEFAULT_WORK_PLANE_HEIGHT_M = 0.75
+
+
+@dataclass
+class CatalogueEntry:
+    """One luminaire type of the catalogue.
+
+    Attributes
+    ----------
+    name : str
+    flux_lm : float, lumens at full output (the luminaire's, LOR included)
+    watts : float, system power at full output
+    radius_m : float, radius of a disk emitter (0: point)
+    dimming : (float, float), lowest and highest output as fractions of ``flux_lm``
+        ((1, 1): not dimmable). Power is taken proportional to output (LED drivers).
+    mounting : tuple of str, subset of :data:`MOUNTINGS`
+    photometry : str or None, path of an EULUMDAT (.ldt) or IES (.ies) file
+    mount_height_m : (float, float), the mounting heights above the floor the maker
+        allows (e.g. high-bays from 4 m); (0, inf) if not stated
+    """
+
+    name: str
+    flux_lm: float
+    watts: float
+    radius_m: float = 0.0
+    dimming: tuple = (1.0, 1.0)
+    mounting: tuple = ("ceiling", "pendant")
+    photometry: Optional[str] = None
+    mount_height_m: tuple = (0.0, math.inf)
+
+    @property
+    def efficacy(self):
+        """Luminous efficacy, lm/W."""
+        return self.flux_lm / self.watts
+
+    @property
+    def dimmable(self):
+        return self.dimming[0] < 1.0
+
+    def to_dict(self):
+        d = {"name": self.name, "flux_lm": self.flux_lm, "watts": self.watts,
+             "radius_m": self.radius_m, "dimming": list(self.dimming),
+             "mounting": list(self.mounting)}
+        if self.photometry:
+            d["photometry"] = self.photometry
+        if self.mount_height_m != (0.0, math.inf):
+            d["mount_height_m"] = list(self.mount_height_m)
+        return d
+
+
+@dataclass
+class WorkPlaneRequirement:
+    """Maintained illuminance ``lux`` with uniformity ``u0`` (Emin/Em) on a work plane."""
+
+    lux: float
+    u0: float = 0.0
+    height_m: float = DEFAULT_WORK_PLANE_HEIGHT_M
+    margin_m: float = DEFAULT_MARGIN_M
+    source: str = "spec"
+
+    def to_dict(self):
+        return {"lux": self.lux, "u0": self.u0, "height_m": self.height_m,
+                "margin_m": self.margin_m, "source": self.source}
+
+
+@dataclass
+class Mounting:
+    """Where luminaires may go: ``ceiling`` (recessed/surface, facing into the room),
+    ``pendant`` (hanging, facing down, ``height_m`` above the floor) or ``wall``."""
+
+    kind: str = "ceiling"
+    height_m: Optional[float] = None
+
+
+@dataclass
+class RoomSpec:
+    """Requirements of one room (or of every unlisted room, key ``"*"``)."""
+
+    key: str
+    work_plane: Optional[WorkPlaneRequirement] = None
+    room_type: Optional[str] = None
+    mounting: Mounting = field(default_factory=Mounting)
+    catalogue: Optional[tuple] = None
+    shade_limit_lux: float = DEFAULT_SHADE_LIMIT_LUX
+    ugr_max: Optional[float] = None
+
+
+@dataclass
+class DesignSpec:
+    maintenance_factor: float
+    catalogue: list
+    rooms: dict
+    source: str = "design spec"
+
+    def room_spec(self, room_id, name=None):
+        """The :class:`RoomSpec` of a room by id or name; ``"*"``; else None."""
+        for key in (str(room_id), name):
+            if key is not None and key in self.rooms:
+                return self.rooms[key]
+        return self.rooms.get("*")
+
+    def entries_for(self, room_spec, mount_height_m=None):
+        """Catalogue entries allowed in a room, for its mounting and (if given) a mounting
+        height above the floor (metres)."""
+        names = room_spec.catalogue
+        kind = room_spec.mounting.kind
+        h = mount_height_m
+        return [e for e in self.catalogue
+                if (names is None or e.name in names) and kind in e.mounting
+                and (h is None or e.mount_height_m[0] <= h <= e.mount_height_m[1])]
+
+
+# --------------------------------------------------------------------------- parsing
+class _Where:
+    """Builds the 'file: key.path' prefix of error messages."""
+
+    def __init__(self, source, path=()):
+        self.source, self.path = source, tuple(path)
+
+    def __truediv__(self, key):
+        return _Where(self.source, self.path + (str(key),))
+
+    def error(self, message):
+        where = ".".join(self.path)
+        return SettingsError(f"{self.source}: {where}: {message}" if where
+                             else f"{self.source}: {message}")
+
+
+def _number(value, where, unit, lo=None, hi=None, lo_open=False, allow_none=False):
+    if value is None and allow_none:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise where.error(f"{value!r} is not a number of {unit}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise where.error(f"{x} {unit} is not finite")
+    if lo is not None and (x <= lo if lo_open else x < lo):
+        raise where.error(f"{x:g} {unit} must be {'>' if lo_open else '>='} {lo:g}")
+    if hi is not None and x > hi:
+        raise where.error(f"{x:g} {unit} must be <= {hi:g}")
+    return x
+
+
+def _object(value, where, keys):
+    if not isinstance(value, dict):
+        raise where.error(f"expected an object, got {type(value).__name__}")
+    unknown = sorted(set(value) - set(keys))
+    if unknown:
+        raise where.error(f"unknown key {unknown[0]!r} (known: {', '.join(keys)})")
+    return value
+
+
+def _entry(d, where, base_dir):
+    d = _object(d, where, ("name", "flux_lm", "watts", "radius_m", "dimming", "mounting",
+                           "photometry", "mount_height_m", "description"))
+    name = d.get("name")
+    if not isinstance(name, str) or not name.strip():
+        raise (where / "name").error(f"{name!r}: every catalogue entry needs a name")
+    w = where / name
+    flux = _number(d.get("flux_lm"), w / "flux_lm", "lm", lo=0, lo_open=True)
+    watts = _number(d.get("watts"), w / "watts", "W", lo=0, lo_open=True)
+    if flux / watts > 683.0:
+        raise (w / "watts").error(f"{flux:g} lm from {watts:g} W is {flux / watts:.0f} lm/W,"
+                                  " above the 683 lm/W that physics allows")
+    radius = _number(d.get("radius_m", 0.0), w / "radius_m", "m", lo=0, hi=5.0)
+    dim = d.get("dimming", [1.0, 1.0])
+    if not (isinstance(dim, (list, tuple)) and len(dim) == 2):
+        raise (w / "dimming").error(f"{dim!r}: give [lowest, highest] output fractions")
+    lo = _number(dim[0], w / "dimming", "(fraction)", lo=0, lo_open=True, hi=1.0)
+    hi = _number(dim[1], w / "dimming", "(fraction)", lo=lo, hi=1.0)
+    if hi != 1.0:
+        raise (w / "dimming").error(f"highest output {hi:g} must be 1 (flux_lm is the"
+                                    " full output)")
+    mounting = d.get("mounting", ["ceiling", "pendant"])
+    if isinstance(mounting, str):
+        mounting = [mounting]
+    bad = [m for m in mounting if m not in MOUNTINGS]
+    if bad or not mounting:
+        raise (w / "mounting").error(f"{bad[0] if bad else mounting!r}: mounting must be"
+                                     f" some of {', '.join(MOUNTINGS)}")
+    phot = d.get("photometry")
+    if phot is not None:
+        if not isinstance(phot, str):
+            raise (w / "photometry").error(f"{phot!r} is not a file name")
+        phot = phot if os.path.isabs(phot) else os.path.join(base_dir, phot)
+        if not os.path.isfile(phot):
+            raise (w / "photometry").error(f"no such file: {phot}")
+    mh = d.get("mount_height_m", [0.0, None])
+    if not (isinstance(mh, (list, tuple)) and len(mh) == 2):
+        raise (w / "mount_height_m").error(f"{mh!r}: give [lowest, highest] metres")
+    h0 = _number(mh[0], w / "mount_height_m", "m", lo=0)
+    h1 = _number(mh[1], w / "mount_height_m", "m", lo=h0, allow_none=True)
+    return CatalogueEntry(name.strip(), flux, watts, radius, (lo, hi), tuple(mounting), phot,
+                          (h0, math.inf if h1 is None else h1))
+
+
+def _work_plane(d, where, source="spec"):
+    d = _object(d, where, ("lux", "u0", "height_m", "margin_m"))
+    lux = _number(d.get("lux"), where / "lux", "lx", lo=0, lo_open=True)
+    u0 = _number(d.get("u0", 0.0), where / "u0", "(Emin/Em)", lo=0, hi=1.0)
+    h = _number(d.get("height_m", DEFAULT_WORK_PLANE_HEIGHT_M), where / "height_m", "m",
+                lo=0, hi=20.0)
+    margin = _number(d.get("margin_m", DEFAULT_MARGIN_M), where / "margin_m", "m", lo=0,
+                     hi=10.0)
+    return WorkPlaneRequirement(lux, u0, h, margin, source)
+
+
+def _mounting(d, where):
+    if isinstance(d, str):
+        d = {"type": d}
+    d = _object(d, where, ("type", "height_m"))
+    kind = d.get("type", "ceiling")
+    if kind not in MOUNTINGS:
+        raise (where / "type").error(f"{kind!r}: mounting must be one of"
+                                     f" {', '.join(MOUNTINGS)}")
+    h = _number(d.get("height_m"), where / "height_m", "m", lo=0, lo_open=True, hi=50.0,
+                allow_none=True)
+    if kind in ("pendant", "wall") and h is None:
+        raise (where / "height_m").error(f"a {kind} mounting needs its height above the"
+                                         " floor")
+    return Mounting(kind, h)
+
+
+def _room(key, d, where, catalogue_names):
+    from invrad_wb.core.design import en12464
+    d = _object(d, where, ("work_plane", "room_type", "mounting", "catalogue",
+                           "shade_limit_lux", "ugr_max", "name"))
+    rtype = d.get("room_type")
+    wp = d.get("work_plane")
+    ugr_max = _number(d.get("ugr_max"), where / "ugr_max", "(UGR)", lo=5, hi=40,
+                      allow_none=True)
+    if rtype is not None:
+        if not isinstance(rtype, str) or en12464.lookup(rtype) is None:
+            raise (where / "room_type").error(
+                f"{rtype!r} is not a known room type (known: {', '.join(en12464.names())})")
+    if wp is not None:
+        work_plane = _work_plane(wp, where / "work_plane")
+    elif rtype is not None:
+        req = en12464.lookup(rtype)
+        work_plane = WorkPlaneRequirement(req.em_lux, req.u0,
+                                          source=f"EN 12464-1 {req.reference}: {req.task}")
+        ugr_max = req.ugr_limit if ugr_max is None else ugr_max
+    else:
+        work_plane = None
+    cat = d.get("catalogue")
+    if cat is not None:
+        if not isinstance(cat, list) or not cat:
+            raise (where / "catalogue").error("give a non-empty list of catalogue names")
+        unknown = [c for c in cat if c not in catalogue_names]
+        if unknown:
+            raise (where / "catalogue").error(f"{unknown[0]!r} is not in the catalogue"
+                                              f" ({', '.join(catalogue_names)})")
+        cat = tuple(cat)
+    shade = _number(d.get("shade_limit_lux", DEFAULT_SHADE_LIMIT_LUX),
+                    where / "shade_limit_lux", "lx", lo=0)
+    return RoomSpec(key, work_plane, rtype, _mounting(d.get("mounting", "ceiling"),
+                                                      where / "mounting"),
+                    cat, shade, ugr_max)
+
+
+def spec_from_dict(d, source="design spec", base_dir="."):
+    """Check a design spec and build a :class:`DesignSpec` (raises SettingsError)."""
+    where = _Where(source)
+    d = _object(d, where, ("maintenance_factor", "catalogue", "rooms", "project",
+                           "description"))
+    mf = _number(d.get("maintenance_factor", 0.8), where / "maintenance_factor",
+                 "(fraction)", lo=0, lo_open=True, hi=1.0)
+    cat = d.get("catalogue")
+    if not isinstance(cat, list) or not cat:
+        raise (where / "catalogue").error("the catalogue is empty: list at least one"
+                                          " luminaire (name, flux_lm, watts)")
+    catalogue = [_entry(e, where / "catalogue" / i, base_dir) for i, e in enumerate(cat)]
+    names = [e.name for e in catalogue]
+    dup = {n for n in names if names.count(n) > 1}
+    if dup:
+        raise (where / "catalogue").error(f"name {sorted(dup)[0]!r} is used twice")
+    rooms_d = d.get("rooms")
+    if not isinstance(rooms_d, dict) or not rooms_d:
+        raise (where / "rooms").error("no rooms: give requirements per room id or name"
+                                      " (or '*' for every room)")
+    rooms = {str(k): _room(str(k), v, where / "rooms" / k, names) for k, v in rooms_d.items()}
+    spec = DesignSpec(mf, catalogue, rooms, source)
+    for key, rs in rooms.items():
+        if not spec.entries_for(rs):
+            raise (where / "rooms" / key).error(
+                f"no catalogue entry allows {rs.mounting.kind} mounting"
+                + (f" among {', '.join(rs.catalogue)}" if rs.catalogue else ""))
+    return spec
+
+
+def read_spec(path):
+    """Read and check ``DESIGN.json`` (raises SettingsError naming the file and key)."""
+    try:
+        with open(path, "rb") as fh:
+            data = json.loads(fh.read().decode("utf-8"))
+    except FileNotFoundError:
+        raise SettingsError(f"{path}: no such design spec file")
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise SettingsError(f"{path}: not a readable JSON design spec ({e})")
+    return spec_from_dict(data, source=os.fspath(path),
+                          base_dir=os.path.dirname(os.path.abspath(path)))

@@ -1,0 +1,107 @@
+"""``python -m invrad_wb design SCENE --spec DESIGN.json -o RESULT.json``: lighting design
+from requirements on a plain mesh (PLY with ``room`` and ``reflectance``; ``lux`` may be NaN
+everywhere, 0 marks points that must stay dark).
+
+Exit status: 0 when every room with a requirement complies, 3 when at least one cannot
+(the closest design is written all the same and the reason printed), 2 on bad input.
+"""
+import csv
+import io
+import json
+import os
+import sys
+
+#: exit status of a design that does not meet every requirement
+EXIT_NOT_COMPLIANT = 3
+
+
+def add_parser(sub):
+    p = sub.add_parser("design", help="lighting design from requirements (least watts)")
+    p.add_argument("scene", help="scene file (PLY with room and reflectance)")
+    p.add_argument("--spec", required=True, help="DESIGN.json: requirements and catalogue")
+    p.add_argument("-o", "--output", required=True, help="RESULT.json")
+    p.add_argument("--schedule", help="also write the luminaire schedule as CSV")
+    p.add_argument("--unit", default="m", choices=("m", "mm"), help="scene length unit")
+    p.add_argument("--backend", default="auto", choices=("auto", "opencl", "numpy"))
+    p.add_argument("--no-mixed", dest="mixed", action="store_false",
+                   help="one catalogue entry per room")
+    p.add_argument("--no-dimming", dest="dimming", action="store_false",
+                   help="ignore the catalogue's dimming ranges")
+    p.add_argument("-v", "--verbose", action="store_true")
+    p.set_defaults(func=run)
+
+
+def _check_output(path, what):
+    from invrad_wb.errors import InvradError
+    folder = os.path.dirname(os.path.abspath(path))
+    if os.path.isdir(path):
+        raise InvradError(f"{path}: {what} is a folder; give a file name")
+    if not os.path.isdir(folder):
+        raise InvradError(f"{path}: the folder {folder} does not exist")
+    if not os.access(folder, os.W_OK):
+        raise InvradError(f"{path}: the folder {folder} is not writable")
+
+
+def schedule_csv(result):
+    """The luminaire schedule of a design as CSV text (one row per room and type)."""
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(["room", "type", "count", "flux_lm", "watts_each", "dim", "watts_total",
+                "efficacy_lm_per_w"])
+    cat = {e.name: e for e in result.spec.catalogue}
+    for r in result.rooms:
+        dim = r.candidate.dim if r.candidate is not None else 1.0
+        for t, n in sorted(r.schedule().items()):
+            e = cat[t]
+            w.writerow([r.name, t, n, f"{e.flux_lm * dim:.0f}", f"{e.watts * dim:.2f}",
+                        f"{dim:.3f}", f"{n * e.watts * dim:.2f}", f"{e.efficacy:.1f}"])
+    return buf.getvalue()
+
+
+def _print_room(r):
+    if r.metrics is None:
+        print(f"{r.name}: {'; '.join(r.notes)}")
+        return
+    m, q = r.metrics, r.requirement
+    types = ", ".join(f"{n} x {t}" for t, n in sorted(r.schedule().items()))
+    verdict = "meets" if r.compliant else "DOES NOT MEET"
+    print(f"{r.name}: {types} ({r.candidate.geom.describe()}"
+          + (f", dimmed to {100 * r.candidate.dim:.0f} %" if r.candidate.dim < 1 else "")
+          + f"): Em {m.em:.0f} lx (>= {q.lux:g}), U0 {m.u0:.2f} (>= {q.u0:g}),"
+          f" {r.watts:.1f} W, {r.watts / max(r.area_m2, 1e-9):.2f} W/m^2: {verdict}"
+          " the requirement")
+    for note in r.notes:
+        print(f"  note: {note}")
+
+
+def run(args):
+    from invrad_wb.core.design.design import design
+    from invrad_wb.core.design.spec import read_spec
+    from invrad_wb.core.io.atomic import atomic_write_text
+    from invrad_wb.core.io.sceneio import read_scene
+    spec = read_spec(args.spec)
+    _check_output(args.output, "-o")
+    if args.schedule:
+        _check_output(args.schedule, "--schedule")
+    scene = read_scene(args.scene, unit=args.unit)
+
+    def progress(frac, msg):
+        if args.verbose:
+            print(f"  {100 * frac:5.1f} %  {msg}", file=sys.stderr)
+        return True
+
+    result = design(scene, spec, backend=args.backend, progress=progress,
+                    mixed=args.mixed, dimming=args.dimming)
+    data = result.to_dict()
+    atomic_write_text(args.output, json.dumps(data, indent=2, allow_nan=False) + "\n")
+    if args.schedule:
+        atomic_write_text(args.schedule, schedule_csv(result))
+    for r in result.rooms:
+        _print_room(r)
+    print(f"{len(result.luminaires)} luminaire(s), {result.watts:.1f} W in"
+          f" {result.timings['total']:.1f} s -> {args.output}")
+    if not result.compliant:
+        print("invrad: the catalogue cannot meet every requirement: the closest design"
+              " is written (see the notes above)", file=sys.stderr)
+        return EXIT_NOT_COMPLIANT
+    return 0
