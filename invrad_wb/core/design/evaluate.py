@@ -150,7 +150,7 @@ class RoomModel:
         an exact solve of ``luminaires``, and the per-point correction ``exact / fast``.
 
         ``fast_lux``: the fast model's (maintained) lux of the same luminaires before this
-        call, or None. Returns the exact maintained lux.
+        call, or None. Returns the exact maintained lux, total and direct.
         """
         total, direct = self.exact(luminaires)
         if key is not None:
@@ -160,7 +160,7 @@ class RoomModel:
             with np.errstate(divide="ignore", invalid="ignore"):
                 c = np.where(fast_lux > 1e-9, total / fast_lux * self.correction, 1.0)
             self.correction = np.clip(c, 0.2, 5.0)
-        return total
+        return total, direct
 
     def fast(self, response, flux, keys):
         """Fast maintained lux (k,) of luminaires with unit responses ``response`` (k, L),

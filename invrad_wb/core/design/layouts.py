@@ -25,6 +25,8 @@ from invrad_wb.core.inverse.locate import WORK_PLANE_CLEARANCE_M
 EDGE_FRACTIONS = (0.5, 0.35, 0.65, 0.8, 1.0)
 EDGE_FRACTIONS_MANY = (0.5, 0.75, 1.0)
 MANY = 9
+#: further edge fractions of shifted grids (rooms with surfaces that must stay dark)
+SHIFT_FRACTIONS = (0.35, 0.5, 1.0, 1.5, 2.5)
 #: luminaires keep this far from walls (metres, plus their radius)
 WALL_CLEARANCE_M = 0.15
 #: smallest spacing between luminaires of a grid (metres)
@@ -39,8 +41,8 @@ class Geometry:
 
     ns: int
     nt: int
-    fs: float
-    ft: float
+    fs: tuple               # edge fractions (first wall, last wall) along s
+    ft: tuple               # ... along t
     plan: np.ndarray        # (L, 2) plan (s, t), metres
     positions: np.ndarray   # (L, 3) metres
     normals: np.ndarray     # (L, 3) unit facing directions
@@ -51,17 +53,44 @@ class Geometry:
         return len(self.positions)
 
     def describe(self):
-        edge = ("half spacing at the walls" if self.fs == self.ft == 0.5 else
-                f"walls at {self.fs:.2f} / {self.ft:.2f} of the spacing")
+        def axis(f):
+            return f"{f[0]:.2f}" if f[0] == f[1] else f"{f[0]:.2f}-{f[1]:.2f}"
+        if self.fs == self.ft == (0.5, 0.5):
+            edge = "half spacing at the walls"
+        else:
+            edge = f"walls at {axis(self.fs)} / {axis(self.ft)} of the spacing"
+        if self.fs[0] != self.fs[1] or self.ft[0] != self.ft[1]:
+            edge += " (shifted away from light-sensitive surfaces)"
         return f"{self.ns} x {self.nt} grid, {edge}"
+
+    @property
+    def edge_deviation(self):
+        """How far the wall distances are from the classic half spacing (0 = classic)."""
+        return sum(abs(f - 0.5) for f in self.fs + self.ft)
 
 
 def axis_positions(length, n, f):
-    """``n`` positions along a side of ``length`` metres with edge fraction ``f``."""
+    """``n`` positions along a side of ``length`` metres with edge fractions ``f = (f0, f1)``
+    (the first and last luminaire ``f0 s`` and ``f1 s`` from the walls; a single luminaire
+    divides the side in the ratio f0 : f1)."""
+    f0, f1 = f
     if n == 1:
-        return np.array([length / 2.0])
-    s = length / (n - 1 + 2.0 * f)
-    return f * s + s * np.arange(n)
+        return np.array([length * f0 / (f0 + f1)])
+    s = length / (n - 1 + f0 + f1)
+    return f0 * s + s * np.arange(n)
+
+
+def _axis_options(n, fractions, shifted):
+    """Edge-fraction pairs along one axis with ``n`` luminaires."""
+    fr = fractions if n < MANY else (tuple(f for f in EDGE_FRACTIONS_MANY if f in fractions)
+                                     or fractions)
+    if n == 1 and not shifted:
+        return [(0.5, 0.5)]
+    pairs = [(f, f) for f in fr]
+    if shifted:
+        wide = tuple(sorted(set(fr) | set(SHIFT_FRACTIONS)))
+        pairs += [(a, b) for a in wide for b in wide if a != b]
+    return pairs
 
 
 def mount(droom, plan, mounting, radius_m, wp_top_z):
@@ -101,8 +130,8 @@ def grid_counts(droom, n_min, n_max):
 
 
 def grid_geometries(droom, mounting, radius_m, wp_top_z, n_min, n_max,
-                    fractions=EDGE_FRACTIONS):
-    """Every candidate grid of the room (list of :class:`Geometry`), symmetric layouts only.
+                    fractions=EDGE_FRACTIONS, shifted=False):
+    """Every candidate grid of the room (list of :class:`Geometry`).
 
     Parameters
     ----------
@@ -111,21 +140,20 @@ def grid_geometries(droom, mounting, radius_m, wp_top_z, n_min, n_max,
     radius_m : float, the largest luminaire radius among the entries that may be used
     wp_top_z : float, height of the work plane (metres)
     n_min, n_max : int, range of luminaire counts to consider
-    fractions : edge fractions tried along each axis
+    fractions : edge fractions tried along each axis (symmetric grids)
+    shifted : bool, also grids shifted along one axis (different distances to the two
+        walls): what a room with surfaces that must stay dark needs; without it every
+        layout is symmetric about the room's centre lines
     """
     ls, lt = droom.size
-    raw, seen = [], set()
+    raw = []
     for ns, nt in grid_counts(droom, n_min, n_max):
-        fr_s = fractions if ns < MANY else tuple(f for f in EDGE_FRACTIONS_MANY
-                                                 if f in fractions) or fractions
-        fr_t = fractions if nt < MANY else tuple(f for f in EDGE_FRACTIONS_MANY
-                                                 if f in fractions) or fractions
-        for fs, ft in itertools.product(fr_s, fr_t):
-            fs = 0.5 if ns == 1 else fs
-            ft = 0.5 if nt == 1 else ft
-            if (ns, nt, fs, ft) in seen:
-                continue
-            seen.add((ns, nt, fs, ft))
+        opt_s, opt_t = (_axis_options(n, fractions, shifted) for n in (ns, nt))
+        sym_s = [p for p in opt_s if p[0] == p[1]]
+        sym_t = [p for p in opt_t if p[0] == p[1]]
+        combos = set(itertools.product(sym_s, sym_t))
+        combos |= set(itertools.product(opt_s, sym_t)) | set(itertools.product(sym_s, opt_t))
+        for fs, ft in sorted(combos):
             s, t = axis_positions(ls, ns, fs), axis_positions(lt, nt, ft)
             if ns > 1 and s[1] - s[0] < MIN_SPACING_M or nt > 1 and t[1] - t[0] < MIN_SPACING_M:
                 continue

@@ -65,13 +65,18 @@ class Metrics:
     shade_max: float
     lux: np.ndarray = field(repr=False, default=None)
 
+    direct: np.ndarray = field(repr=False, default=None)
+
     @classmethod
-    def of(cls, lux, n_wp):
+    def of(cls, lux, direct, n_wp):
+        """Figures of maintained lux at the grid (first ``n_wp``) and at points that must
+        stay dark (the rest: judged on their direct light, interreflection lights every
+        surface of a lit room a little)."""
         wp = lux[:n_wp]
         em = float(np.mean(wp))
-        sh = float(np.max(lux[n_wp:])) if len(lux) > n_wp else 0.0
+        sh = float(np.max(direct[n_wp:])) if len(lux) > n_wp else 0.0
         return cls(em, float(wp.min()), float(wp.max()),
-                   float(wp.min() / em) if em > 0 else 0.0, sh, lux)
+                   float(wp.min() / em) if em > 0 else 0.0, sh, lux, direct)
 
 
 def complies(em, u0, shade, req, shade_limit, slack=0.0):
@@ -97,6 +102,7 @@ class RoomSearch:
 
     def __init__(self, model, req, room_spec, entries, photometry=None, mixed=True,
                  dimming=True, fractions=None):
+        shifted = len(model.points) > model.n_wp     # points that must stay dark
         self.model, self.req, self.rs = model, req, room_spec
         self.entries = list(entries)
         self.phot = photometry or {}
@@ -109,14 +115,21 @@ class RoomSearch:
         self.n_range = [(max(1, int(math.floor(need / (e.flux_lm * _UF_HIGH)))),
                          max(2, int(math.ceil(need / (e.flux_lm * _UF_LOW))) + 2))
                         for e in self.entries]
-        kw = {} if fractions is None else {"fractions": fractions}
-        self.geoms = grid_geometries(droom, room_spec.mounting,
-                                     max(e.radius_m for e in self.entries), wp_z,
+        kw = {"shifted": shifted} if fractions is None else {"fractions": fractions,
+                                                             "shifted": shifted}
+        radius = max(e.radius_m for e in self.entries)
+        self.geoms = grid_geometries(droom, room_spec.mounting, radius, wp_z,
                                      min(r[0] for r in self.n_range),
                                      min(max(r[1] for r in self.n_range), MAX_COUNT), **kw)
+        if not self.geoms:
+            # a catalogue too weak for the room: its densest grids are the closest designs
+            dense = grid_geometries(droom, room_spec.mounting, radius, wp_z, 1, MAX_COUNT,
+                                    **kw)
+            top = max((g.count for g in dense), default=0)
+            self.geoms = [g for g in dense if g.count >= 0.8 * top]
         self.g_count = np.array([g.count for g in self.geoms], dtype=float)
         self.g_ratio = np.array([_spacing_log_ratio(g) for g in self.geoms])
-        self.g_fdev = np.array([abs(g.fs - 0.5) + abs(g.ft - 0.5) for g in self.geoms])
+        self.g_fdev = np.array([g.edge_deviation for g in self.geoms])
         self._responses()
         self.checked = {}
 
@@ -157,7 +170,7 @@ class RoomSearch:
         """Indirect light per lumen of each entry, from a middle-sized grid of it."""
         m = self.model
         med = float(np.median([g.count for g in self.geoms]))
-        mid = min(self.geoms, key=lambda g: (abs(g.fs - 0.5) + abs(g.ft - 0.5),
+        mid = min(self.geoms, key=lambda g: (g.edge_deviation,
                                              abs(g.count - med)))
         for k, e in enumerate(self.entries):
             lums = luminaires_of(mid.positions, mid.normals, np.full(mid.count, e.flux_lm),
@@ -194,6 +207,7 @@ class RoomSearch:
         counts = self.N.sum(axis=1)
         lo = min(self.n_range[k][0] for k in pair)
         hi = max(self.n_range[k][1] for k in pair)
+        lo = min(lo, counts.max()) if len(counts) else lo   # clipped grids hold fewer
         ok = (counts >= lo) & (counts <= hi)
         if pair[0] != pair[1]:
             ok &= self.N[:, 1] > 0
@@ -253,8 +267,8 @@ class RoomSearch:
         if key not in self.checked:
             full = Candidate(cand.geom, cand.entries, 1.0, 0.0, 0, 0, 0, False)
             lums = self.luminaires(full)
-            lux = self.model.calibrate(None, lums, fast_lux)
-            self.checked[key] = Metrics.of(lux, self.model.n_wp)
+            lux, direct = self.model.calibrate(None, lums, fast_lux)
+            self.checked[key] = Metrics.of(lux, direct, self.model.n_wp)
         return self.checked[key]
 
 
@@ -266,7 +280,7 @@ def _finalise(search, cand, exact_full):
     g = cand.geom
     n = np.bincount(g.cls, minlength=2)
     watts = dim * (n[0] * e0.watts + n[1] * e1.watts)
-    met = Metrics.of(exact_full.lux * dim, search.model.n_wp)
+    met = Metrics.of(exact_full.lux * dim, exact_full.direct * dim, search.model.n_wp)
     c = Candidate(g, cand.entries, dim, watts, met.em, met.u0, met.shade_max,
                   bool(complies(met.em, met.u0, met.shade_max, search.req,
                                 search.rs.shade_limit_lux)))
@@ -291,8 +305,9 @@ def run_search(search):
         if todo is None:
             if best is not None or closest is not None:
                 break
+            limit = max(search.rs.shade_limit_lux, 1e-9)
             score = np.minimum(np.minimum(t["em"] / req.lux, t["u0"] / max(req.u0, 1e-9)),
-                               1.0)
+                               np.minimum(limit / np.maximum(t["shade"], 1e-12), 1.0))
             todo = search.candidate(t, int(np.lexsort((t["watts"], -score))[0]))
             if todo.key() in search.checked:
                 break
@@ -300,7 +315,8 @@ def run_search(search):
         cand, met = _finalise(search, todo, search.check(todo, fast))
         if cand.ok and (best is None or cand.watts < best[0].watts):
             best = (cand, met)
-        score = min(met.em / req.lux, met.u0 / max(req.u0, 1e-9))
+        score = min(met.em / req.lux, met.u0 / max(req.u0, 1e-9),
+                    search.rs.shade_limit_lux / max(met.shade_max, 1e-12))
         if not cand.ok and (closest is None or score > closest[2]):
             closest = (cand, met, score)
     if best is None and closest is None:

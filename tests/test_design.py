@@ -1,0 +1,243 @@
+"""Lighting design from requirements: spec checks, EN 12464-1 grid, room geometry, compliance
+recomputed independently, least watts against the regular grid, shade veto, CLI."""
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from invrad_wb.errors import SettingsError
+from invrad_wb.core.design import en12464
+from invrad_wb.core.design.design import design, design_room
+from invrad_wb.core.design.evaluate import RoomModel
+from invrad_wb.core.design.room import DesignRoom, merge_collinear
+from invrad_wb.core.design.search import RoomSearch, best_regular_grid
+from invrad_wb.core.design.spec import spec_from_dict
+from invrad_wb.core.model.scene import Scene
+from invrad_wb.core.synthetic import generate as g
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+CAT = [{"name": "DL-1000", "flux_lm": 1000, "watts": 8.5},
+       {"name": "DL-2000", "flux_lm": 2000, "watts": 15.5},
+       {"name": "DL-3500", "flux_lm": 3500, "watts": 26.0}]
+
+
+def spec(lux=500, u0=0.6, cat=CAT, **room):
+    return spec_from_dict({"maintenance_factor": 0.8, "catalogue": cat,
+                           "rooms": {"0": {"work_plane": {"lux": lux, "u0": u0}, **room}}})
+
+
+# ----------------------------------------------------------------------------- spec
+@pytest.mark.parametrize("mutate, words", [
+    (lambda d: d["rooms"]["0"]["work_plane"].update(lux=-5), "work_plane.lux"),
+    (lambda d: d["rooms"]["0"]["work_plane"].update(lux=float("nan")), "not finite"),
+    (lambda d: d.update(catalogue=[]), "catalogue is empty"),
+    (lambda d: d["catalogue"][0].update(watts=0), "watts"),
+    (lambda d: d["catalogue"][0].update(watts=1), "683 lm/W"),
+    (lambda d: d["catalogue"][0].update(photometry="missing.ldt"), "no such file"),
+    (lambda d: d["catalogue"][0].update(mounting=["floor"]), "mounting"),
+    (lambda d: d["rooms"]["0"].update(room_type="ballroom"), "not a known room type"),
+    (lambda d: d["rooms"]["0"].update(colour="red"), "unknown key 'colour'"),
+    (lambda d: d.update(maintenance_factor=1.5), "maintenance_factor"),
+    (lambda d: d["rooms"]["0"].update(mounting={"type": "pendant"}), "needs its height"),
+])
+def test_bad_specs_give_one_line_errors_naming_the_key(mutate, words):
+    d = {"maintenance_factor": 0.8, "catalogue": [dict(e) for e in CAT],
+         "rooms": {"0": {"work_plane": {"lux": 500, "u0": 0.6}}}}
+    mutate(d)
+    with pytest.raises(SettingsError) as e:
+        spec_from_dict(d, source="DESIGN.json")
+    msg = str(e.value)
+    assert words in msg and msg.startswith("DESIGN.json") and "\n" not in msg
+
+
+def test_unknown_room_is_refused_before_computing():
+    sc = g.box_room(size=(4.0, 3.0, 2.8), cell=0.5)
+    sp = spec_from_dict({"catalogue": CAT, "rooms": {"Kitchen": {"room_type": "office"}}})
+    with pytest.raises(SettingsError, match="'Kitchen' is not a room of the scene"):
+        design(sc, sp)
+
+
+def test_room_type_takes_en12464_values():
+    sp = spec_from_dict({"catalogue": CAT, "rooms": {"0": {"room_type": "corridor"}}})
+    wp = sp.rooms["0"].work_plane
+    assert (wp.lux, wp.u0) == (100, 0.4) and "EN 12464-1" in wp.source
+
+
+# ----------------------------------------------------------------------------- grid
+def test_en12464_grid_spacing():
+    # p = 0.2 * 5^log10(d): 0.2 m at 1 m, 1 m at 10 m, 5 m at 100 m, at most 10 m
+    assert en12464.grid_spacing(1.0) == pytest.approx(0.2)
+    assert en12464.grid_spacing(10.0) == pytest.approx(1.0)
+    assert en12464.grid_spacing(100.0) == pytest.approx(5.0)
+    assert en12464.grid_spacing(1e4) == 10.0
+    # 5 x 3 m: p = 0.2 * 5^log10(5) = 0.619 m -> 9 x 5 points
+    assert en12464.grid_counts(5.0, 3.0) == (9, 5)
+
+
+def test_design_room_axes_outline_and_grid():
+    sc = g.l_room(size=(6.0, 5.0, 3.0), cut=(3.0, 2.5), cell=0.25)
+    dr = DesignRoom(sc, 0)
+    assert len(dr._edges) == 6                       # the L's six walls, merged
+    assert dr.size == pytest.approx([6.0, 5.0])
+    assert dr.floor_area == pytest.approx(6 * 5 - 3 * 2.5)
+    assert not dr.rectangular
+    inside = dr.inside(np.array([[1.0, 1.0], [4.5, 4.0], [-1.0, 1.0]]))
+    assert inside.tolist() == [True, False, False]
+    assert dr.wall_distance(np.array([[1.0, 1.0]]))[0] == pytest.approx(1.0)
+    pts, _ = dr.grid(0.75, 0.5)
+    assert np.all(dr.wall_distance(pts[:, :2]) >= 0.5 - 1e-9)
+    assert np.allclose(pts[:, 2], 0.75)
+
+
+def test_merge_collinear_keeps_gaps():
+    seg = np.array([[[0, 0], [1, 0]], [[1, 0], [2, 0]], [[3, 0], [4, 0]], [[0, 0], [0, 1]]],
+                   float)
+    m = merge_collinear(seg)
+    lengths = sorted(np.linalg.norm(m[:, 1] - m[:, 0], axis=1).round(9))
+    assert lengths == [1.0, 1.0, 2.0]
+
+
+# ----------------------------------------------------------------------------- physics
+def _independent_lux(points, lums, mf):
+    """Maintained direct illuminance of lambertian point luminaires, by the textbook formula
+    E = F cos(theta_l) cos(theta_s) / (pi r^2), receivers facing up (no reflection)."""
+    e = np.zeros(len(points))
+    for lum in lums:
+        r = points - lum.position
+        d2 = np.einsum("ij,ij->i", r, r)
+        cos_l = np.maximum(r @ lum.normal, 0) / np.sqrt(d2)
+        cos_s = np.maximum(-r[:, 2], 0) / np.sqrt(d2)
+        e += lum.flux_lm * cos_l * cos_s / (math.pi * d2)
+    return mf * e
+
+
+def test_design_complies_by_an_independent_computation():
+    # black room: no interreflection, so the textbook formula is the whole answer
+    sc = g.box_room(size=(6.0, 4.0, 3.0), cell=0.5, reflectance=0.0)
+    rd = design_room(sc, spec(), 0)
+    assert rd.compliant and rd.luminaires
+    # the EN 12464-1 grid, laid by hand: 5 x 3 m task area -> 9 x 5 cell centres
+    s = 0.5 + (np.arange(9) + 0.5) * 5.0 / 9
+    t = 0.5 + (np.arange(5) + 0.5) * 3.0 / 5
+    pts = np.array([[x, y, 0.75] for x in s for y in t])
+    e = _independent_lux(pts, rd.luminaires, 0.8)
+    assert e.mean() >= 500 and e.min() / e.mean() >= 0.6
+    assert e.mean() == pytest.approx(rd.metrics.em, rel=2e-3)
+    assert e.min() / e.mean() == pytest.approx(rd.metrics.u0, rel=5e-3)
+    # least watts: nothing is left on the table beyond dimming
+    assert rd.watts == pytest.approx(sum(15.5 if lum.extra["type"] == "DL-2000" else
+                                         8.5 if lum.extra["type"] == "DL-1000" else 26.0
+                                         for lum in rd.luminaires))
+
+
+def test_layout_is_regular_and_symmetric_in_a_rectangular_room():
+    sc = g.with_reflectances(g.box_room(size=(7.0, 5.0, 3.0), cell=0.4))
+    rd = design_room(sc, spec(cat=CAT[1:2]), 0)
+    assert rd.compliant
+    p = np.array([lum.position for lum in rd.luminaires])
+    xs, ys = np.unique(p[:, 0].round(6)), np.unique(p[:, 1].round(6))
+    assert len(xs) * len(ys) == len(p)                       # rows x columns
+    assert np.allclose(np.sort(7.0 - xs), xs) and np.allclose(np.sort(5.0 - ys), ys)
+    assert np.allclose(p[:, 2], 3.0)                          # on the ceiling
+    assert all(np.allclose(lum.normal, [0, 0, -1]) for lum in rd.luminaires)
+
+
+def test_at_most_the_watts_of_the_best_regular_grid():
+    sc = g.with_reflectances(g.box_room(size=(8.0, 6.0, 3.0), cell=0.4))
+    sp = spec()
+    rd = design_room(sc, sp, 0, dimming=False)
+    rs = sp.room_spec(0)
+    dr = DesignRoom(sc, 0)
+    pts, _ = dr.grid(0.75, 0.5)
+    search = RoomSearch(RoomModel(sc, dr, pts, 0.8), rs.work_plane, rs, sp.entries_for(rs),
+                        mixed=False, dimming=False, fractions=(0.5,))
+    ref, met = best_regular_grid(search)
+    assert met.em >= 500 and met.u0 >= 0.6
+    assert rd.compliant and rd.watts <= ref.watts + 1e-9
+
+
+def test_too_dark_catalogue_says_so_and_gives_the_closest_design():
+    sc = g.box_room(size=(6.0, 4.0, 3.0), cell=0.5)
+    rd = design_room(sc, spec(cat=[{"name": "tiny", "flux_lm": 60, "watts": 1.0}]), 0)
+    assert not rd.compliant and rd.luminaires
+    assert not rd.verdicts["Em"]
+    assert any("too dark" in n for n in rd.notes)
+
+
+def test_too_strong_catalogue_for_a_hallway_is_reported():
+    sc = g.with_reflectances(g.box_room(size=(8.0, 1.6, 2.6), cell=0.4))
+    rd = design_room(sc, spec(lux=100, u0=0.4, cat=CAT[2:]), 0)
+    assert rd.compliant
+    assert any("x the 100 lx required" in n for n in rd.notes)
+
+
+def _shaded(scene, mask_fn):
+    lux = np.full(len(scene.vertices), np.nan)
+    lux[mask_fn(scene.vertices, scene.vertex_normals)] = 0.0
+    return Scene(scene.vertices, scene.faces, vertex_lux=lux, face_room=scene.face_room,
+                 face_reflectance=scene.face_reflectance, check_winding=False)
+
+
+def test_shade_veto_keeps_a_screen_wall_dark_but_not_the_ceiling():
+    # a projection wall (x = 0, above 1.5 m) that must not get more than 60 lx direct light
+    base = g.box_room(size=(8.0, 4.0, 3.0), cell=0.25, reflectance=0.5)
+    screen = _shaded(base, lambda v, n: (np.abs(v[:, 0]) < 1e-9) & (n[:, 0] > 0.5)
+                     & (v[:, 2] > 1.5))
+    free = design_room(base, spec(lux=300, u0=0.4), 0)
+    dark = design_room(screen, spec(lux=300, u0=0.4, shade_limit_lux=60), 0)
+    wall = screen.vertex_targets() == 0
+    pts, nrm = screen.vertices[wall], screen.vertex_normals[wall]
+    from invrad_wb.core.forward.direct import direct_illuminance_numpy
+    e_free = 0.8 * direct_illuminance_numpy(pts, nrm, free.luminaires, occlusion=False)
+    e_dark = 0.8 * direct_illuminance_numpy(pts, nrm, dark.luminaires, occlusion=False)
+    assert e_free.max() > 60.0         # without the veto the wall would be lit
+    assert e_dark.max() <= 60.0 + 1e-6 and dark.compliant
+    assert dark.metrics.shade_max == pytest.approx(e_dark.max(), rel=1e-3)
+    # the grid moved away from the screen: its first column is further from x = 0
+    first = min(lum.position[0] for lum in dark.luminaires)
+    assert first > min(lum.position[0] for lum in free.luminaires)
+    # a dark ceiling does not veto downlights: they send no light onto their own plane
+    ceiling = _shaded(base, lambda v, n: n[:, 2] < -0.5)
+    rd = design_room(ceiling, spec(lux=300, u0=0.4), 0)
+    assert rd.compliant and rd.watts == pytest.approx(free.watts)
+
+
+# ----------------------------------------------------------------------------- CLI
+def test_cli_design_on_a_plain_mesh(tmp_path):
+    from invrad_wb.core.io.sceneio import write_scene
+    sc = g.with_reflectances(g.box_room(size=(5.0, 4.0, 2.8), cell=0.4))
+    write_scene(tmp_path / "room.ply", sc, lux=np.full(len(sc.vertices), np.nan))
+    (tmp_path / "d.json").write_text(json.dumps(
+        {"maintenance_factor": 0.8, "catalogue": CAT,
+         "rooms": {"0": {"room_type": "office"}}}))
+    out = tmp_path / "r.json"
+    cp = subprocess.run([sys.executable, "-m", "invrad_wb", "design", "room.ply", "--spec",
+                         "d.json", "-o", str(out), "--schedule", "s.csv"], cwd=tmp_path,
+                        capture_output=True, text=True, timeout=300)
+    assert cp.returncode == 0, cp.stderr
+    data = json.loads(out.read_text(), parse_constant=lambda c: pytest.fail(c))
+    room = data["rooms"][0]
+    assert room["compliant"] and room["em_lux"] >= 500 and room["u0"] >= 0.6
+    assert len(data["luminaires"]) == sum(room["schedule"].values())
+    assert all(lum["type"] in {e["name"] for e in CAT} for lum in data["luminaires"])
+    assert "meets the requirement" in cp.stdout
+    assert (tmp_path / "s.csv").read_text().startswith("room,type,count")
+
+
+def test_cli_design_impossible_exits_3_with_the_reason(tmp_path):
+    from invrad_wb.core.io.sceneio import write_scene
+    sc = g.box_room(size=(5.0, 4.0, 2.8), cell=0.5)
+    write_scene(tmp_path / "room.ply", sc, lux=np.full(len(sc.vertices), np.nan))
+    (tmp_path / "d.json").write_text(json.dumps(
+        {"catalogue": [{"name": "tiny", "flux_lm": 50, "watts": 1}],
+         "rooms": {"0": {"work_plane": {"lux": 500}}}}))
+    cp = subprocess.run([sys.executable, "-m", "invrad_wb", "design", "room.ply", "--spec",
+                         "d.json", "-o", "r.json"], cwd=tmp_path, capture_output=True,
+                        text=True, timeout=300)
+    assert cp.returncode == 3
+    assert "too dark" in cp.stdout and "DOES NOT MEET" in cp.stdout
+    assert (tmp_path / "r.json").exists()
