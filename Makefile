@@ -21,7 +21,10 @@ demo: setup
 	    --vote-maps $(OUT)/office/votes
 	$(PY) -m invrad_wb verify examples/office.ply --luminaires $(OUT)/office/result.json \
 	    --report $(OUT)/office/report
+	$(PY) -m invrad_wb design examples/office.ply --spec examples/office_design.json \
+	    -o $(OUT)/office/design.json --schedule $(OUT)/office/schedule.csv
 	@echo "true luminaires: examples/office_true.json; report: $(OUT)/office/report/index.html"
+	@echo "design for EN 12464-1 office requirements: $(OUT)/office/design.json"
 
 test: setup test-core test-freecad
 
@@ -38,6 +41,7 @@ bench: setup
 	$(PY) bench/bench_render.py
 	$(PY) bench/bench_locate.py
 	$(PY) bench/bench_random.py
+	$(PY) bench/bench_design.py
 
 examples: setup
 	$(PY) examples/make_examples.py

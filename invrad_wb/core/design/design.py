@@ -148,6 +148,16 @@ def _shade_points(scene, room):
     return scene.vertices[idx], scene.vertex_normals[idx]
 
 
+def _surface_goals(scene, room):
+    """Number of the room's vertices with a positive target on a real surface."""
+    if not scene.has_targets:
+        return 0
+    t = scene.vertex_targets()
+    sel = (scene.face_room == room) & ~scene.face_virtual
+    idx = np.unique(scene.faces[sel])
+    return int(np.count_nonzero(t[idx] > 0))
+
+
 def _explain(rd, search, entries):
     """Plain-language notes on a non-compliant or wasteful design."""
     r, m, c = rd.requirement, rd.metrics, rd.candidate
@@ -185,6 +195,11 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
         rd.notes.append("no lighting requirement for this room: nothing designed")
         return rd
     req = rd.requirement = rs.work_plane
+    n_goal = _surface_goals(scene, room)
+    if n_goal:
+        rd.notes.append(f"{n_goal} target point(s) with lux > 0 on the room's surfaces"
+                        " (spots, uniform faces) are not design requirements yet: the"
+                        " design meets the work plane; `locate` places luminaires for them")
     points, _ = droom.grid(req.height_m, req.margin_m)
     model = RoomModel(scene, droom, points, spec.maintenance_factor, backend,
                       extra=_shade_points(scene, room))
