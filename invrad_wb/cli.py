@@ -188,7 +188,9 @@ def build_parser():
     p.add_argument("-v", "--verbose", action="store_true")
     g = p.add_argument_group("locate settings (defaults need only the flux)")
     g.add_argument("--vote-model", dest="vote_model", choices=("exact", "ellipse"))
-    g.add_argument("--resolution", dest="pixel_m", type=float, help="vote map m/pixel (0.1)")
+    g.add_argument("--resolution", dest="pixel_m", type=float, metavar="M",
+                   help="vote-map resolution, metres per pixel (0.1); not the room mesh"
+                        " size, which is `freecad --mesh-size`")
     g.add_argument("--votes-per-m2", dest="votes_per_m2", type=float)
     g.add_argument("--weighting", choices=("illumination", "distance", "both", "none"))
     g.add_argument("--vote-strength", dest="vote_strength", type=float)
@@ -227,6 +229,8 @@ def build_parser():
     _scene_args(p)
     p.set_defaults(func=_cmd_info)
 
+    from invrad_wb import design_cli
+    design_cli.add_parser(sub)
     try:
         from invrad_wb import freecad_cli
         freecad_cli.add_parser(sub)
@@ -237,21 +241,21 @@ def build_parser():
 
 def main(argv=None):
     import warnings
-    ap = build_parser()
-    args = ap.parse_args(argv)
 
     def show(message, category, filename, lineno, file=None, line=None):
         print(f"invrad: warning: {message}", file=sys.stderr)
-    warnings.showwarning = show
+    warnings.showwarning = show     # before parsing: deprecated options warn there
+    ap = build_parser()
+    args = ap.parse_args(argv)
     try:
-        args.func(args)
+        rc = args.func(args)
     except InvradError as exc:
         print(f"invrad: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("invrad: interrupted", file=sys.stderr)
         return 130
-    return 0
+    return rc if isinstance(rc, int) else 0
 
 
 if __name__ == "__main__":

@@ -3,7 +3,7 @@
 ::
 
     python -m invrad_wb freecad IN.FCStd|IN.ifc [--targets T.json] --out OUT.FCStd|OUT.ifc
-                                --report DIR [--flux LM] [--resolution M] ...
+                                --report DIR [--flux LM] [--mesh-size M] ...
 
 Opens a FreeCAD document (or imports an IFC file's rooms with ifcopenshell), adds the
 targets of ``T.json`` (format: :data:`invrad_wb.app.targets.TARGETS_JSON_DOC`), runs the
@@ -66,7 +66,12 @@ def add_arguments(p):
     p.add_argument("--report", required=True, help="folder for the verification report")
     p.add_argument("--flux", type=float, help="luminous flux of one luminaire, lm (or"
                                               " flux_lm in the targets file)")
-    p.add_argument("--resolution", type=float, help="room mesh resolution, metres (0.3)")
+    p.add_argument("--mesh-size", dest="mesh_size", type=float, metavar="M",
+                   help="longest triangle edge of the room meshes, metres (0.3; or"
+                        " resolution_m in the targets file)")
+    # the old spelling; in `invrad locate`, --resolution is vote-map metres per pixel
+    p.add_argument("--resolution", dest="mesh_size", type=float, action=_DeprecatedAlias,
+                   new="--mesh-size", help=argparse.SUPPRESS)
     p.add_argument("--rooms", nargs="+", help="only these rooms (labels, names or GlobalIds)")
     p.add_argument("--no-interreflection", action="store_true",
                    help="verify with direct light only")
@@ -79,6 +84,20 @@ def add_arguments(p):
     p.add_argument("--freecadcmd", help="path of freecadcmd (default: $INVRAD_FREECADCMD or"
                                         " the PATH)")
     p.add_argument("-v", "--verbose", action="store_true", help="print progress")
+
+
+class _DeprecatedAlias(argparse.Action):
+    """An old spelling of an option: stores like the new one and warns once per use."""
+
+    def __init__(self, option_strings, dest, new, **kwargs):
+        self.new = new
+        super().__init__(option_strings, dest, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        import warnings
+        warnings.warn(f"{option_string} is deprecated here, use {self.new} (same value, metres)",
+                      FutureWarning, stacklevel=2)
+        setattr(namespace, self.dest, values)
 
 
 # --------------------------------------------------------------------------- parent side
@@ -222,63 +241,17 @@ def child_main():
 
 def run_job(opts, out=None):
     """Run the pipeline in this (FreeCAD) process; returns the run's summary dict."""
-    import FreeCAD
-    from invrad_wb.app import ifcexport, ifcrooms, pipeline, targets
-    from invrad_wb.app.pipeline import PipelineSettings, check_flux
-    from invrad_wb.errors import SceneError
+    from invrad_wb.app import pipeline, targets
+    from invrad_wb.app.pipeline import PipelineSettings
     out = out or sys.stdout
 
     def say(msg):
         out.write(msg + "\n")
         out.flush()
 
-    src = opts["input"]
-    ext = os.path.splitext(src)[1].lower()
-    if ext not in (".fcstd", ".ifc"):
-        raise SettingsError(f"{src}: input must be a FreeCAD document (.FCStd) or an IFC"
-                            " file (.ifc)")
-    if not os.path.isfile(src):
-        raise SceneError("file does not exist", src)
-    dst = opts["out"]
-    dext = os.path.splitext(dst)[1].lower()
-    if dext not in (".fcstd", ".ifc"):
-        raise SettingsError(f"{dst}: output must end in .FCStd or .ifc")
-    from_file = {}
-    if opts.get("targets"):
-        import json as _json
-        try:
-            with open(opts["targets"], "r", encoding="utf-8") as fh:
-                head = _json.load(fh)
-            from_file = {k: head[k] for k in ("flux_lm", "resolution_m")
-                         if isinstance(head, dict) and k in head}
-        except (OSError, ValueError):
-            pass      # reported properly when the targets are applied
-    flux = opts.get("flux") if opts.get("flux") is not None else from_file.get("flux_lm")
-    if flux is None:
-        raise SettingsError("give the flux of one luminaire with --flux LM (or flux_lm in"
-                            " the targets file)")
-    flux = check_flux(flux)
-    resolution = opts.get("resolution") or from_file.get("resolution_m")
-    locate_settings = None
-    if opts.get("settings"):
-        try:
-            with open(opts["settings"], "r", encoding="utf-8") as fh:
-                locate_settings = json.load(fh)
-        except (OSError, ValueError) as exc:
-            raise SettingsError(f"{opts['settings']}: cannot read locate settings: {exc}")
-
-    if ext == ".ifc":
-        imp = ifcrooms.import_ifc(src, elements=bool(opts.get("elements")))
-        doc = imp.doc
-        say(f"imported {len(imp.spaces)} room(s) from {os.path.basename(src)}:"
-            f" {', '.join(s.Label for s in imp.spaces)}")
-        for w in imp.warnings:
-            say(f"  warning: {w}")
-    else:
-        try:
-            doc = FreeCAD.openDocument(src)
-        except Exception as exc:
-            raise SceneError(f"FreeCAD cannot open it: {exc}", src)
+    src, ext, dst, dext = _checked_paths(opts)
+    flux, mesh_size, locate_settings = _run_options(opts)
+    doc = _open_input(src, ext, opts, say)
     if opts.get("targets"):
         targets.apply_targets_file(doc, opts["targets"])
     last = [None]
@@ -295,11 +268,87 @@ def run_job(opts, out=None):
         replace=not opts.get("keep"), rooms=opts.get("rooms"), report_dir=opts["report"],
         base_dir=os.path.dirname(opts["targets"]) if opts.get("targets") else
         os.path.dirname(src))
-    if resolution:
-        settings.resolution_m = float(resolution)
+    if mesh_size:
+        settings.resolution_m = float(mesh_size)
     result = pipeline.run(doc, settings, progress=progress)
-    for room in result.summary["rooms"]:
-        n = sum(1 for l in result.summary["luminaires"] if l["room_name"] == room["room"])
+    _say_result(result.summary, say)
+    _save_output(doc, result, src, ext, dst, dext, say)
+    summary_json = os.path.join(opts["report"], "summary.json")
+    if result.report is not None:
+        say(f"report -> {result.summary.get('report')} (and {summary_json})")
+    else:
+        say(f"report -> {summary_json} ({result.summary.get('report', 'no HTML report')})")
+    return result.summary
+
+
+def _checked_paths(opts):
+    """(input, its lower-case extension, output, its extension), checked."""
+    from invrad_wb.errors import SceneError
+    src = opts["input"]
+    ext = os.path.splitext(src)[1].lower()
+    if ext not in (".fcstd", ".ifc"):
+        raise SettingsError(f"{src}: input must be a FreeCAD document (.FCStd) or an IFC"
+                            " file (.ifc)")
+    if not os.path.isfile(src):
+        raise SceneError("file does not exist", src)
+    dst = opts["out"]
+    dext = os.path.splitext(dst)[1].lower()
+    if dext not in (".fcstd", ".ifc"):
+        raise SettingsError(f"{dst}: output must end in .FCStd or .ifc")
+    return src, ext, dst, dext
+
+
+def _run_options(opts):
+    """(flux lm, mesh size m or None, locate settings dict or None): the command line's,
+    else the targets file's ``flux_lm`` / ``resolution_m``."""
+    from invrad_wb.app.pipeline import check_flux
+    from_file = {}
+    if opts.get("targets"):
+        try:
+            with open(opts["targets"], "r", encoding="utf-8") as fh:
+                head = json.load(fh)
+            from_file = {k: head[k] for k in ("flux_lm", "resolution_m")
+                         if isinstance(head, dict) and k in head}
+        except (OSError, ValueError):
+            pass      # reported properly when the targets are applied
+    flux = opts.get("flux") if opts.get("flux") is not None else from_file.get("flux_lm")
+    if flux is None:
+        raise SettingsError("give the flux of one luminaire with --flux LM (or flux_lm in"
+                            " the targets file)")
+    flux = check_flux(flux)
+    mesh_size = opts.get("mesh_size") or from_file.get("resolution_m")
+    locate_settings = None
+    if opts.get("settings"):
+        try:
+            with open(opts["settings"], "r", encoding="utf-8") as fh:
+                locate_settings = json.load(fh)
+        except (OSError, ValueError) as exc:
+            raise SettingsError(f"{opts['settings']}: cannot read locate settings: {exc}")
+    return flux, mesh_size, locate_settings
+
+
+def _open_input(src, ext, opts, say):
+    """The FreeCAD document of the input: opened, or the IFC file's rooms imported."""
+    import FreeCAD
+    from invrad_wb.app import ifcrooms
+    from invrad_wb.errors import SceneError
+    if ext == ".ifc":
+        imp = ifcrooms.import_ifc(src, elements=bool(opts.get("elements")))
+        say(f"imported {len(imp.spaces)} room(s) from {os.path.basename(src)}:"
+            f" {', '.join(s.Label for s in imp.spaces)}")
+        for w in imp.warnings:
+            say(f"  warning: {w}")
+        return imp.doc
+    try:
+        return FreeCAD.openDocument(src)
+    except Exception as exc:
+        raise SceneError(f"FreeCAD cannot open it: {exc}", src)
+
+
+def _say_result(summary, say):
+    """One line per room (luminaires, mean achieved vs target lux), one per luminaire."""
+    for room in summary["rooms"]:
+        n = sum(1 for l in summary["luminaires"] if l["room_name"] == room["room"])
         line = f"room {room['room']}: {n} luminaire(s)"
         for part in ("work_plane", "surfaces"):
             st = room.get(part, {})
@@ -307,10 +356,15 @@ def run_job(opts, out=None):
                 line += (f"; {part.replace('_', ' ')} {st['mean_achieved_lux']:.0f} lx for"
                          f" {st['mean_target_lux']:.0f} lx")
         say(line)
-    for l in result.summary["luminaires"]:
+    for l in summary["luminaires"]:
         p = ", ".join(f"{x:.3f}" for x in l["position"])
         n = ", ".join(f"{x:.2f}" for x in l["normal"])
         say(f"  {l['fixture']}: ({p}) m facing ({n})")
+
+
+def _save_output(doc, result, src, ext, dst, dext, say):
+    """Save the lit model: .FCStd, or .ifc (merged into an IFC input, else exported)."""
+    from invrad_wb.app import ifcexport
     os.makedirs(os.path.dirname(os.path.abspath(dst)) or ".", exist_ok=True)
     if dext == ".fcstd":
         doc.saveAs(dst)
@@ -320,12 +374,6 @@ def run_job(opts, out=None):
         say(f"{info.fixtures} light fixture(s) -> {dst} ({info.mode} export)")
         for w in info.warnings:
             say(f"  warning: {w}")
-    summary_json = os.path.join(opts["report"], "summary.json")
-    if result.report is not None:
-        say(f"report -> {result.summary.get('report')} (and {summary_json})")
-    else:
-        say(f"report -> {summary_json} ({result.summary.get('report', 'no HTML report')})")
-    return result.summary
 
 
 def _standalone(argv=None):

@@ -13,6 +13,8 @@ modules that need it, so ``import invrad_wb.app`` works without FreeCAD. The GUI
 * :mod:`.pipeline`  a whole building, room by room: targets -> locate -> fixtures -> report
 * :mod:`.document`  undoable transactions, active document
 * :mod:`.units`     mm <-> m at the FreeCAD boundary
-* :mod:`.meshing`   numpy triangle refinement (FreeCAD-free)
+* (mesh refinement lives in the core: :mod:`invrad_wb.core.geometry.meshing`)
 * :mod:`.settings`  defaults of the document side (reflectance per surface, sizes)
+* :mod:`.dependencies` the venv on sys.path (appended) and what is missing, with the
+  command that installs it (called by the workbench's Initialize)
 """

@@ -56,11 +56,6 @@ def transaction(doc, name):
     _restore_active(active)
 
 
-def in_transaction(doc):
-    """True inside :func:`transaction` for ``doc``."""
-    return bool(_depth().get(doc.Name))
-
-
 def activate(doc):
     """Make ``doc`` the active document (Arch's make* functions use the active one).
 

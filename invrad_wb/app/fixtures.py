@@ -204,19 +204,6 @@ def insert_fixtures(doc, per_room, replace=True, name="Insert luminaires"):
     return out
 
 
-def remove_fixtures(doc, spaces=None):
-    """Remove the invrad fixtures of some rooms (all rooms if None), one undoable step."""
-    from invrad_wb.app.rooms import find_spaces
-    spaces = find_spaces(doc) if spaces is None else spaces
-    with transaction(doc, "Remove luminaires"):
-        n = 0
-        for space in spaces:
-            for old in room_fixtures(space):
-                doc.removeObject(old.Name)
-                n += 1
-    return n
-
-
 def fixture_luminaire(obj):
     """The Luminaire a fixture stands for (position, direction, flux, radius, score)."""
     pl = obj.getGlobalPlacement() if hasattr(obj, "getGlobalPlacement") else obj.Placement

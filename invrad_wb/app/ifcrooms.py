@@ -221,93 +221,18 @@ def import_ifc(path, doc=None, elements=False, progress=None):
         if progress is not None and progress(frac, msg) is False:
             raise Cancelled(f"IFC import of {path} cancelled")
 
-    import Arch
-    import ifcopenshell.geom
-    import ifcopenshell.util.unit as U
-    from invrad_wb.app import fixtures as FX
-    from invrad_wb.app import targets as TG
-    unit_scale = U.calculate_unit_scale(ifc)
     settings = geometry_settings()
     result = IfcImport(doc=doc, path=path, spaces=[], storeys={}, buildings=[])
     with transaction(doc, f"Import {os.path.basename(path)}"):
         report(0.0, "spatial structure")
-        buildings = {}
-        for b in ifc.by_type("IfcBuilding"):
-            bp = Arch.makeBuildingPart()
-            bp.IfcType = "Building"
-            bp.Label = b.Name or "Building"
-            _set_uid(bp, b.GlobalId)
-            buildings[b.id()] = bp
-            result.buildings.append(bp)
-        for st in sorted(ifc.by_type("IfcBuildingStorey"), key=lambda s: s.Elevation or 0.0):
-            bp = Arch.makeBuildingPart()
-            bp.IfcType = "Building Storey"
-            bp.Label = st.Name or "Storey"
-            _set_uid(bp, st.GlobalId)
-            result.storeys[st.GlobalId] = bp
-            import ifcopenshell.util.element as E
-            parent = E.get_aggregate(st)
-            if parent is not None and parent.id() in buildings:
-                buildings[parent.id()].addObject(bp)
-        if result.buildings:
-            b0 = result.buildings[0]
-            b0.addProperty("App::PropertyFile", "SourceIfc", "InvRad",
-                           "IFC file this document was imported from")
-            b0.SourceIfc = path
+        _import_structure(ifc, path, result)
         by_guid = {}
         for k, sp in enumerate(spaces_ifc):
             report(0.05 + 0.75 * k / len(spaces_ifc), f"room {sp.LongName or sp.Name}")
-            label = sp.LongName or sp.Name or f"Space {sp.id()}"
-            solid, free = None, 0
-            try:
-                shp = ifcopenshell.geom.create_shape(settings, sp)
-                solid, free = closed_solid(brep_to_shape(shp.geometry.brep_data))
-            except Exception as exc:
-                result.warnings.append(f"IfcSpace {label!r} (#{sp.id()}): no geometry ({exc})")
-                shape_for_base = None
-            else:
-                shape_for_base = solid
-                if solid is None:
-                    result.warnings.append(f"IfcSpace {label!r} (#{sp.id()}): open surface"
-                                           f" ({free} free edges), not a closed solid")
-                    shape_for_base = brep_to_shape(shp.geometry.brep_data)
-            base = None
-            if shape_for_base is not None:
-                base = doc.addObject("Part::Feature", "SpaceSolid")
-                base.Label = f"{label} solid"
-                base.Shape = shape_for_base
-                if FreeCAD.GuiUp:
-                    base.ViewObject.hide()
-            space = Arch.makeSpace(baseobj=base) if base is not None else Arch.makeSpace()
-            space.Label = label
-            if sp.Name and sp.LongName:
-                space.Description = f"IFC space {sp.Name}"
-            _set_uid(space, sp.GlobalId)
-            storey = _storey_of(sp)
-            if storey is not None and storey.GlobalId in result.storeys:
-                result.storeys[storey.GlobalId].addObject(space)
-            result.spaces.append(space)
-            by_guid[sp.GlobalId] = space
+            by_guid[sp.GlobalId] = _import_space(sp, doc, settings, result)
         doc.recompute()
         report(0.8, "lighting requirements")
-        for sp in spaces_ifc:
-            lux = required_illuminance(sp)
-            if lux is not None:
-                TG.set_work_plane(by_guid[sp.GlobalId], lux)
-        for lf in ifc.by_type("IfcLightFixture"):
-            lum = invrad_fixture_data(lf, unit_scale)
-            if lum is None:
-                continue
-            import ifcopenshell.util.element as E
-            container = E.get_container(lf)
-            space = by_guid.get(container.GlobalId) if container is not None else None
-            if space is None:
-                result.warnings.append(f"invrad light fixture {lf.Name!r} is not in a room;"
-                                       " left out")
-                continue
-            fx = FX.make_fixture(space, lum, lf.Name or f"Luminaire {space.Label}")
-            _set_uid(fx, lf.GlobalId)
-            result.fixtures.append(fx)
+        _import_lighting(ifc, spaces_ifc, by_guid, result)
         if elements:
             result.elements = _import_elements(ifc, doc, settings, result, report)
         report(1.0, "done")
@@ -316,6 +241,100 @@ def import_ifc(path, doc=None, elements=False, progress=None):
         FreeCAD.Console.PrintWarning(f"invrad: {w}\n")
     return result
 
+
+def _import_structure(ifc, path, result):
+    """IfcBuilding / IfcBuildingStorey -> Arch BuildingParts in ``result`` (storeys nested
+    in their building; the first building remembers the source file)."""
+    import Arch
+    import ifcopenshell.util.element as E
+    buildings = {}
+    for b in ifc.by_type("IfcBuilding"):
+        bp = Arch.makeBuildingPart()
+        bp.IfcType = "Building"
+        bp.Label = b.Name or "Building"
+        _set_uid(bp, b.GlobalId)
+        buildings[b.id()] = bp
+        result.buildings.append(bp)
+    for st in sorted(ifc.by_type("IfcBuildingStorey"), key=lambda s: s.Elevation or 0.0):
+        bp = Arch.makeBuildingPart()
+        bp.IfcType = "Building Storey"
+        bp.Label = st.Name or "Storey"
+        _set_uid(bp, st.GlobalId)
+        result.storeys[st.GlobalId] = bp
+        parent = E.get_aggregate(st)
+        if parent is not None and parent.id() in buildings:
+            buildings[parent.id()].addObject(bp)
+    if result.buildings:
+        b0 = result.buildings[0]
+        b0.addProperty("App::PropertyFile", "SourceIfc", "InvRad",
+                       "IFC file this document was imported from")
+        b0.SourceIfc = path
+
+
+def _import_space(sp, doc, settings, result):
+    """One IfcSpace -> an Arch Space on a closed solid (warnings in ``result`` when it has
+    no geometry or an open one), placed in its storey. Returns the Space."""
+    import Arch
+    import FreeCAD
+    import ifcopenshell.geom
+    label = sp.LongName or sp.Name or f"Space {sp.id()}"
+    solid, free = None, 0
+    try:
+        shp = ifcopenshell.geom.create_shape(settings, sp)
+        solid, free = closed_solid(brep_to_shape(shp.geometry.brep_data))
+    except Exception as exc:
+        result.warnings.append(f"IfcSpace {label!r} (#{sp.id()}): no geometry ({exc})")
+        shape_for_base = None
+    else:
+        shape_for_base = solid
+        if solid is None:
+            result.warnings.append(f"IfcSpace {label!r} (#{sp.id()}): open surface"
+                                   f" ({free} free edges), not a closed solid")
+            shape_for_base = brep_to_shape(shp.geometry.brep_data)
+    base = None
+    if shape_for_base is not None:
+        base = doc.addObject("Part::Feature", "SpaceSolid")
+        base.Label = f"{label} solid"
+        base.Shape = shape_for_base
+        if FreeCAD.GuiUp:
+            base.ViewObject.hide()
+    space = Arch.makeSpace(baseobj=base) if base is not None else Arch.makeSpace()
+    space.Label = label
+    if sp.Name and sp.LongName:
+        space.Description = f"IFC space {sp.Name}"
+    _set_uid(space, sp.GlobalId)
+    storey = _storey_of(sp)
+    if storey is not None and storey.GlobalId in result.storeys:
+        result.storeys[storey.GlobalId].addObject(space)
+    result.spaces.append(space)
+    return space
+
+
+def _import_lighting(ifc, spaces_ifc, by_guid, result):
+    """Required illuminance of the spaces -> work-plane targets; invrad's own light
+    fixtures (written by an earlier export) -> fixtures in their Space."""
+    import ifcopenshell.util.element as E
+    import ifcopenshell.util.unit as U
+    from invrad_wb.app import fixtures as FX
+    from invrad_wb.app import targets as TG
+    unit_scale = U.calculate_unit_scale(ifc)
+    for sp in spaces_ifc:
+        lux = required_illuminance(sp)
+        if lux is not None:
+            TG.set_work_plane(by_guid[sp.GlobalId], lux)
+    for lf in ifc.by_type("IfcLightFixture"):
+        lum = invrad_fixture_data(lf, unit_scale)
+        if lum is None:
+            continue
+        container = E.get_container(lf)
+        space = by_guid.get(container.GlobalId) if container is not None else None
+        if space is None:
+            result.warnings.append(f"invrad light fixture {lf.Name!r} is not in a room;"
+                                   " left out")
+            continue
+        fx = FX.make_fixture(space, lum, lf.Name or f"Luminaire {space.Label}")
+        _set_uid(fx, lf.GlobalId)
+        result.fixtures.append(fx)
 
 def _import_elements(ifc, doc, settings, result, report):
     """Walls, slabs, windows... as Arch Components (for context; not used for lighting)."""

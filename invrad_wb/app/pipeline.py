@@ -265,11 +265,7 @@ def run(doc, settings, progress=None, locate=None, building=None):
                     progress=_progress(progress, 0.1, 0.75), backend=settings.backend)
     timings["locate"] = time.perf_counter() - t
     lums = list(result.luminaires)
-    per_room = {p.room_id: [] for p in building.rooms}
-    for lum in lums:
-        if lum.room not in per_room:
-            raise SceneError(f"locate returned a luminaire for unknown room id {lum.room!r}")
-        per_room[lum.room].append(lum)
+    per_room = _per_room(lums, building)
     step = _progress(progress, 0.75, 0.9)
     step(0.0, f"verify {len(lums)} luminaire(s)")
     t = time.perf_counter()
@@ -278,18 +274,7 @@ def run(doc, settings, progress=None, locate=None, building=None):
                       backend=settings.backend)
     timings["verify"] = time.perf_counter() - t
     target = scene.vertex_lux.copy() if scene.vertex_lux is not None else scene.vertex_targets()
-    summary = {
-        "document": doc.Label, "flux_lm": flux, "resolution_m": settings.resolution_m,
-        "interreflection": bool(settings.interreflection),
-        "rooms": _room_stats(scene, target, achieved, building.rooms),
-        "luminaires": [],
-    }
-    for p in building.rooms:
-        for i, lum in enumerate(per_room[p.room_id]):
-            d = lum.to_dict()
-            d["room_name"] = p.space.Label
-            d["fixture"] = f"Luminaire {p.space.Label} {i + 1}"
-            summary["luminaires"].append(d)
+    summary = _summary(doc, flux, settings, building, target, achieved, per_room)
     report_out = None
     if settings.report_dir:
         step = _progress(progress, 0.9, 0.97)
@@ -317,6 +302,36 @@ def run(doc, settings, progress=None, locate=None, building=None):
     return PipelineResult(building, lums, [f.Name for f in fixtures], target, achieved,
                           locate_result=result, report=report_out, summary=summary,
                           timings=timings)
+
+
+def _per_room(lums, building):
+    """{room id: [Luminaire, ...]} for every room of ``building`` (SceneError for a
+    luminaire of a room that is not there)."""
+    per_room = {p.room_id: [] for p in building.rooms}
+    for lum in lums:
+        if lum.room not in per_room:
+            raise SceneError(f"locate returned a luminaire for unknown room id {lum.room!r}")
+        per_room[lum.room].append(lum)
+    return per_room
+
+
+def _summary(doc, flux, settings, building, target, achieved, per_room):
+    """The run's summary dict: settings, per-room statistics of target vs achieved
+    illuminance (lux, per vertex of ``building.scene``) and the luminaires with their
+    room and fixture names."""
+    summary = {
+        "document": doc.Label, "flux_lm": flux, "resolution_m": settings.resolution_m,
+        "interreflection": bool(settings.interreflection),
+        "rooms": _room_stats(building.scene, target, achieved, building.rooms),
+        "luminaires": [],
+    }
+    for p in building.rooms:
+        for i, lum in enumerate(per_room[p.room_id]):
+            d = lum.to_dict()
+            d["room_name"] = p.space.Label
+            d["fixture"] = f"Luminaire {p.space.Label} {i + 1}"
+            summary["luminaires"].append(d)
+    return summary
 
 
 def _write_json(path, data):

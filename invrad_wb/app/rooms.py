@@ -21,8 +21,8 @@ import numpy as np
 from invrad_wb.errors import SceneError, SettingsError
 from invrad_wb.app import settings as S
 from invrad_wb.app.document import describe, object_type
-from invrad_wb.app.meshing import refine, signed_volume, triangle_normals
-from invrad_wb.app.units import mm_to_m, points_mm_to_m
+from invrad_wb.core.geometry.meshing import refine, signed_volume, triangle_normals
+from invrad_wb.app.units import points_mm_to_m
 
 SURFACE_KINDS = ("floor", "wall", "ceiling")
 
@@ -250,31 +250,18 @@ def mesh_room(space, resolution_m=S.RESOLUTION_M, reflectance=None):
     n_v = n_cv = 0
     face_normal, face_area, kinds = [], [], []
     for i, face in enumerate(shape.Faces):
-        pts, ftris = face.tessellate(S.TESSELLATION_TOL_MM)
-        if not ftris:
+        meshed = _mesh_face(face, res)
+        if meshed is None:
             face_normal.append(np.zeros(3))
             face_area.append(0.0)
             kinds.append("wall")
             continue
-        p = points_mm_to_m(pts)
-        t = np.asarray(ftris, dtype=np.int64).reshape(-1, 3)
-        out = _face_outward_normals(face, p, t)
-        tn = triangle_normals(p, t)
-        flip = np.einsum("ij,ij->i", tn, out) > 0       # facing out: wind the other way
-        t[flip] = t[flip][:, [0, 2, 1]]
-        coarse_v.append(p)
-        coarse_t.append(t + n_cv)
-        n_cv += len(p)
-        p, t, _ = refine(p, t, res)
-        tn = triangle_normals(p, t)
-        area2 = np.linalg.norm(tn, axis=1)
-        keep = area2 > 1e-14
-        t = t[keep]
-        n = tn[keep].sum(0)
-        nn = np.linalg.norm(n)
-        n = n / nn if nn > 0 else n
+        (cp, ct), (p, t), n, area = meshed
+        coarse_v.append(cp)
+        coarse_t.append(ct + n_cv)
+        n_cv += len(cp)
         face_normal.append(n)
-        face_area.append(0.5 * float(area2[keep].sum()))
+        face_area.append(area)
         kinds.append(classify(n))
         verts.append(p)
         tris.append(t + n_v)
@@ -299,25 +286,60 @@ def mesh_room(space, resolution_m=S.RESOLUTION_M, reflectance=None):
         raise SceneError(f"room {describe(space)}: its mesh encloses {-vol:.3f} m^3 but the"
                          f" solid {expected:.3f} m^3; the surface is not a valid closed"
                          " solid", space.Label)
+    rho = _face_reflectances(kinds, reflectance, space.Label)
+    return RoomMesh(space=space.Name, label=space.Label, vertices=v, triangles=t,
+                    triangle_face=tf, face_kind=kinds, face_normal=np.array(face_normal),
+                    face_area=np.array(face_area), face_reflectance=rho, volume=-vol,
+                    seconds=time.perf_counter() - t0, coarse=coarse)
+
+
+def _mesh_face(face, res):
+    """Tessellate one face of a room solid and refine it to edges <= ``res`` metres.
+
+    Returns ``((coarse_vertices, coarse_triangles), (vertices, triangles), normal,
+    area_m2)`` with triangles wound to face into the room (metres; the unit ``normal`` is
+    the refined triangles' mean), or None when the face gives no triangles.
+    """
+    pts, ftris = face.tessellate(S.TESSELLATION_TOL_MM)
+    if not ftris:
+        return None
+    p = points_mm_to_m(pts)
+    t = np.asarray(ftris, dtype=np.int64).reshape(-1, 3)
+    out = _face_outward_normals(face, p, t)
+    tn = triangle_normals(p, t)
+    flip = np.einsum("ij,ij->i", tn, out) > 0       # facing out: wind the other way
+    t[flip] = t[flip][:, [0, 2, 1]]
+    coarse = (p, t)
+    p, t, _ = refine(p, t, res)
+    tn = triangle_normals(p, t)
+    area2 = np.linalg.norm(tn, axis=1)
+    keep = area2 > 1e-14
+    t = t[keep]
+    n = tn[keep].sum(0)
+    nn = np.linalg.norm(n)
+    n = n / nn if nn > 0 else n
+    return coarse, (p, t), n, 0.5 * float(area2[keep].sum())
+
+
+def _face_reflectances(kinds, reflectance, label):
+    """(n_faces,) reflectance: the default of each face's kind, then per-kind overrides
+    ('floor', 'wall', 'ceiling'), then per-face ones (0-based int keys), all checked."""
     rho = np.array([S.REFLECTANCE[k] for k in kinds], dtype=np.float64)
     for key, value in (reflectance or {}).items():
         if isinstance(key, str):
             if key not in SURFACE_KINDS:
                 raise SceneError(f"unknown surface kind {key!r} for reflectance; use one of"
-                                 f" {', '.join(SURFACE_KINDS)}", space.Label)
-            r = _check_reflectance(value, f"{key} reflectance", space.Label)
+                                 f" {', '.join(SURFACE_KINDS)}", label)
+            r = _check_reflectance(value, f"{key} reflectance", label)
             rho[[k == key for k in kinds]] = r
     for key, value in (reflectance or {}).items():
         if not isinstance(key, str):
             k = int(key)
             if not 0 <= k < len(kinds):
                 raise SceneError(f"reflectance given for Face{k + 1}, but the room has"
-                                 f" {len(kinds)} faces", space.Label)
-            rho[k] = _check_reflectance(value, f"reflectance of Face{k + 1}", space.Label)
-    return RoomMesh(space=space.Name, label=space.Label, vertices=v, triangles=t,
-                    triangle_face=tf, face_kind=kinds, face_normal=np.array(face_normal),
-                    face_area=np.array(face_area), face_reflectance=rho, volume=-vol,
-                    seconds=time.perf_counter() - t0, coarse=coarse)
+                                 f" {len(kinds)} faces", label)
+            rho[k] = _check_reflectance(value, f"reflectance of Face{k + 1}", label)
+    return rho
 
 
 def face_count(space):
@@ -346,12 +368,3 @@ def faces_by_kind(space, kind):
         raise SceneError(f"unknown surface kind {kind!r}; use floor, walls, ceiling or all",
                          space.Label)
     return out
-
-
-def point_on_face(space, face_index, point_m, tol_m=0.01):
-    """Distance check: is ``point_m`` on the 0-based face (within ``tol_m``)?"""
-    import FreeCAD
-    import Part
-    face = room_shape(space).Faces[face_index]
-    v = Part.Vertex(FreeCAD.Vector(*(np.asarray(point_m, dtype=float) * 1000.0)))
-    return mm_to_m(face.distToShape(v)[0]) <= tol_m

@@ -143,10 +143,6 @@ def room_targets(space, enabled_only=True):
     return out
 
 
-def all_targets(doc):
-    return [o for o in doc.Objects if is_target(o)]
-
-
 # --------------------------------------------------------------------------- creation
 def _faces_arg(space, faces):
     """'floor'/'walls'/'ceiling'/'all', 'Face3', 3 (1-based), or a list -> ['FaceN', ...]."""

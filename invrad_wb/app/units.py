@@ -48,8 +48,3 @@ def direction(vec):
     d = np.asarray(vec, dtype=np.float64).reshape(3)
     d = d / np.linalg.norm(d)
     return FreeCAD.Vector(float(d[0]), float(d[1]), float(d[2]))
-
-
-def length_m(quantity_or_mm):
-    """A FreeCAD Length property (Quantity) or a float in mm -> metres."""
-    return mm_to_m(quantity_or_mm)

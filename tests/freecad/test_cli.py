@@ -48,6 +48,33 @@ class TestCliErrors(FreeCADTestCase):
                 self.assertIn(w, lines[0])
             self.assertNotIn("FreeCAD 0.20", out)              # banner filtered out
 
+    def test_old_resolution_spelling_is_a_deprecated_mesh_size(self):
+        import warnings
+        from invrad_wb.cli import build_parser
+        base = ["freecad", "in.FCStd", "--out", "o.FCStd", "--report", "r"]
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            new = build_parser().parse_args(base + ["--mesh-size", "0.25"])
+            self.assertEqual(caught, [])
+            old = build_parser().parse_args(base + ["--resolution", "0.2"])
+        self.assertEqual((new.mesh_size, old.mesh_size), (0.25, 0.2))
+        self.assertEqual(len(caught), 1)
+        self.assertIn("--mesh-size", str(caught[0].message))
+        # `locate --resolution` keeps its meaning (vote-map metres per pixel), no warning
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            loc = build_parser().parse_args(["locate", "s.ply", "--flux", "1000", "-o", "r",
+                                             "--resolution", "0.05"])
+        self.assertEqual((loc.pixel_m, caught), (0.05, []))
+        # from the command line: one warning line, then the run goes on (here: its error)
+        rc, out, err = cli(self.path("missing.FCStd"), "--out", self.path("o.FCStd"),
+                           "--report", self.path("r"), "--flux", "1000", "--resolution", "0.2")
+        lines = [l for l in err.splitlines() if l.strip()]
+        self.assertEqual(rc, 2, err)
+        self.assertEqual(len(lines), 2, err)
+        self.assertTrue(lines[0].startswith("invrad: warning: --resolution is deprecated"))
+        self.assertIn("missing.FCStd", lines[1])
+
     @needs_fzk
     def test_room_without_targets_fails_cleanly(self):
         t = self.path("t.json")
@@ -75,7 +102,7 @@ class TestCliRuns(FreeCADTestCase):
         self.doc.saveAs(src)
         out = self.path("lit.FCStd")
         rc, stdout, err = cli(src, "--out", out, "--report", self.path("report"), "--flux",
-                              "2000", "--resolution", "0.2", "--no-interreflection")
+                              "2000", "--mesh-size", "0.2", "--no-interreflection")
         self.assertEqual(rc, 0, stdout + err)
         self.assertIn("room Office: 2 luminaire(s)", stdout)
         self.assertTrue(os.path.isfile(os.path.join(self.path("report"), "summary.json")))

@@ -112,7 +112,11 @@ class TestResources(FreeCADTestCase):
 
 
 class _FakeWorkbench:
-    pass
+    def appendToolbar(self, name, cmds):        # noqa: N802 - FreeCAD's own names
+        self.toolbar = (name, list(cmds))
+
+    def appendMenu(self, name, cmds):           # noqa: N802
+        self.menu = (name, list(cmds))
 
 
 class TestInitGui(FreeCADTestCase):
@@ -152,19 +156,25 @@ class TestInitGui(FreeCADTestCase):
         self.assertEqual(wb.MenuText, "InvRad")
         self.assertTrue(os.path.isfile(wb.Icon), wb.Icon)
 
-    def test_site_packages_from_the_environment(self):
-        """FreeCAD 0.20's GUI clears PYTHONPATH; $INVRAD_SITE_PACKAGES replaces it."""
+    def test_start_up_leaves_sys_path_alone_and_initialize_appends(self):
+        """FreeCAD 0.20's GUI clears PYTHONPATH; the venv and $INVRAD_SITE_PACKAGES are
+        appended on activation only, after everything else (other workbenches' imports
+        stay what they were)."""
         os.environ["INVRAD_SITE_PACKAGES"] = self.tmp + os.pathsep + "/nonexistent/x"
+        saved = list(sys.path)
         try:
-            self.run_initgui()
+            (wb,), _ = self.run_initgui()
+            self.assertEqual(self.path_after, saved)
+            wb.Initialize()
+            after = list(sys.path)
         finally:
             del os.environ["INVRAD_SITE_PACKAGES"]
-        p = self.path_after
-        self.assertIn(self.tmp, p)
-        self.assertNotIn("/nonexistent/x", p)
-        site = [i for i, x in enumerate(p) if x.endswith(("site-packages", "dist-packages"))
-                and x != self.tmp]
-        self.assertLess(p.index(self.tmp), site[0])
+            sys.path[:] = saved
+        self.assertEqual(after[:len(saved)], saved)
+        self.assertIn(self.tmp, after[len(saved):])
+        self.assertNotIn("/nonexistent/x", after)
+        self.assertEqual(wb.toolbar[0], "InvRad")
+        self.assertIn("InvRad_Locate", wb.menu[1])
 
     def test_register_does_nothing_without_a_gui(self):
         self.assertFalse(FreeCAD.GuiUp)

@@ -7,7 +7,7 @@ import FreeCAD
 
 from fctest import FreeCADTestCase, make_box_space, make_walled_room
 from invrad_wb.app import rooms
-from invrad_wb.app.meshing import edge_lengths, triangle_areas, triangle_normals
+from invrad_wb.core.geometry.meshing import edge_lengths, triangle_areas, triangle_normals
 from invrad_wb.app.targets import set_reflectance
 from invrad_wb.errors import InvradError, SceneError, SettingsError
 

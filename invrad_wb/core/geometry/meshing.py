@@ -117,9 +117,3 @@ def signed_volume(vertices, triangles):
     """Signed volume enclosed by a closed triangle mesh: > 0 if its normals point outward."""
     p = vertices[triangles]
     return float(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6.0)
-
-
-def compact(vertices, triangles):
-    """Drop unused vertices; returns (vertices, triangles) renumbered."""
-    used, inv = np.unique(triangles.reshape(-1), return_inverse=True)
-    return vertices[used], inv.reshape(-1, 3).astype(np.int64)

@@ -411,6 +411,11 @@ class _Indirect:
 
 
 def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
+    """Peaks of one room's votes, then (``s.refine``) the joint refinement.
+
+    Sets ``run.peaks``, ``run.lights``, ``run.cost`` and ``run.trace``. ``allow_votes``:
+    whether the overlap step may vote again (False when post-processing is redone).
+    """
     peaks, _ = find_peaks(run.canvas, run.votes, threshold=s.threshold,
                           neighbourhood=s.neighbourhood_m, max_peaks=s.max_candidates)
     run.peaks = peaks
@@ -419,62 +424,101 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
         for L in run.lights:
             L.score = L.peak_score / 255.0
         return
-    prob = run.problem
+    fit = _RoomFit(run, s)
     cands = [_light_from_peak(p, run.canvas) for p in peaks]
-    opt = prob.levenberg_marquardt if s.optimiser == "lm" else prob.evolution_strategy
+    lights, cost = fit.select(cands, progress, deadline)
+    # light that several luminaires share: vote again with a fraction of each point's
+    # light (thesis 5.2) and offer those peaks too
+    if (run.vote_fn is not None and s.overlap_levels > 1
+            and fit_quality(fit.prob, lights) > s.poor_fit):
+        lights, cost = fit.overlap(lights, cost, cands, allow_votes)
+    # still poor: light spread evenly by many luminaires (a uniform work plane) has no
+    # accumulation points at all; seed the refinement with regular arrangements of n
+    # luminaires on the ceiling and keep the best refined answer
+    if s.overlap_levels > 1 and fit_quality(fit.prob, lights) > s.poor_fit:
+        lights, cost = fit.grid(lights, cost, cands, flux)
+    # final scores: how much worse the fit is without each luminaire
+    prob = fit.prob
+    cost = prob.cost(lights) if lights else cost
+    for i, L in enumerate(lights):
+        c_rest = prob.cost(lights[:i] + lights[i + 1:])
+        L.score = float((c_rest - cost) / max(c_rest, 1e-12))
+    run.lights, run.cost, run.trace = lights, cost, fit.trace
 
-    def tidy(lights, cost):
-        lights = _snap_to_surfaces(lights, run.canvas, run.scene)
+
+class _RoomFit:
+    """The refinement steps of one room; they share its problem, optimiser and trace.
+
+    Each step takes and returns ``(lights, cost)``: a list of :class:`Light` and the
+    refinement cost (:meth:`RefineProblem.cost`, dimensionless).
+    """
+
+    def __init__(self, run, s):
+        self.run, self.s, self.prob = run, s, run.problem
+        self.opt = (self.prob.levenberg_marquardt if s.optimiser == "lm"
+                    else self.prob.evolution_strategy)
+        self.trace = []
+
+    def _greedy(self, cands, **kwargs):
+        return greedy_select(self.prob, cands, min_gain=self.s.min_gain,
+                             optimiser=self.s.optimiser, **kwargs)
+
+    def select(self, cands, progress=None, deadline=None):
+        """Greedy selection from the peak candidates, swaps when the fit is not near-exact,
+        then each luminaire's own interreflection (:meth:`settle`)."""
+        prob, s = self.prob, self.s
+        lights, cost, self.trace = self._greedy(cands, progress=progress, deadline=deadline)
+        cost0 = prob.cost([])
+        if lights and cost > 1e-3 * cost0:
+            # not the near-exact fit a set of the right luminaires gives: try swaps
+            lights, cost, nswap = swap_search(prob, lights, cands, min_gain=s.min_gain,
+                                              optimiser=s.optimiser)
+            self.trace.append({"swaps": nswap, "cost_after": cost})
+            if nswap:
+                # swapped luminaires may have made others redundant (or two may coincide)
+                lights, cost, t2 = self._greedy([], initial=lights)
+                self.trace += t2
+        lights, cost = self.tidy(lights, cost)
+        # each luminaire's own interreflected light from the radiosity model replaces its
+        # estimate; refit, look for missing/surplus luminaires, until nothing moves
+        return self.settle(lights, cost, cands)
+
+    def tidy(self, lights, cost):
+        """Snap mid-air luminaires to surfaces, prefer mounted ones, refit if any moved."""
+        lights = _snap_to_surfaces(lights, self.run.canvas, self.run.scene)
         if any(L.kind == "free" for L in lights):
-            lights = _prefer_mounted(prob, lights, run.canvas, s.optimiser)
-            lights, cost = opt(lights)
+            lights = _prefer_mounted(self.prob, lights, self.run.canvas, self.s.optimiser)
+            lights, cost = self.opt(lights)
         return lights, cost
 
-    lights, cost, trace = greedy_select(prob, cands, min_gain=s.min_gain,
-                                        optimiser=s.optimiser, progress=progress,
-                                        deadline=deadline)
-    cost0 = prob.cost([])
-    if lights and cost > 1e-3 * cost0:
-        # not the near-exact fit a set of the right luminaires gives: try swaps
-        lights, cost, nswap = swap_search(prob, lights, cands, min_gain=s.min_gain,
-                                          optimiser=s.optimiser)
-        trace.append({"swaps": nswap, "cost_after": cost})
-        if nswap:
-            # swapped luminaires may have made others redundant (or two may coincide)
-            lights, cost, t2 = greedy_select(prob, [], min_gain=s.min_gain,
-                                             optimiser=s.optimiser, initial=lights)
-            trace += t2
-    lights, cost = tidy(lights, cost)
-    # each luminaire's own interreflected light from the radiosity model replaces its
-    # estimate; refit, look for missing/surplus luminaires, until nothing moves
-    def converge(lights, cost, rounds=8):
+    def converge(self, lights, cost, rounds=8):
         """Refit until every luminaire's interreflection was computed where it now is."""
+        prob = self.prob
         for _round in range(rounds):
             lights, changed = prob.refresh_indirect(lights, moved=0.005)
             if not changed:
                 return lights, cost
-            lights, cost = opt(lights)
+            lights, cost = self.opt(lights)
         # out of rounds: make the indirect light exact for the final positions anyway
         lights, _ = prob.refresh_indirect(lights, moved=0.0)
         return lights, prob.cost(lights)
 
-    def settle(lights, cost, cands):
-        nonlocal trace
+    def settle(self, lights, cost, cands):
+        """Exact interreflection for the luminaires, with re-selection from ``cands``."""
         for _round in range(2):
-            lights, changed = prob.refresh_indirect(lights, moved=0.005)
+            lights, changed = self.prob.refresh_indirect(lights, moved=0.005)
             if not changed:
                 break
-            lights, cost = opt(lights)
-            lights, cost, t2 = greedy_select(prob, cands, min_gain=s.min_gain,
-                                             optimiser=s.optimiser, initial=lights)
-            trace += t2
-            lights, cost = tidy(lights, cost)
-        return converge(lights, cost)
+            lights, cost = self.opt(lights)
+            lights, cost, t2 = self._greedy(cands, initial=lights)
+            self.trace += t2
+            lights, cost = self.tidy(lights, cost)
+        return self.converge(lights, cost)
 
-    lights, cost = settle(lights, cost, cands)
-    # light that several luminaires share: vote again with a fraction of each point's
-    # light (thesis 5.2) and offer those peaks too
-    if run.vote_fn is not None and s.overlap_levels > 1 and fit_quality(prob, lights) > s.poor_fit:
+    def overlap(self, lights, cost, cands, allow_votes):
+        """Candidates from votes as if 2, 3 ... luminaires shared each point's light; a
+        fresh selection over all candidates, kept if better."""
+        run, s = self.run, self.s
         extra = []
         for share in range(2, s.overlap_levels + 1):
             if share not in run.extra_votes:
@@ -488,55 +532,48 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
         more = [_light_from_peak(p, run.canvas) for p in extra]
         # a fresh selection over all candidates (the first may be a local optimum that
         # adding luminaires cannot leave); the better of the two answers is kept
-        alt, c_alt, t2 = greedy_select(prob, more + cands, min_gain=s.min_gain,
-                                       optimiser=s.optimiser,
-                                       patience=2 * s.overlap_levels + 10)
-        alt, c_alt = tidy(alt, c_alt)
-        alt, c_alt = settle(alt, c_alt, more + cands)
-        trace += [{"overlap_votes": len(more), "cost_before": cost, "cost_after": c_alt}] + t2
+        alt, c_alt, t2 = self._greedy(more + cands, patience=2 * s.overlap_levels + 10)
+        alt, c_alt = self.tidy(alt, c_alt)
+        alt, c_alt = self.settle(alt, c_alt, more + cands)
+        self.trace += [{"overlap_votes": len(more), "cost_before": cost,
+                        "cost_after": c_alt}] + t2
         if c_alt < cost:
-            lights, cost = alt, c_alt
-    # still poor: light spread evenly by many luminaires (a uniform work plane) has no
-    # accumulation points at all; seed the refinement with regular arrangements of n
-    # luminaires on the ceiling and keep the best refined answer
-    if s.overlap_levels > 1 and fit_quality(prob, lights) > s.poor_fit:
+            return alt, c_alt
+        return lights, cost
+
+    def grid(self, lights, cost, cands, flux):
+        """Regular ceiling arrangements of n luminaires of ``flux`` lm as seeds; the best
+        refined arrangement (with vote candidates added) is kept if better."""
+        prob = self.prob
         scanned = []
-        for n in _seed_counts(run, flux):
-            seeds = _grid_seeds(run.canvas, n)
+        for n in _seed_counts(self.run, flux):
+            seeds = _grid_seeds(self.run.canvas, n)
             if not seeds:
                 continue
             seeds = [prob.with_indirect(L) for L in seeds]
-            got, c = opt(seeds)
-            trace.append({"grid_seed": n, "cost_after": c})
+            got, c = self.opt(seeds)
+            self.trace.append({"grid_seed": n, "cost_after": c})
             scanned.append((c, n, got))
             if c > 1.5 * min(x[0] for x in scanned):
                 break   # past the best count
         best = None
         # the scan used estimated interreflection: settle the three best counts exactly
         for c, n, got in sorted(scanned, key=lambda x: x[0])[:3]:
-            got, c = converge(got, c)
-            trace.append({"grid_seed_exact": n, "cost_after": c})
+            got, c = self.converge(got, c)
+            self.trace.append({"grid_seed_exact": n, "cost_after": c})
             if best is None or c < best[1]:
                 best = (got, c)
-        if best is not None:
-            # refine the best arrangement with exact interreflection; no pruning here:
-            # for evenly spread light every luminaire of the arrangement does its share
-            alt, c_alt = best
-            # the same with vote candidates added / surplus luminaires pruned
-            alt2, c_alt2 = settle(alt, c_alt, cands)
-            if c_alt2 < c_alt:
-                alt, c_alt = alt2, c_alt2
-            if c_alt < cost:
-                lights, cost = alt, c_alt
-                for i, L in enumerate(lights):
-                    c_rest = prob.cost(lights[:i] + lights[i + 1:])
-                    L.score = float((c_rest - cost) / max(c_rest, 1e-12))
-    # final scores: how much worse the fit is without each luminaire
-    cost = prob.cost(lights) if lights else cost
-    for i, L in enumerate(lights):
-        c_rest = prob.cost(lights[:i] + lights[i + 1:])
-        L.score = float((c_rest - cost) / max(c_rest, 1e-12))
-    run.lights, run.cost, run.trace = lights, cost, trace
+        if best is None:
+            return lights, cost
+        # no pruning of the best arrangement: for evenly spread light every luminaire of
+        # it does its share; the same with vote candidates added / surplus ones pruned
+        alt, c_alt = best
+        alt2, c_alt2 = self.settle(alt, c_alt, cands)
+        if c_alt2 < c_alt:
+            alt, c_alt = alt2, c_alt2
+        if c_alt < cost:
+            return alt, c_alt
+        return lights, cost
 
 
 def _seed_counts(run, flux, most=24):
@@ -636,19 +673,8 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
     -------
     LocateResult
     """
-    if settings is None:
-        settings = LocateSettings()
-    elif isinstance(settings, dict):
-        settings = LocateSettings.from_dict(settings)
-    if overrides:
-        settings = LocateSettings.from_dict({**asdict(settings), **overrides})
-    s = settings.check()
-    try:
-        flux = float(flux_lm)
-    except (TypeError, ValueError):
-        raise SettingsError(f"flux must be a number of lumens, got {flux_lm!r}")
-    if not np.isfinite(flux) or flux <= 0:
-        raise SettingsError(f"flux must be a positive number of lumens, got {flux_lm!r}")
+    s = _checked_settings(settings, overrides)
+    flux = _checked_flux(flux_lm)
     if not scene.has_targets:
         raise SceneError("the scene has no target illuminance (no 'lux' values)", scene.source)
     backend = check_backend(backend)
@@ -667,97 +693,147 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
     for ri, room in enumerate(room_ids):
         base = ri / len(room_ids)
         step = 1.0 / len(room_ids)
-        report(base, f"room {int(room)}: voting points")
-        sub = scene.room_subset(int(room)) if len(scene.rooms) > 1 else scene
-        t = time.time()
-        density = s.votes_per_m2 or default_density(sub)
-        pts = voting_points(sub, density=density, seed=s.seed)
-        timings["sampling"] += time.time() - t
-        if len(pts) == 0 or not np.any(pts.lux > 0):
-            runs.append(RoomRun(room=int(room), scene=sub, points=pts,
-                                canvas=build_canvas(sub, int(room), s.pixel_m, dummy=False),
-                                votes=np.zeros(0, np.float32), problem=None, occluders=None,
-                                ambient_lux=0.0))
-            runs[-1].votes = np.zeros(runs[-1].canvas.size, np.float32)
-            continue
-        lit = pts.lux > 0
-        shade = pts.subset(pts.lux == 0)
-        # occluders
-        if s.occlusion is False:
-            occ = None
-        else:
-            faces = occluding_faces(sub) if s.occlusion == "auto" else sub.occluder_faces
-            occ = BVH(sub.triangles[faces]) if len(faces) else None
-        # interreflection
-        has_rho = bool(np.any(sub.face_reflectance[~sub.face_virtual] > 0))
-        ambient = _ambient_estimate(sub, pts) if (s.indirect != "none" and has_rho) else 0.0
-        report(base + 0.1 * step, f"room {int(room)}: vote maps")
-        t = time.time()
-        planes = None
-        if not s.all_planes:
-            planes = _visible_from_brightest(sub, pts.subset(lit), None)
-        canvas = build_canvas(sub, int(room), pixel=s.pixel_m, dummy=s.dummy_planes,
-                              dummy_spacing=s.dummy_spacing_m, dummy_count=s.dummy_count,
-                              dummy_lowest=s.dummy_lowest_m, two_sided=s.two_sided_dummies,
-                              planes=planes)
-        _exclude_furniture_zone(sub, canvas)
-        timings["maps"] += time.time() - t
-        report(base + 0.2 * step, f"room {int(room)}: votes")
-        t = time.time()
-        vote_lux = np.where(lit, np.maximum(pts.lux - ambient, 0.0), 0.0)
-        # a point barely above the ambient level carries no position information
-        vote_lux[vote_lux < 0.05 * pts.lux] = 0.0
-        shade_limit = s.shade_limit_lux
-        if shade_limit is None and len(shade):
-            shade_limit = max(1.0, 0.1 * float(np.median(pts.lux[lit])))
-
-        def vote_fn(share=1, canvas=canvas, pts=pts, vote_lux=vote_lux, occ=occ, shade=shade,
-                    shade_limit=shade_limit):
-            t0 = time.time()
-            vl = vote_lux / share
-            W = vote_weights(canvas, pts, vl, s.weighting, s.vote_strength)
-            if s.vote_model == "exact":
-                cast = cast_exact_opencl if backend == "opencl" else cast_exact_numpy
-                out = cast(canvas, pts, W, vl, flux, bvh=occ, shade=shade,
-                           shade_limit_lux=shade_limit)
-            else:
-                from invrad_wb.core.inverse.votes_ellipse import cast_ellipse
-                out = cast_ellipse(canvas, pts, W, vl, flux, bvh=occ, shade=shade,
-                                   shade_limit_lux=shade_limit, backend=backend)
-            timings["votes"] += time.time() - t0
-            return out
-
-        votes = vote_fn(1)
-        # refinement problem
-        occluded_fn = None
-        if occ is not None and backend == "opencl":
-            from invrad_wb.core.forward.occlusion import segments_occluded_opencl
-            occluded_fn = lambda p, q, _b=occ: segments_occluded_opencl(_b, p, q)
-        prob = RefineProblem(positions=pts.positions, normals=pts.normals, target=pts.lux,
-                             flux=flux, area=pts.area, bvh=occ, inside=_make_inside(canvas),
-                             occluded_fn=occluded_fn)
-        indirect_model = None
-        if s.indirect != "none" and has_rho:
-            per_lumen = _uniform_indirect_per_lumen(sub)
-            prob.indirect_estimate = lambda L, _k=len(pts), _a=per_lumen * flux: np.full(_k, _a)
-        if s.indirect == "radiosity" and has_rho:
-            t = time.time()
-            indirect_model = _Indirect(sub, pts, backend)
-            prob.indirect_exact = lambda L, _m=indirect_model: _m([L], flux)
-            timings["radiosity"] += time.time() - t
-        run = RoomRun(room=int(room), scene=sub, points=pts, canvas=canvas, votes=votes,
-                      problem=prob, occluders=occ, ambient_lux=ambient,
-                      indirect_model=indirect_model, vote_fn=vote_fn)
-        report(base + 0.5 * step, f"room {int(room)}: peaks and refinement")
-        t = time.time()
-        _postprocess(run, s, flux,
-                     progress=lambda f, b=base, st=step: report(b + (0.5 + 0.5 * f) * st,
-                                                                f"room {int(room)}: refinement"))
-        timings["postprocess"] += time.time() - t
-        runs.append(run)
+        runs.append(_locate_room(scene, int(room), s, flux, backend, timings,
+                                 lambda f, msg, b=base, st=step: report(b + f * st, msg)))
     report(1.0, "done")
     timings["total"] = time.time() - t_start
     result = LocateResult(luminaires=_collect(runs, flux), settings=asdict(s),
                           timings={k: round(v, 4) for k, v in timings.items()}, flux_lm=flux,
                           rooms=runs, backend=backend)
     return result
+
+
+def _checked_settings(settings, overrides):
+    """LocateSettings from None, a LocateSettings or a dict, with ``overrides``, checked."""
+    if settings is None:
+        settings = LocateSettings()
+    elif isinstance(settings, dict):
+        settings = LocateSettings.from_dict(settings)
+    if overrides:
+        settings = LocateSettings.from_dict({**asdict(settings), **overrides})
+    return settings.check()
+
+
+def _checked_flux(flux_lm):
+    """The flux of one luminaire as a positive float, lm (else SettingsError)."""
+    try:
+        flux = float(flux_lm)
+    except (TypeError, ValueError):
+        raise SettingsError(f"flux must be a number of lumens, got {flux_lm!r}")
+    if not np.isfinite(flux) or flux <= 0:
+        raise SettingsError(f"flux must be a positive number of lumens, got {flux_lm!r}")
+    return flux
+
+
+def _locate_room(scene, room, s, flux, backend, timings, report):
+    """Steps 1-5 of the module docstring for one room; returns its :class:`RoomRun`.
+
+    ``timings`` (seconds per stage) is added to; ``report(fraction of this room, message)``
+    reports progress (and raises :class:`Cancelled`).
+    """
+    report(0.0, f"room {room}: voting points")
+    sub = scene.room_subset(room) if len(scene.rooms) > 1 else scene
+    t = time.time()
+    density = s.votes_per_m2 or default_density(sub)
+    pts = voting_points(sub, density=density, seed=s.seed)
+    timings["sampling"] += time.time() - t
+    if len(pts) == 0 or not np.any(pts.lux > 0):
+        canvas = build_canvas(sub, room, s.pixel_m, dummy=False)
+        return RoomRun(room=room, scene=sub, points=pts, canvas=canvas,
+                       votes=np.zeros(canvas.size, np.float32), problem=None,
+                       occluders=None, ambient_lux=0.0)
+    lit = pts.lux > 0
+    occ = _occluders(sub, s)
+    # interreflection
+    has_rho = bool(np.any(sub.face_reflectance[~sub.face_virtual] > 0))
+    ambient = _ambient_estimate(sub, pts) if (s.indirect != "none" and has_rho) else 0.0
+    report(0.1, f"room {room}: vote maps")
+    t = time.time()
+    planes = None
+    if not s.all_planes:
+        planes = _visible_from_brightest(sub, pts.subset(lit), None)
+    canvas = build_canvas(sub, room, pixel=s.pixel_m, dummy=s.dummy_planes,
+                          dummy_spacing=s.dummy_spacing_m, dummy_count=s.dummy_count,
+                          dummy_lowest=s.dummy_lowest_m, two_sided=s.two_sided_dummies,
+                          planes=planes)
+    _exclude_furniture_zone(sub, canvas)
+    timings["maps"] += time.time() - t
+    report(0.2, f"room {room}: votes")
+    vote_fn = _vote_function(canvas, pts, ambient, occ, s, flux, backend, timings)
+    votes = vote_fn(1)
+    prob, indirect_model = _refine_problem(sub, pts, canvas, occ, s, flux, backend, has_rho,
+                                           timings)
+    run = RoomRun(room=room, scene=sub, points=pts, canvas=canvas, votes=votes,
+                  problem=prob, occluders=occ, ambient_lux=ambient,
+                  indirect_model=indirect_model, vote_fn=vote_fn)
+    report(0.5, f"room {room}: peaks and refinement")
+    t = time.time()
+    _postprocess(run, s, flux,
+                 progress=lambda f: report(0.5 + 0.5 * f, f"room {room}: refinement"))
+    timings["postprocess"] += time.time() - t
+    return run
+
+
+def _occluders(scene, s):
+    """BVH of the faces that can occlude within the room (None: no occlusion test)."""
+    if s.occlusion is False:
+        return None
+    faces = occluding_faces(scene) if s.occlusion == "auto" else scene.occluder_faces
+    return BVH(scene.triangles[faces]) if len(faces) else None
+
+
+def _vote_function(canvas, pts, ambient, occ, s, flux, backend, timings):
+    """``vote_fn(share=1)``: the votes (canvas.size,) float32 of the voting points as if
+    ``1/share`` of each point's light came from one luminaire of ``flux`` lm.
+
+    The ambient (interreflected) estimate, lux, is taken off the targets first; points
+    with 0 lx are shade (no luminaire may light them above the shade limit).
+    """
+    lit = pts.lux > 0
+    shade = pts.subset(pts.lux == 0)
+    vote_lux = np.where(lit, np.maximum(pts.lux - ambient, 0.0), 0.0)
+    # a point barely above the ambient level carries no position information
+    vote_lux[vote_lux < 0.05 * pts.lux] = 0.0
+    shade_limit = s.shade_limit_lux
+    if shade_limit is None and len(shade):
+        shade_limit = max(1.0, 0.1 * float(np.median(pts.lux[lit])))
+
+    def vote_fn(share=1):
+        t0 = time.time()
+        vl = vote_lux / share
+        W = vote_weights(canvas, pts, vl, s.weighting, s.vote_strength)
+        if s.vote_model == "exact":
+            cast = cast_exact_opencl if backend == "opencl" else cast_exact_numpy
+            out = cast(canvas, pts, W, vl, flux, bvh=occ, shade=shade,
+                       shade_limit_lux=shade_limit)
+        else:
+            from invrad_wb.core.inverse.votes_ellipse import cast_ellipse
+            out = cast_ellipse(canvas, pts, W, vl, flux, bvh=occ, shade=shade,
+                               shade_limit_lux=shade_limit, backend=backend)
+        timings["votes"] += time.time() - t0
+        return out
+    return vote_fn
+
+
+def _refine_problem(scene, pts, canvas, occ, s, flux, backend, has_rho, timings):
+    """The joint refinement problem of a room's voting points and its radiosity model.
+
+    Returns ``(RefineProblem, _Indirect or None)``.
+    """
+    occluded_fn = None
+    if occ is not None and backend == "opencl":
+        from invrad_wb.core.forward.occlusion import segments_occluded_opencl
+        occluded_fn = lambda p, q, _b=occ: segments_occluded_opencl(_b, p, q)
+    prob = RefineProblem(positions=pts.positions, normals=pts.normals, target=pts.lux,
+                         flux=flux, area=pts.area, bvh=occ, inside=_make_inside(canvas),
+                         occluded_fn=occluded_fn)
+    indirect_model = None
+    if s.indirect != "none" and has_rho:
+        per_lumen = _uniform_indirect_per_lumen(scene)
+        prob.indirect_estimate = lambda L, _k=len(pts), _a=per_lumen * flux: np.full(_k, _a)
+    if s.indirect == "radiosity" and has_rho:
+        t = time.time()
+        indirect_model = _Indirect(scene, pts, backend)
+        prob.indirect_exact = lambda L, _m=indirect_model: _m([L], flux)
+        timings["radiosity"] += time.time() - t
+    return prob, indirect_model

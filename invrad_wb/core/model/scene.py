@@ -126,6 +126,111 @@ def _check_lux(name, values, what, source):
                          f" {int(neg.sum())} such value(s)", source)
 
 
+def _checked_mesh(vertices, faces, source):
+    """Vertices (n, 3) float64 and faces (m, 3) int64, refused with a clear SceneError
+    when not finite, not triangles, not integer indices, empty or out of range."""
+    v = _as_array("vertices", vertices, (3,), np.float64, source)
+    try:
+        f = np.asarray(faces)
+    except (TypeError, ValueError) as exc:
+        raise SceneError(f"faces cannot be read: {exc}", source)
+    if f.ndim != 2 or f.shape[1] != 3:
+        raise SceneError(f"faces must be triangles, shape (m, 3), but have shape {f.shape};"
+                         " triangulate polygons first (the PLY reader does this)", source)
+    if f.size and not np.issubdtype(f.dtype, np.integer):
+        if not np.all(np.isfinite(f)) or np.any(f != np.round(f)):
+            raise SceneError("face vertex indices must be integers", source)
+    f = f.astype(np.int64)
+    if len(f) == 0:
+        raise SceneError("scene has no faces", source)
+    if not np.all(np.isfinite(v)):
+        i = int(np.flatnonzero(~np.all(np.isfinite(v), axis=1))[0])
+        raise SceneError(f"vertex {i} has a non-finite coordinate {v[i].tolist()}", source)
+    if f.min() < 0 or f.max() >= len(v):
+        i = int(np.flatnonzero((f < 0).any(1) | (f >= len(v)).any(1))[0])
+        raise SceneError(f"face {i} refers to vertex {f[i].tolist()} but there are only"
+                         f" {len(v)} vertices", source)
+    return v, f
+
+
+def _checked_targets(vertex_lux, face_lux, n, m, source):
+    """Target illuminance per vertex (n,) or per face (m,), lux, or None; not both."""
+    if vertex_lux is not None and face_lux is not None:
+        raise SceneError("give target illuminance per vertex or per face, not both", source)
+    if vertex_lux is not None:
+        vertex_lux = np.asarray(vertex_lux, dtype=np.float64).reshape(-1)
+        if len(vertex_lux) != n:
+            raise SceneError(f"{len(vertex_lux)} vertex lux values for {n} vertices",
+                             source)
+        _check_lux("target illuminance", vertex_lux, "vertex", source)
+    if face_lux is not None:
+        face_lux = np.asarray(face_lux, dtype=np.float64).reshape(-1)
+        if len(face_lux) != m:
+            raise SceneError(f"{len(face_lux)} face lux values for {m} faces", source)
+        _check_lux("target illuminance", face_lux, "face", source)
+    return vertex_lux, face_lux
+
+
+def _checked_rooms(face_room, m, source):
+    """Room id per face, (m,) int64 >= 0 (default all 0)."""
+    if face_room is None:
+        return np.zeros(m, dtype=np.int64)
+    fr = np.asarray(face_room, dtype=np.float64).reshape(-1)
+    if len(fr) != m:
+        raise SceneError(f"{len(fr)} room ids for {m} faces", source)
+    if not np.all(np.isfinite(fr)) or np.any(fr != np.round(fr)) or np.any(fr < 0):
+        i = int(np.flatnonzero(~np.isfinite(fr) | (fr != np.round(fr)) | (fr < 0))[0])
+        raise SceneError(f"room id of face {i} is {fr[i]}: must be an integer >= 0",
+                         source)
+    return fr.astype(np.int64)
+
+
+def _checked_reflectance(face_reflectance, m, source):
+    """Diffuse reflectance per face, (m,) float64 in [0, 1) (default from constants)."""
+    if face_reflectance is None:
+        return np.full(m, C.DEFAULT_REFLECTANCE)
+    rho = np.asarray(face_reflectance, dtype=np.float64).reshape(-1)
+    if len(rho) != m:
+        raise SceneError(f"{len(rho)} reflectance values for {m} faces", source)
+    bad = ~np.isfinite(rho) | (rho < 0) | (rho >= 1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise SceneError(f"reflectance of face {i} is {rho[i]}: must be in [0, 1)"
+                         f" (a fraction, not a percentage); {int(bad.sum())} such"
+                         " face(s)", source)
+    return rho
+
+
+def _checked_virtual(face_virtual, m, source):
+    """Virtual (work plane) flag per face, (m,) bool (default all False)."""
+    if face_virtual is None:
+        return np.zeros(m, dtype=bool)
+    face_virtual = np.asarray(face_virtual, dtype=bool).reshape(-1)
+    if len(face_virtual) != m:
+        raise SceneError(f"{len(face_virtual)} virtual flags for {m} faces", source)
+    return face_virtual
+
+
+def _checked_texture(face_uv, lux_texture, m, source):
+    """Texture coordinates (m, 3, 2) and lux texture (h, w), lux: both or neither."""
+    if (face_uv is None) != (lux_texture is None):
+        raise SceneError("a lux texture needs texture coordinates and vice versa", source)
+    if face_uv is None:
+        return None, None
+    face_uv = np.asarray(face_uv, dtype=np.float64)
+    if face_uv.shape != (m, 3, 2):
+        raise SceneError(f"face_uv must have shape ({m}, 3, 2), has {face_uv.shape}",
+                         source)
+    if not np.all(np.isfinite(face_uv)):
+        raise SceneError("texture coordinates contain NaN/inf", source)
+    lux_texture = np.asarray(lux_texture, dtype=np.float64)
+    if lux_texture.ndim != 2 or min(lux_texture.shape) < 1:
+        raise SceneError(f"lux texture must be a 2-D image, has shape"
+                         f" {lux_texture.shape}", source)
+    _check_lux("lux texture", lux_texture.reshape(-1), "pixel", source)
+    return face_uv, lux_texture
+
+
 class Scene:
     """A checked room scene. See the module docstring for the conventions.
 
@@ -158,85 +263,13 @@ class Scene:
                  face_reflectance=None, face_uv=None, lux_texture=None, face_virtual=None,
                  source=None, check_winding=True, _split=True):
         self.source = source
-        v = _as_array("vertices", vertices, (3,), np.float64, source)
-        try:
-            f = np.asarray(faces)
-        except (TypeError, ValueError) as exc:
-            raise SceneError(f"faces cannot be read: {exc}", source)
-        if f.ndim != 2 or f.shape[1] != 3:
-            raise SceneError(f"faces must be triangles, shape (m, 3), but have shape {f.shape};"
-                             " triangulate polygons first (the PLY reader does this)", source)
-        if f.size and not np.issubdtype(f.dtype, np.integer):
-            if not np.all(np.isfinite(f)) or np.any(f != np.round(f)):
-                raise SceneError("face vertex indices must be integers", source)
-        f = f.astype(np.int64)
-        if len(f) == 0:
-            raise SceneError("scene has no faces", source)
-        if not np.all(np.isfinite(v)):
-            i = int(np.flatnonzero(~np.all(np.isfinite(v), axis=1))[0])
-            raise SceneError(f"vertex {i} has a non-finite coordinate {v[i].tolist()}", source)
-        if f.min() < 0 or f.max() >= len(v):
-            i = int(np.flatnonzero((f < 0).any(1) | (f >= len(v)).any(1))[0])
-            raise SceneError(f"face {i} refers to vertex {f[i].tolist()} but there are only"
-                             f" {len(v)} vertices", source)
+        v, f = _checked_mesh(vertices, faces, source)
         m = len(f)
-        if vertex_lux is not None and face_lux is not None:
-            raise SceneError("give target illuminance per vertex or per face, not both", source)
-        if vertex_lux is not None:
-            vertex_lux = np.asarray(vertex_lux, dtype=np.float64).reshape(-1)
-            if len(vertex_lux) != len(v):
-                raise SceneError(f"{len(vertex_lux)} vertex lux values for {len(v)} vertices",
-                                 source)
-            _check_lux("target illuminance", vertex_lux, "vertex", source)
-        if face_lux is not None:
-            face_lux = np.asarray(face_lux, dtype=np.float64).reshape(-1)
-            if len(face_lux) != m:
-                raise SceneError(f"{len(face_lux)} face lux values for {m} faces", source)
-            _check_lux("target illuminance", face_lux, "face", source)
-        if face_room is None:
-            face_room = np.zeros(m, dtype=np.int64)
-        else:
-            fr = np.asarray(face_room, dtype=np.float64).reshape(-1)
-            if len(fr) != m:
-                raise SceneError(f"{len(fr)} room ids for {m} faces", source)
-            if not np.all(np.isfinite(fr)) or np.any(fr != np.round(fr)) or np.any(fr < 0):
-                i = int(np.flatnonzero(~np.isfinite(fr) | (fr != np.round(fr)) | (fr < 0))[0])
-                raise SceneError(f"room id of face {i} is {fr[i]}: must be an integer >= 0",
-                                 source)
-            face_room = fr.astype(np.int64)
-        if face_reflectance is None:
-            face_reflectance = np.full(m, C.DEFAULT_REFLECTANCE)
-        else:
-            rho = np.asarray(face_reflectance, dtype=np.float64).reshape(-1)
-            if len(rho) != m:
-                raise SceneError(f"{len(rho)} reflectance values for {m} faces", source)
-            bad = ~np.isfinite(rho) | (rho < 0) | (rho >= 1)
-            if bad.any():
-                i = int(np.flatnonzero(bad)[0])
-                raise SceneError(f"reflectance of face {i} is {rho[i]}: must be in [0, 1)"
-                                 f" (a fraction, not a percentage); {int(bad.sum())} such"
-                                 " face(s)", source)
-            face_reflectance = rho
-        if face_virtual is None:
-            face_virtual = np.zeros(m, dtype=bool)
-        else:
-            face_virtual = np.asarray(face_virtual, dtype=bool).reshape(-1)
-            if len(face_virtual) != m:
-                raise SceneError(f"{len(face_virtual)} virtual flags for {m} faces", source)
-        if (face_uv is None) != (lux_texture is None):
-            raise SceneError("a lux texture needs texture coordinates and vice versa", source)
-        if face_uv is not None:
-            face_uv = np.asarray(face_uv, dtype=np.float64)
-            if face_uv.shape != (m, 3, 2):
-                raise SceneError(f"face_uv must have shape ({m}, 3, 2), has {face_uv.shape}",
-                                 source)
-            if not np.all(np.isfinite(face_uv)):
-                raise SceneError("texture coordinates contain NaN/inf", source)
-            lux_texture = np.asarray(lux_texture, dtype=np.float64)
-            if lux_texture.ndim != 2 or min(lux_texture.shape) < 1:
-                raise SceneError(f"lux texture must be a 2-D image, has shape"
-                                 f" {lux_texture.shape}", source)
-            _check_lux("lux texture", lux_texture.reshape(-1), "pixel", source)
+        vertex_lux, face_lux = _checked_targets(vertex_lux, face_lux, len(v), m, source)
+        face_room = _checked_rooms(face_room, m, source)
+        face_reflectance = _checked_reflectance(face_reflectance, m, source)
+        face_virtual = _checked_virtual(face_virtual, m, source)
+        face_uv, lux_texture = _checked_texture(face_uv, lux_texture, m, source)
 
         self.vertices = v
         self.faces = f

@@ -340,101 +340,139 @@ def evaluate(vertices, triangles, triangle_surface, targets, source=None,
         Naming the target (and surface) at fault: unknown surface, bad lux, bad radius,
         unreadable image.
     """
-    v = np.asarray(vertices, dtype=np.float64)
-    tri = np.asarray(triangles, dtype=np.int64)
-    ts = np.asarray(triangle_surface, dtype=np.int64)
-    vs = vertex_surfaces(tri, ts, len(v), source, label)
-    known = set(np.unique(ts).tolist())
-    frames = None
-    lux = np.full(len(v), np.nan)
-
-    def surfaces_of(t, ids):
-        out = []
-        for s in ids:
-            try:
-                s = int(s)
-            except (TypeError, ValueError):
-                raise SceneError(f"{t.name}: surface {s!r} is not a surface id", source)
-            if s not in known:
-                have = sorted(known)
-                raise SceneError(f"{t.name}: {label(s)} does not exist; the room has"
-                                 f" {len(have)} surfaces ({label(have[0])} .."
-                                 f" {label(have[-1])})", source)
-            out.append(s)
-        if not out:
-            raise SceneError(f"{t.name}: no surfaces given", source)
-        return np.isin(vs, out)
-
+    room = _RoomSurfaces(vertices, triangles, triangle_surface, source, label)
+    lux = np.full(len(room.vertices), np.nan)
     spots, shades = [], []
     for t in targets:
         if isinstance(t, WorkPlaneTarget):
             continue
         if isinstance(t, UniformTarget):
             value = check_lux(t.lux, f"{t.name}: lux", source)
-            lux[surfaces_of(t, t.surfaces)] = value
+            lux[room.select(t, t.surfaces)] = value
         elif isinstance(t, TextureTarget):
-            scale = check_lux(t.lux_scale, f"{t.name}: lux scale", source)
-            sel = surfaces_of(t, [t.surface])
-            img = t.image
-            if isinstance(img, (str, bytes)) or hasattr(img, "__fspath__"):
-                import os
-                path = os.fspath(img)
-                if base_dir and not os.path.isabs(path):
-                    path = os.path.join(base_dir, path)
-                if not os.path.isfile(path):
-                    raise SceneError(f"{t.name}: illuminance image {path} does not exist",
-                                     source)
-                img = load_lux_image(path, source)
-            img = np.asarray(img, dtype=np.float64)
-            if img.ndim != 2 or min(img.shape) < 1:
-                raise SceneError(f"{t.name}: illuminance image must be 2-D, has shape"
-                                 f" {img.shape}", source)
-            fin = img[np.isfinite(img)]
-            if np.isinf(img).any() or (fin < 0).any():
-                raise SceneError(f"{t.name}: illuminance image has negative or infinite"
-                                 " pixels", source)
-            if frames is None:
-                frames = surface_frames(v, tri, ts)
-            idx = np.flatnonzero(sel)
-            vals = sample_image_clamped(img, texture_coordinates(v[idx], frames[int(t.surface)]))
-            vals *= scale
-            ok = np.isfinite(vals)
-            lux[idx[ok]] = vals[ok]
+            _apply_texture(room, t, lux, base_dir)
         elif isinstance(t, SpotTarget):
             spots.append(t)
         elif isinstance(t, ShadeTarget):
             shades.append(t)
         else:
             raise SceneError(f"unknown target type {type(t).__name__}", source)
-
+    # spots brighten what uniform and texture targets set; shades darken everything last
     for t in spots:
-        peak = check_lux(t.peak_lux, f"{t.name}: peak lux", source)
+        _apply_spot(room, t, lux)
+    for t in shades:
+        _apply_shade(room, t, lux)
+    return lux
+
+
+class _RoomSurfaces:
+    """A room mesh seen by :func:`evaluate`: surface ids per vertex and their frames."""
+
+    def __init__(self, vertices, triangles, triangle_surface, source, label):
+        self.vertices = np.asarray(vertices, dtype=np.float64)
+        self.triangles = np.asarray(triangles, dtype=np.int64)
+        self.triangle_surface = np.asarray(triangle_surface, dtype=np.int64)
+        self.vertex_surface = vertex_surfaces(self.triangles, self.triangle_surface,
+                                              len(self.vertices), source, label)
+        self.known = set(np.unique(self.triangle_surface).tolist())
+        self.source = source
+        self.label = label
+        self._frames = None
+
+    def select(self, t, ids):
+        """(n,) bool: the vertices on surfaces ``ids`` of target ``t`` (checked)."""
+        out = []
+        for s in ids:
+            try:
+                s = int(s)
+            except (TypeError, ValueError):
+                raise SceneError(f"{t.name}: surface {s!r} is not a surface id", self.source)
+            if s not in self.known:
+                have = sorted(self.known)
+                raise SceneError(f"{t.name}: {self.label(s)} does not exist; the room has"
+                                 f" {len(have)} surfaces ({self.label(have[0])} .."
+                                 f" {self.label(have[-1])})", self.source)
+            out.append(s)
+        if not out:
+            raise SceneError(f"{t.name}: no surfaces given", self.source)
+        return np.isin(self.vertex_surface, out)
+
+    def frame(self, surface):
+        """The :class:`SurfaceFrame` of one surface (all frames computed once)."""
+        if self._frames is None:
+            self._frames = surface_frames(self.vertices, self.triangles,
+                                          self.triangle_surface)
+        return self._frames[int(surface)]
+
+
+def _texture_image(t, base_dir, source):
+    """The (h, w) float64 illuminance image of a TextureTarget (path or array), checked."""
+    img = t.image
+    if isinstance(img, (str, bytes)) or hasattr(img, "__fspath__"):
+        import os
+        path = os.fspath(img)
+        if base_dir and not os.path.isabs(path):
+            path = os.path.join(base_dir, path)
+        if not os.path.isfile(path):
+            raise SceneError(f"{t.name}: illuminance image {path} does not exist",
+                             source)
+        img = load_lux_image(path, source)
+    img = np.asarray(img, dtype=np.float64)
+    if img.ndim != 2 or min(img.shape) < 1:
+        raise SceneError(f"{t.name}: illuminance image must be 2-D, has shape"
+                         f" {img.shape}", source)
+    fin = img[np.isfinite(img)]
+    if np.isinf(img).any() or (fin < 0).any():
+        raise SceneError(f"{t.name}: illuminance image has negative or infinite"
+                         " pixels", source)
+    return img
+
+
+def _apply_texture(room, t, lux, base_dir):
+    """Set ``lux`` (n,) on the texture's surface from its image (NaN pixels: no target)."""
+    scale = check_lux(t.lux_scale, f"{t.name}: lux scale", room.source)
+    sel = room.select(t, [t.surface])
+    img = _texture_image(t, base_dir, room.source)
+    idx = np.flatnonzero(sel)
+    vals = sample_image_clamped(img, texture_coordinates(room.vertices[idx],
+                                                         room.frame(t.surface)))
+    vals *= scale
+    ok = np.isfinite(vals)
+    lux[idx[ok]] = vals[ok]
+
+
+def _apply_spot(room, t, lux):
+    """Raise ``lux`` (n,) to the spot's falloff within its radius (max with what is set)."""
+    source = room.source
+    peak = check_lux(t.peak_lux, f"{t.name}: peak lux", source)
+    r = _check_length(t.radius_m, f"{t.name}: radius", source)
+    c = _point(t.centre, f"{t.name}: centre", source)
+    if t.falloff not in FALLOFFS:
+        raise SceneError(f"{t.name}: unknown falloff {t.falloff!r}; use one of"
+                         f" {', '.join(FALLOFFS)}", source)
+    ids = [t.surface] if t.surfaces is None else list(t.surfaces)
+    if t.surface not in ids:
+        ids.append(t.surface)
+    sel = np.flatnonzero(room.select(t, ids))
+    d = np.linalg.norm(room.vertices[sel] - c, axis=1) / r
+    inside = d <= 1.0
+    val = peak * falloff_weight(d[inside], t.falloff)
+    tgt = sel[inside]
+    lux[tgt] = np.fmax(lux[tgt], val)
+
+
+def _apply_shade(room, t, lux):
+    """Set ``lux`` (n,) to 0 on the shade's surfaces, or within its disk."""
+    source = room.source
+    sel = room.select(t, t.surfaces)
+    if t.centre is not None or t.radius_m is not None:
+        if t.centre is None or t.radius_m is None:
+            raise SceneError(f"{t.name}: a shaded disk needs both a centre and a radius",
+                             source)
         r = _check_length(t.radius_m, f"{t.name}: radius", source)
         c = _point(t.centre, f"{t.name}: centre", source)
-        if t.falloff not in FALLOFFS:
-            raise SceneError(f"{t.name}: unknown falloff {t.falloff!r}; use one of"
-                             f" {', '.join(FALLOFFS)}", source)
-        ids = [t.surface] if t.surfaces is None else list(t.surfaces)
-        if t.surface not in ids:
-            ids.append(t.surface)
-        sel = np.flatnonzero(surfaces_of(t, ids))
-        d = np.linalg.norm(v[sel] - c, axis=1) / r
-        inside = d <= 1.0
-        val = peak * falloff_weight(d[inside], t.falloff)
-        tgt = sel[inside]
-        lux[tgt] = np.fmax(lux[tgt], val)
-
-    for t in shades:
-        sel = surfaces_of(t, t.surfaces)
-        if t.centre is not None or t.radius_m is not None:
-            if t.centre is None or t.radius_m is None:
-                raise SceneError(f"{t.name}: a shaded disk needs both a centre and a radius",
-                                 source)
-            r = _check_length(t.radius_m, f"{t.name}: radius", source)
-            c = _point(t.centre, f"{t.name}: centre", source)
-            sel &= np.linalg.norm(v - c, axis=1) <= r
-        lux[sel] = 0.0
-    return lux
+        sel &= np.linalg.norm(room.vertices - c, axis=1) <= r
+    lux[sel] = 0.0
 
 
 def boundary_edges(vertices, triangles, tol=1e-6):
