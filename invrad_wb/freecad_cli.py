@@ -249,8 +249,12 @@ def run_job(opts, out=None):
         out.write(msg + "\n")
         out.flush()
 
+    from invrad_wb.app import design as app_design
     src, ext, dst, dext = _checked_paths(opts)
-    flux, mesh_size, locate_settings = _run_options(opts)
+    spec = None
+    if opts.get("targets") and app_design.is_design_file(opts["targets"]):
+        spec = app_design.spec_from_targets_file(opts["targets"])   # checked before work
+    flux, mesh_size, locate_settings = _run_options(opts, design=spec is not None)
     doc = _open_input(src, ext, opts, say)
     if opts.get("targets"):
         targets.apply_targets_file(doc, opts["targets"])
@@ -267,7 +271,7 @@ def run_job(opts, out=None):
         locate=locate_settings, backend=opts.get("backend") or "auto",
         replace=not opts.get("keep"), rooms=opts.get("rooms"), report_dir=opts["report"],
         base_dir=os.path.dirname(opts["targets"]) if opts.get("targets") else
-        os.path.dirname(src))
+        os.path.dirname(src), design=spec)
     if mesh_size:
         settings.resolution_m = float(mesh_size)
     result = pipeline.run(doc, settings, progress=progress)
@@ -298,9 +302,9 @@ def _checked_paths(opts):
     return src, ext, dst, dext
 
 
-def _run_options(opts):
+def _run_options(opts, design=False):
     """(flux lm, mesh size m or None, locate settings dict or None): the command line's,
-    else the targets file's ``flux_lm`` / ``resolution_m``."""
+    else the targets file's ``flux_lm`` / ``resolution_m`` (no flux for a design)."""
     from invrad_wb.app.pipeline import check_flux
     from_file = {}
     if opts.get("targets"):
@@ -312,6 +316,8 @@ def _run_options(opts):
         except (OSError, ValueError):
             pass      # reported properly when the targets are applied
     flux = opts.get("flux") if opts.get("flux") is not None else from_file.get("flux_lm")
+    if flux is None and design:
+        flux = 1.0       # unused: a design takes its fluxes from the catalogue
     if flux is None:
         raise SettingsError("give the flux of one luminaire with --flux LM (or flux_lm in"
                             " the targets file)")
@@ -347,6 +353,8 @@ def _open_input(src, ext, opts, say):
 
 def _say_result(summary, say):
     """One line per room (luminaires, mean achieved vs target lux), one per luminaire."""
+    if "design" in summary:
+        _say_design(summary["design"], say)
     for room in summary["rooms"]:
         n = sum(1 for l in summary["luminaires"] if l["room_name"] == room["room"])
         line = f"room {room['room']}: {n} luminaire(s)"
@@ -360,6 +368,24 @@ def _say_result(summary, say):
         p = ", ".join(f"{x:.3f}" for x in l["position"])
         n = ", ".join(f"{x:.2f}" for x in l["normal"])
         say(f"  {l['fixture']}: ({p}) m facing ({n})")
+
+
+def _say_design(d, say):
+    """One line per designed room: types, Em, U0, watts, verdict, notes."""
+    for r in d["rooms"]:
+        if "em_lux" not in r:
+            say(f"design {r['name']}: " + "; ".join(r["notes"]))
+            continue
+        q = r["requirement"]
+        types = ", ".join(f"{n} x {t}" for t, n in sorted(r["schedule"].items()))
+        say(f"design {r['name']}: {types}: Em {r['em_lux']:.0f} lx (>= {q['lux']:g}),"
+            f" U0 {r['u0']:.2f} (>= {q['u0']:g}), {r['watts']:.1f} W,"
+            f" {r['w_per_m2']:.2f} W/m^2: {'meets' if r['compliant'] else 'DOES NOT MEET'}"
+            " the requirement")
+        for note in r["notes"]:
+            say(f"  note: {note}")
+    say(f"design: {d['total_watts']:.1f} W in total,"
+        f" {'every' if d['compliant'] else 'NOT every'} requirement met")
 
 
 def _save_output(doc, result, src, ext, dst, dext, say):

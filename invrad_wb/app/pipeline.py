@@ -50,6 +50,8 @@ class PipelineSettings:
     report_dir : folder for the report (None: no report)
     base_dir : folder that relative image paths of texture targets are relative to
     insert : insert the fixtures into the document (False: only compute and report)
+    design : DesignSpec or None: design from requirements and a catalogue (least watts)
+        instead of locating luminaires of ``flux_lm`` (which is then ignored)
     """
     flux_lm: float
     resolution_m: float = S.RESOLUTION_M
@@ -61,6 +63,7 @@ class PipelineSettings:
     report_dir: str = None
     base_dir: str = None
     insert: bool = True
+    design: object = None
 
 
 @dataclass
@@ -251,19 +254,24 @@ def run(doc, settings, progress=None, locate=None, building=None):
     -------
     PipelineResult
     """
-    flux = check_flux(settings.flux_lm)
+    flux = check_flux(settings.flux_lm) if settings.design is None else None
     timings = {}
     t0 = time.perf_counter()
     if building is None:
         building = prepare(doc, settings, _progress(progress, 0.0, 0.1))
     timings["prepare"] = building.seconds
     scene = building.scene
-    if locate is None:
-        from invrad_wb.core.inverse.locate import locate
     t = time.perf_counter()
-    result = locate(scene, flux_lm=flux, settings=settings.locate,
-                    progress=_progress(progress, 0.1, 0.75), backend=settings.backend)
-    timings["locate"] = time.perf_counter() - t
+    if settings.design is not None:
+        from invrad_wb.core.design.design import design
+        result = design(scene, settings.design, room_names=building.room_names,
+                        backend=settings.backend, progress=_progress(progress, 0.1, 0.75))
+    else:
+        if locate is None:
+            from invrad_wb.core.inverse.locate import locate
+        result = locate(scene, flux_lm=flux, settings=settings.locate,
+                        progress=_progress(progress, 0.1, 0.75), backend=settings.backend)
+    timings["locate" if settings.design is None else "design"] = time.perf_counter() - t
     lums = list(result.luminaires)
     per_room = _per_room(lums, building)
     step = _progress(progress, 0.75, 0.9)
@@ -275,6 +283,9 @@ def run(doc, settings, progress=None, locate=None, building=None):
     timings["verify"] = time.perf_counter() - t
     target = scene.vertex_lux.copy() if scene.vertex_lux is not None else scene.vertex_targets()
     summary = _summary(doc, flux, settings, building, target, achieved, per_room)
+    if settings.design is not None:
+        from invrad_wb.app.design import design_summary
+        summary["design"] = design_summary(result)
     report_out = None
     if settings.report_dir:
         step = _progress(progress, 0.9, 0.97)

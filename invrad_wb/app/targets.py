@@ -417,13 +417,14 @@ def apply_targets_file(doc, path):
     if not isinstance(data, dict) or not isinstance(data.get("rooms"), dict):
         raise SceneError('expected {"rooms": {"<room>": {...}}}', path)
     base = os.path.dirname(os.path.abspath(path))
-    known_top = {"rooms", "flux_lm", "resolution_m"}
+    known_top = {"rooms", "flux_lm", "resolution_m"} | DESIGN_TOP_KEYS
     unknown = set(data) - known_top
     if unknown:
         raise SceneError(f"unknown key(s) {', '.join(sorted(unknown))}; expected"
                          f" {', '.join(sorted(known_top))}", path)
+    rooms = _expand_rooms(doc, data)
     with transaction(doc, f"Lighting targets from {os.path.basename(path)}"):
-        for key, spec in data["rooms"].items():
+        for key, spec in rooms.items():
             where = f"rooms.{key}"
             try:
                 space = get_space(doc, key)
@@ -438,8 +439,46 @@ def apply_targets_file(doc, path):
     return {k: data[k] for k in ("flux_lm", "resolution_m") if k in data}
 
 
+#: keys of a design spec (``invrad_wb.core.design.spec``) that a targets file may carry:
+#: with a ``catalogue`` the run designs from requirements instead of locating
+DESIGN_TOP_KEYS = {"maintenance_factor", "catalogue", "project", "description"}
+DESIGN_ROOM_KEYS = {"room_type", "mounting", "catalogue", "shade_limit_lux", "ugr_max",
+                    "name"}
+
+
+def _expand_rooms(doc, data):
+    """The file's rooms, with design requirements turned into work-plane targets: a room
+    key "*" (every other room) and a ``room_type`` without a ``work_plane`` (its EN 12464-1
+    illuminance) in a design file."""
+    from invrad_wb.app.rooms import find_spaces
+    rooms = {k: v for k, v in data["rooms"].items() if k != "*"}
+    if "catalogue" not in data:
+        return data["rooms"]
+    from invrad_wb.core.design import en12464
+    if "*" in data["rooms"]:
+        named = set(rooms)
+        for sp in find_spaces(doc):
+            if not named & {sp.Label, sp.Name}:
+                rooms[sp.Label] = data["rooms"]["*"]
+    from invrad_wb.core.design.spec import DEFAULT_MARGIN_M
+    out = {}
+    for key, spec in rooms.items():
+        if isinstance(spec, dict) and "work_plane" not in spec and spec.get("room_type"):
+            req = en12464.lookup(spec["room_type"])
+            if req is not None:
+                spec = dict(spec, work_plane={"lux": req.em_lux, "u0": req.u0})
+        if isinstance(spec, dict) and spec.get("work_plane") is not None:
+            # the same work plane as the design's: EN 12464-1 border zone by default
+            wp = spec["work_plane"]
+            wp = dict(wp) if isinstance(wp, dict) else {"lux": wp}
+            wp.setdefault("margin_m", DEFAULT_MARGIN_M)
+            spec = dict(spec, work_plane=wp)
+        out[key] = spec
+    return out
+
+
 def _apply_room(space, spec, base, where):
-    known = {"replace", "work_plane", "reflectance", "targets"}
+    known = {"replace", "work_plane", "reflectance", "targets"} | DESIGN_ROOM_KEYS
     unknown = set(spec) - known
     if unknown:
         raise SceneError(f"unknown key(s) {', '.join(sorted(unknown))}; expected"
@@ -452,7 +491,7 @@ def _apply_room(space, spec, base, where):
     if wp is not None:
         if not isinstance(wp, dict):
             wp = {"lux": wp}
-        _check_keys(wp, {"lux", "height_m", "margin_m"}, "work_plane")
+        _check_keys(wp, {"lux", "height_m", "margin_m", "u0"}, "work_plane")
         if "lux" not in wp:
             raise SceneError("work_plane needs 'lux'")
         set_work_plane(space, _num(wp["lux"], "work_plane.lux"),

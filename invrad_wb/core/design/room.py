@@ -12,7 +12,8 @@ import numpy as np
 from invrad_wb.errors import SceneError
 from invrad_wb.core.design import en12464
 from invrad_wb.core.geometry.raster import locate_points
-from invrad_wb.core.model.targets import boundary_edges, distance_to_segments
+from invrad_wb.core.model.targets import (WORK_PLANE_HEADROOM_M, boundary_edges,
+                                          distance_to_segments)
 
 #: faces whose normal has a Z component above this are floor, below its negative ceiling
 _UP = 0.99
@@ -160,7 +161,8 @@ class DesignRoom:
         """EN 12464-1 calculation points of the work plane (cell centres).
 
         The task area is the floor lifted by ``height_m`` less a border zone of
-        ``margin_m``; the grid spacing is at most ``p = 0.2 * 5^log10(d)`` with ``d`` the
+        ``margin_m`` and less where the ceiling leaves under ``WORK_PLANE_HEADROOM_M``
+        above it (as the work-plane targets do); the grid spacing is at most ``p = 0.2 * 5^log10(d)`` with ``d`` the
         longer side of the area. Returns (k, 3) points (metres) and the spacing (s, t).
         """
         inner = self.size - 2.0 * margin_m
@@ -173,8 +175,11 @@ class DesignRoom:
         st = np.stack(np.meshgrid(s, t, indexing="ij"), axis=-1).reshape(-1, 2)
         xy = self.to_world(st)
         keep = self.wall_distance(xy) >= margin_m - 1e-9
+        # a work place needs head room (under a low sloped roof the work plane stops)
+        zc, _ = self.ceiling_at(xy)
+        keep &= np.nan_to_num(zc, nan=np.inf) >= self.floor_z + height_m + WORK_PLANE_HEADROOM_M
         if not keep.any():
-            raise SceneError(f"{self.name}: a border zone of {margin_m} m leaves no work"
-                             " plane")
+            raise SceneError(f"{self.name}: a border zone of {margin_m} m and"
+                             f" {WORK_PLANE_HEADROOM_M} m of head room leave no work plane")
         z = np.full(int(keep.sum()), self.floor_z + height_m)
         return np.c_[xy[keep], z], (inner[0] / ns, inner[1] / nt)

@@ -1,0 +1,61 @@
+"""Design from requirements over a FreeCAD building (the document side of
+:mod:`invrad_wb.core.design`).
+
+A targets file (``--targets T.json``) with a ``catalogue`` is a design spec: its rooms are
+keyed by room label/name (``"*"`` for every other room), a ``work_plane`` may be a number
+(lux) or ``{"lux", "u0", "height_m", "margin_m"}``, and a ``room_type`` without a work
+plane takes its EN 12464-1 values. The work-plane requirements also become the rooms'
+work-plane targets in the document (so the report and the GUI show them); the pipeline then
+designs instead of locating (:func:`invrad_wb.app.pipeline.run` with
+``PipelineSettings.design``).
+"""
+import json
+import os
+
+from invrad_wb.errors import SceneError, SettingsError
+
+_SPEC_ROOM_KEYS = ("work_plane", "room_type", "mounting", "catalogue", "shade_limit_lux",
+                   "ugr_max")
+
+
+def is_design_file(path):
+    """True when a targets file is a design spec (it has a ``catalogue``)."""
+    try:
+        with open(path, "r", encoding="utf-8") as fh:
+            data = json.load(fh)
+    except (OSError, ValueError):
+        return False            # reported properly when the targets are applied
+    return isinstance(data, dict) and "catalogue" in data
+
+
+def spec_from_targets_file(path):
+    """The :class:`~invrad_wb.core.design.spec.DesignSpec` of a design targets file."""
+    from invrad_wb.core.design.spec import spec_from_dict
+    try:
+        with open(path, "r", encoding="utf-8") as fh:
+            data = json.load(fh)
+    except OSError as exc:
+        raise SceneError(f"cannot read targets: {exc.strerror}", path)
+    except ValueError as exc:
+        raise SceneError(f"not valid JSON: {exc}", path)
+    if not isinstance(data.get("rooms"), dict):
+        raise SettingsError(f"{path}: rooms: expected an object of rooms")
+    rooms = {}
+    for key, room in data["rooms"].items():
+        if not isinstance(room, dict):
+            raise SettingsError(f"{path}: rooms: {key}: expected an object")
+        r = {k: room[k] for k in _SPEC_ROOM_KEYS if k in room}
+        if not isinstance(r.get("work_plane", {}), dict):
+            r["work_plane"] = {"lux": r["work_plane"]}
+        rooms[key] = r
+    spec = {k: data[k] for k in ("maintenance_factor", "catalogue") if k in data}
+    spec["rooms"] = rooms
+    return spec_from_dict(spec, source=os.fspath(path),
+                          base_dir=os.path.dirname(os.path.abspath(path)))
+
+
+def design_summary(result):
+    """Per-room design figures for the pipeline's summary (JSON-ready)."""
+    return {"total_watts": round(result.watts, 2), "compliant": result.compliant,
+            "maintenance_factor": result.spec.maintenance_factor,
+            "rooms": [r.to_dict() for r in result.rooms]}
