@@ -21,6 +21,7 @@ def add_parser(sub):
     p.add_argument("--spec", required=True, help="DESIGN.json: requirements and catalogue")
     p.add_argument("-o", "--output", required=True, help="RESULT.json")
     p.add_argument("--schedule", help="also write the luminaire schedule as CSV")
+    p.add_argument("--report", help="folder for the client's report (HTML, CSV, plans)")
     p.add_argument("--unit", default="m", choices=("m", "mm"), help="scene length unit")
     p.add_argument("--backend", default="auto", choices=("auto", "opencl", "numpy"))
     p.add_argument("--no-mixed", dest="mixed", action="store_false",
@@ -83,6 +84,9 @@ def run(args):
     _check_output(args.output, "-o")
     if args.schedule:
         _check_output(args.schedule, "--schedule")
+    if args.report and os.path.exists(args.report) and not os.path.isdir(args.report):
+        from invrad_wb.errors import InvradError
+        raise InvradError(f"{args.report}: --report must be a folder, this is a file")
     scene = read_scene(args.scene, unit=args.unit)
 
     def progress(frac, msg):
@@ -96,6 +100,10 @@ def run(args):
     atomic_write_text(args.output, json.dumps(data, indent=2, allow_nan=False) + "\n")
     if args.schedule:
         atomic_write_text(args.schedule, schedule_csv(result))
+    if args.report:
+        html = result.write_report(args.report,
+                                   title=f"Lighting design: {os.path.basename(args.scene)}")
+        print(f"report -> {html}")
     for r in result.rooms:
         _print_room(r)
     print(f"{len(result.luminaires)} luminaire(s), {result.watts:.1f} W in"

@@ -355,7 +355,7 @@ def _say_result(summary, say):
     """One line per room (luminaires, mean achieved vs target lux), one per luminaire."""
     if "design" in summary:
         _say_design(summary["design"], say)
-    for room in summary["rooms"]:
+    for room in summary["rooms"] if "design" not in summary else ():
         n = sum(1 for l in summary["luminaires"] if l["room_name"] == room["room"])
         line = f"room {room['room']}: {n} luminaire(s)"
         for part in ("work_plane", "surfaces"):

@@ -241,3 +241,36 @@ def test_cli_design_impossible_exits_3_with_the_reason(tmp_path):
     assert cp.returncode == 3
     assert "too dark" in cp.stdout and "DOES NOT MEET" in cp.stdout
     assert (tmp_path / "r.json").exists()
+
+
+# ----------------------------------------------------------------------------- report
+def test_design_report_is_a_document_with_the_figures(tmp_path):
+    import csv
+    from invrad_wb.core.output.design_report import label_point, storeys
+    sc, origins = g.floor_of_rooms(rooms=((4.0, 3.0), (5.0, 4.0)), cell=0.4)
+    sp = spec_from_dict({"catalogue": CAT, "rooms": {
+        'Bad <b>"&</b>': {"work_plane": {"lux": 200, "u0": 0.4}},
+        "1": {"room_type": "office"}}})
+    res = design(sc, sp, room_names={0: 'Bad <b>"&</b>', 1: "Office"})
+    html = res.write_report(tmp_path / "rep", title="Test design")
+    text = open(html, encoding="utf-8").read()
+    assert "Bad &lt;b&gt;&#34;&amp;&lt;/b&gt;" in text and "<b>\"&</b>" not in text
+    files = sorted(os.listdir(tmp_path / "rep"))
+    assert files == ["floor_plan_0.png", "index.html", "plan_room0.png", "plan_room1.png",
+                     "rooms.csv", "schedule.csv"]
+    rows = list(csv.DictReader(open(tmp_path / "rep" / "rooms.csv", encoding="utf-8")))
+    for row, r in zip(rows, res.rooms):
+        assert float(row["em"]) == pytest.approx(r.metrics.em, abs=0.5)
+        assert row["ok"] == str(r.compliant)
+    sched = list(csv.DictReader(open(tmp_path / "rep" / "schedule.csv", encoding="utf-8")))
+    assert sum(int(s["count"]) for s in sched) == len(res.luminaires)
+    # labels inside their room and off the luminaires; one storey here
+    for r in res.rooms:
+        c = label_point(r.outline, [lum.position[:2] for lum in r.luminaires])
+        assert DesignRoom(sc, r.room).inside(c[None])[0]
+        assert min(np.linalg.norm(lum.position[:2] - c) for lum in r.luminaires) > 0.3
+    assert len(storeys(res.rooms)) == 1
+    # a report folder is replaced whole, never half-written
+    html2 = res.write_report(tmp_path / "rep", title="again")
+    assert "again" in open(html2, encoding="utf-8").read()
+    assert not [n for n in os.listdir(tmp_path) if n.startswith(".invrad")]

@@ -291,8 +291,14 @@ def run(doc, settings, progress=None, locate=None, building=None):
         step = _progress(progress, 0.9, 0.97)
         step(0.0, "report")
         t = time.perf_counter()
-        report_out = write_report(settings.report_dir, building, target, achieved, lums,
-                                  summary)
+        if settings.design is not None:     # the client's design report
+            report_out = result.write_report(settings.report_dir,
+                                             title=f"Lighting design: {doc.Label}",
+                                             project=doc.Label)
+            summary["report"] = report_out
+        else:
+            report_out = write_report(settings.report_dir, building, target, achieved,
+                                      lums, summary)
         timings["report"] = time.perf_counter() - t
     _progress(progress, 0.97, 1.0)(0.0, "insert fixtures")
     fixtures = []

@@ -36,6 +36,8 @@ class RoomDesign:
     exact_solves: int = 0
     seconds: float = 0.0
     reflectance: dict = field(default_factory=dict)
+    outline: np.ndarray = field(default=None, repr=False)   # (k, 2, 2) walls in plan, m
+    floor_z: float = 0.0
 
     @property
     def watts(self):
@@ -97,6 +99,11 @@ class DesignResult:
     @property
     def luminaires(self):
         return [lum for r in self.rooms for lum in r.luminaires]
+
+    def write_report(self, out_dir, title="Lighting design", project=None):
+        """The client's report (HTML, CSV, plans) in ``out_dir``; returns index.html."""
+        from invrad_wb.core.output.design_report import write_design_report
+        return write_design_report(self, out_dir, title=title, project=project)
 
     @property
     def watts(self):
@@ -190,7 +197,8 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
     label = name or f"room {room}"
     droom = DesignRoom(scene, room, label)
     rd = RoomDesign(room, label, None, [], area_m2=droom.floor_area,
-                    size_m=tuple(droom.size), reflectance=_reflectances(scene, room))
+                    size_m=tuple(droom.size), reflectance=_reflectances(scene, room),
+                    outline=droom._edges, floor_z=droom.floor_z)
     if rs is None or rs.work_plane is None:
         rd.notes.append("no lighting requirement for this room: nothing designed")
         return rd

@@ -1,0 +1,259 @@
+"""The design report a lighting designer hands to a client (HTML + CSV + PNG).
+
+Per room: required vs achieved maintained Em, Emin, Emax, U0 with pass/fail, the room's
+dimensions and reflectances, the luminaire schedule (type, count, lm, W, efficacy,
+dimming), installed W and W/m^2, notes where the catalogue cannot comply, and the work-plane
+plan: false colour over the EN 12464-1 calculation grid, labelled iso-lux lines, the value
+of every grid point, the luminaires and the room outline. A whole-floor plan shows every
+room with its luminaires and Em. Figures are drawn with matplotlib (Agg canvas, no pyplot
+state), the page with a Jinja2 template (autoescape). The folder appears all at once
+(:func:`invrad_wb.core.io.atomic.atomic_dir`).
+"""
+import csv
+import datetime
+import io
+import os
+
+import numpy as np
+
+from invrad_wb.core.io.atomic import atomic_dir
+
+_TEMPLATE = "design_report.html.j2"
+_TEMPLATES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "templates")
+#: grid values are printed on the plan up to this many points (else every k-th)
+MAX_LABELS = 160
+
+
+def _figure(width_in, height_in):
+    from matplotlib.figure import Figure
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    fig = Figure(figsize=(width_in, height_in), dpi=110)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _outline(ax, droom_edges):
+    for a, b in droom_edges:
+        ax.plot([a[0], b[0]], [a[1], b[1]], color="0.15", lw=1.6)
+
+
+def _plot_luminaires(ax, luminaires, types):
+    markers = "osD^vP*Xh"
+    for i, t in enumerate(types):
+        p = np.array([lum.position for lum in luminaires if lum.extra.get("type") == t])
+        if len(p):
+            ax.plot(p[:, 0], p[:, 1], markers[i % len(markers)], ms=8, mfc="white",
+                    mec="black", mew=1.4, label=t, zorder=5)
+
+
+def room_plan_png(rd, edges, lux_max):
+    """PNG bytes of a room's work-plane plan (false colour, iso-lux, values, luminaires)."""
+    from matplotlib.tri import Triangulation
+    pts, lux = rd.grid_points, rd.metrics.lux[:len(rd.grid_points)]
+    lo, hi = np.min(edges, axis=(0, 1)), np.max(edges, axis=(0, 1))
+    span = hi - lo
+    w = 7.5
+    fig = _figure(w, max(3.0, min(9.0, w * span[1] / max(span[0], 1e-6) * 0.85 + 1.0)))
+    ax = fig.add_subplot(1, 1, 1)
+    tri = Triangulation(pts[:, 0], pts[:, 1]) if len(pts) >= 3 else None
+    if tri is not None:
+        m = ax.tripcolor(tri, lux, shading="gouraud", cmap="viridis", vmin=0, vmax=lux_max)
+        levels = _iso_levels(lux, rd.requirement.lux)
+        if len(levels):
+            cs = ax.tricontour(tri, lux, levels=levels, colors="white", linewidths=1.0)
+            ax.clabel(cs, fmt="%d lx", fontsize=8, inline=True)
+        fig.colorbar(m, ax=ax, label="maintained illuminance (lx)", shrink=0.85)
+    step = max(1, int(np.ceil(len(pts) / MAX_LABELS)))
+    for p, v in zip(pts[::step], lux[::step]):
+        ax.text(p[0], p[1], f"{v:.0f}", fontsize=6.5, ha="center", va="center",
+                color="black", bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none",
+                                         alpha=0.6))
+    _outline(ax, edges)
+    _plot_luminaires(ax, rd.luminaires, sorted(rd.schedule()))
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(f"{rd.name}: work plane {rd.requirement.height_m:g} m above the floor,"
+                 f" Em {rd.metrics.em:.0f} lx, U0 {rd.metrics.u0:.2f}", fontsize=10)
+    if rd.luminaires:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.22, 1.0), fontsize=8,
+                  title="luminaires", title_fontsize=8, frameon=False)
+    return _png(fig)
+
+
+def _iso_levels(lux, required):
+    """Round iso-lux levels inside the range of the values, the requirement among them."""
+    lo, hi = float(np.min(lux)), float(np.max(lux))
+    if hi - lo < 1e-6:
+        return []
+    steps = (10, 20, 25, 50, 100, 200, 250, 500, 1000)
+    step = next((s for s in steps if (hi - lo) / s <= 5), 2000)
+    levels = set(np.arange(np.ceil(lo / step) * step, hi, step).tolist())
+    if lo < required < hi:
+        levels.add(float(required))
+    return sorted(levels)
+
+
+def _inside(edges, p):
+    a, b = edges[:, 0], edges[:, 1]
+    y = p[:, 1:2]
+    crosses = (a[:, 1] > y) != (b[:, 1] > y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x_at = a[:, 0] + (y - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
+    return (np.count_nonzero(crosses & (p[:, :1] < x_at), axis=1) % 2) == 1
+
+
+def label_point(edges, avoid, n=24):
+    """A point inside a room's outline as far as possible from its walls and from the
+    points ``avoid`` (luminaires): where its label overlaps neither (pole of
+    inaccessibility on an n x n raster)."""
+    lo, hi = edges.reshape(-1, 2).min(axis=0), edges.reshape(-1, 2).max(axis=0)
+    g = np.stack(np.meshgrid(np.linspace(lo[0], hi[0], n), np.linspace(lo[1], hi[1], n)),
+                 -1).reshape(-1, 2)
+    g = g[_inside(edges, g)]
+    if len(g) == 0:
+        return edges.reshape(-1, 2).mean(axis=0)
+    a, b = edges[:, 0], edges[:, 1]
+    ab = b - a
+    t = np.clip(np.einsum("kij,ij->ki", g[:, None] - a, ab) / np.maximum(
+        np.einsum("ij,ij->i", ab, ab), 1e-12), 0, 1)
+    d = np.linalg.norm(g[:, None] - (a + t[..., None] * ab), axis=2).min(axis=1)
+    if len(avoid):
+        d = np.minimum(d, np.linalg.norm(g[:, None] - np.asarray(avoid)[None], axis=2)
+                       .min(axis=1))
+    return g[int(np.argmax(d))]
+
+
+def storeys(rooms, step=0.5):
+    """Designed rooms grouped by floor height: [(z, [RoomDesign, ...]), ...] bottom up."""
+    out = {}
+    for r in rooms:
+        if r.outline is not None:
+            out.setdefault(round(r.floor_z / step) * step, []).append(r)
+    return sorted(out.items())
+
+
+def floor_plan_png(rooms, z):
+    """PNG bytes of one storey's rooms in plan: outlines, luminaires, Em per room."""
+    allp = np.concatenate([r.outline.reshape(-1, 2) for r in rooms])
+    span = allp.max(axis=0) - allp.min(axis=0)
+    fig = _figure(9.0, max(3.5, min(10.0, 9.0 * span[1] / max(span[0], 1e-6) + 0.8)))
+    ax = fig.add_subplot(1, 1, 1)
+    types = sorted({t for r in rooms for t in r.schedule()})
+    for r in rooms:
+        _outline(ax, r.outline)
+        c = label_point(r.outline, [lum.position[:2] for lum in r.luminaires])
+        text = r.name if r.metrics is None else f"{r.name}\nEm {r.metrics.em:.0f} lx"
+        ok = r.metrics is not None and r.compliant
+        ax.text(c[0], c[1], text, ha="center", va="center", fontsize=8,
+                color="darkgreen" if ok else "darkred",
+                bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="0.6", alpha=0.85))
+    lums = [lum for r in rooms for lum in r.luminaires]
+    _plot_luminaires(ax, lums, types)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(f"Floor plan, floor at {z:.2f} m: rooms, luminaires and maintained Em",
+                 fontsize=10)
+    if lums:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    return _png(fig)
+
+
+def _png(fig):
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", bbox_inches="tight")
+    return buf.getvalue()
+
+
+def schedule_rows(result):
+    """Rows of the luminaire schedule: one per room and type (dicts)."""
+    cat = {e.name: e for e in result.spec.catalogue}
+    rows = []
+    for r in result.rooms:
+        dim = r.candidate.dim if r.candidate is not None else 1.0
+        for t, n in sorted(r.schedule().items()):
+            e = cat[t]
+            rows.append({"room": r.name, "type": t, "count": n,
+                         "flux_lm": round(e.flux_lm * dim), "watts": round(e.watts * dim, 2),
+                         "dim_percent": round(100 * dim), "watts_total":
+                         round(n * e.watts * dim, 2), "efficacy": round(e.efficacy, 1)})
+    return rows
+
+
+def _csv(rows, fields):
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=fields, extrasaction="ignore")
+    w.writeheader()
+    for r in rows:
+        w.writerow(r)
+    return buf.getvalue()
+
+
+def room_rows(result):
+    """Rows of the compliance table: one per room (dicts, strings formatted)."""
+    rows = []
+    for r in result.rooms:
+        row = {"name": r.name, "area": f"{r.area_m2:.1f}",
+               "size": " x ".join(f"{x:.2f}" for x in r.size_m),
+               "reflectance": ", ".join(f"{k} {v:.2f}" for k, v in r.reflectance.items()),
+               "notes": r.notes, "designed": r.metrics is not None}
+        if r.metrics is not None:
+            m, q, v = r.metrics, r.requirement, r.verdicts
+            row.update(em_req=f"{q.lux:g}", em=f"{m.em:.0f}", emin=f"{m.emin:.0f}",
+                       emax=f"{m.emax:.0f}", u0_req=f"{q.u0:.2f}", u0=f"{m.u0:.2f}",
+                       em_ok=v["Em"], u0_ok=v["U0"], ok=r.compliant,
+                       watts=f"{r.watts:.1f}", wpm2=f"{r.watts / max(r.area_m2, 1e-9):.2f}",
+                       layout=r.candidate.geom.describe(), source=q.source,
+                       height=f"{q.height_m:g}", margin=f"{q.margin_m:g}")
+        rows.append(row)
+    return rows
+
+
+def write_design_report(result, out_dir, title="Lighting design", project=None):
+    """Write the report folder (``index.html``, ``schedule.csv``, ``rooms.csv``, plans).
+
+    Parameters
+    ----------
+    result : DesignResult (rooms carry their ``outline`` and ``floor_z``)
+    out_dir : folder, replaced as a whole
+    Returns the path of ``index.html``.
+    """
+    from jinja2 import Environment, FileSystemLoader, select_autoescape
+    env = Environment(loader=FileSystemLoader(_TEMPLATES),
+                      autoescape=select_autoescape(["html", "j2"]))
+    designed = [r for r in result.rooms if r.metrics is not None]
+    lux_max = max([float(np.max(r.metrics.lux[:len(r.grid_points)])) for r in designed]
+                  or [1.0])
+    sched = schedule_rows(result)
+    with atomic_dir(out_dir) as tmp:
+        plans, floors = {}, []
+        for r in designed:
+            name = f"plan_room{r.room}.png"
+            _write(tmp, name, room_plan_png(r, r.outline, lux_max))
+            plans[r.name] = name
+        for i, (z, rooms) in enumerate(storeys(result.rooms)):
+            name = f"floor_plan_{i}.png"
+            _write(tmp, name, floor_plan_png(rooms, z))
+            floors.append({"file": name, "z": f"{z:.2f}"})
+        _write(tmp, "schedule.csv", _csv(sched, list(sched[0]) if sched else ["room"]))
+        rows = room_rows(result)
+        _write(tmp, "rooms.csv", _csv(rows, ["name", "area", "size", "em_req", "em", "emin",
+                                              "emax", "u0_req", "u0", "ok", "watts", "wpm2",
+                                              "layout"]))
+        area = sum(r.area_m2 for r in designed)
+        html = env.get_template(_TEMPLATE).render(
+            title=title, project=project, date=datetime.date.today().isoformat(),
+            mf=result.spec.maintenance_factor, rooms=rows, plans=plans, schedule=sched,
+            total_w=f"{result.watts:.1f}", total_wpm2=f"{result.watts / max(area, 1e-9):.2f}",
+            compliant=result.compliant, n_lum=len(result.luminaires),
+            catalogue=result.spec.catalogue, floors=floors)
+        _write(tmp, "index.html", html)
+    return os.path.join(out_dir, "index.html")
+
+
+def _write(folder, name, data):
+    mode = "wb" if isinstance(data, bytes) else "w"
+    with open(os.path.join(folder, name), mode, **({} if mode == "wb" else
+                                                   {"encoding": "utf-8"})) as fh:
+        fh.write(data)
