@@ -38,6 +38,8 @@ def _outline(ax, droom_edges):
 
 
 def _plot_luminaires(ax, luminaires, types):
+    """Luminaires by type; ``types`` is the whole report's list so that a type keeps its
+    marker on every figure."""
     markers = "osD^vP*Xh"
     for i, t in enumerate(types):
         p = np.array([lum.position for lum in luminaires if lum.extra.get("type") == t])
@@ -46,7 +48,7 @@ def _plot_luminaires(ax, luminaires, types):
                     mec="black", mew=1.4, label=t, zorder=5)
 
 
-def room_plan_png(rd, edges, lux_max):
+def room_plan_png(rd, edges, lux_max, types):
     """PNG bytes of a room's work-plane plan (false colour, iso-lux, values, luminaires)."""
     from matplotlib.tri import Triangulation
     pts, lux = rd.grid_points, rd.metrics.lux[:len(rd.grid_points)]
@@ -69,7 +71,7 @@ def room_plan_png(rd, edges, lux_max):
                 color="black", bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none",
                                          alpha=0.6))
     _outline(ax, edges)
-    _plot_luminaires(ax, rd.luminaires, sorted(rd.schedule()))
+    _plot_luminaires(ax, rd.luminaires, types)
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
@@ -130,16 +132,15 @@ def storeys(rooms, step=0.5):
     for r in rooms:
         if r.outline is not None:
             out.setdefault(round(r.floor_z / step) * step, []).append(r)
-    return sorted(out.items())
+    return [(min(r.floor_z for r in rs), rs) for _, rs in sorted(out.items())]
 
 
-def floor_plan_png(rooms, z):
+def floor_plan_png(rooms, z, types):
     """PNG bytes of one storey's rooms in plan: outlines, luminaires, Em per room."""
     allp = np.concatenate([r.outline.reshape(-1, 2) for r in rooms])
     span = allp.max(axis=0) - allp.min(axis=0)
     fig = _figure(9.0, max(3.5, min(10.0, 9.0 * span[1] / max(span[0], 1e-6) + 0.8)))
     ax = fig.add_subplot(1, 1, 1)
-    types = sorted({t for r in rooms for t in r.schedule()})
     for r in rooms:
         _outline(ax, r.outline)
         c = label_point(r.outline, [lum.position[:2] for lum in r.luminaires])
@@ -226,15 +227,16 @@ def write_design_report(result, out_dir, title="Lighting design", project=None):
     lux_max = max([float(np.max(r.metrics.lux[:len(r.grid_points)])) for r in designed]
                   or [1.0])
     sched = schedule_rows(result)
+    types = [e.name for e in result.spec.catalogue]
     with atomic_dir(out_dir) as tmp:
         plans, floors = {}, []
         for r in designed:
             name = f"plan_room{r.room}.png"
-            _write(tmp, name, room_plan_png(r, r.outline, lux_max))
+            _write(tmp, name, room_plan_png(r, r.outline, lux_max, types))
             plans[r.name] = name
         for i, (z, rooms) in enumerate(storeys(result.rooms)):
             name = f"floor_plan_{i}.png"
-            _write(tmp, name, floor_plan_png(rooms, z))
+            _write(tmp, name, floor_plan_png(rooms, z, types))
             floors.append({"file": name, "z": f"{z:.2f}"})
         _write(tmp, "schedule.csv", _csv(sched, list(sched[0]) if sched else ["room"]))
         rows = room_rows(result)
