@@ -114,6 +114,8 @@ def _ifc_properties(lum):
         p["EmitterRadius;;" + S.IFC_LUMINAIRE_PSET] = f"IfcLengthMeasure;;{float(lum.radius_m)!r}"
     if lum.score is not None and np.isfinite(lum.score) and lum.score > 0:
         p["Score;;" + S.IFC_LUMINAIRE_PSET] = f"IfcReal;;{float(lum.score)!r}"
+    if lum.extra.get("type"):      # the catalogue entry a design chose
+        p["LuminaireType;;" + S.IFC_LUMINAIRE_PSET] = f"IfcLabel;;{lum.extra['type']}"
     return p
 
 
@@ -140,7 +142,11 @@ def make_fixture(space, lum, label):
     obj.LightDirection = direction(lum.normal)
     obj.Score = float(lum.score) if lum.score is not None and np.isfinite(lum.score) else 0.0
     obj.Generator = S.GENERATOR_TAG
-    obj.Description = f"invrad luminaire, {lum.flux_lm:.0f} lm"
+    kind = lum.extra.get("type")
+    obj.Description = (f"invrad luminaire, {kind}, {lum.flux_lm:.0f} lm" if kind
+                       else f"invrad luminaire, {lum.flux_lm:.0f} lm")
+    if kind and "Model" in obj.PropertiesList:
+        obj.Model = str(kind)
     props = dict(obj.IfcProperties)
     props.update(_ifc_properties(lum))
     obj.IfcProperties = props

@@ -155,6 +155,9 @@ def _luminaire_psets(ifc, ent, fx, lum):
         props["EmitterRadius"] = ifc.create_entity("IfcLengthMeasure", float(lum.radius_m))
     if lum.score is not None and math.isfinite(lum.score) and lum.score > 0:
         props["Score"] = ifc.create_entity("IfcReal", float(lum.score))
+    kind = getattr(fx, "Model", "") or lum.extra.get("type")
+    if kind:       # the catalogue entry a design chose
+        props["LuminaireType"] = ifc.create_entity("IfcLabel", str(kind))
     p = PS.add_pset(ifc, product=ent, name=S.IFC_LUMINAIRE_PSET)
     PS.edit_pset(ifc, pset=p, properties=props)
     p = PS.add_pset(ifc, product=ent, name="Pset_LightFixtureTypeCommon")

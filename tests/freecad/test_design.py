@@ -1,0 +1,75 @@
+"""Design from requirements over a whole building: FZK-Haus, every room compliant or
+explained, fixtures of the chosen catalogue types inside their IfcSpace, one undo step."""
+import json
+import os
+import tempfile
+import time
+
+import FreeCAD
+
+from fctest import FZK, FreeCADTestCase, needs_fzk
+from invrad_wb.app import design as app_design, ifcexport, ifcrooms, pipeline, targets
+from invrad_wb.app.fixtures import all_fixtures
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SPEC = os.path.join(ROOT, "examples", "fzk_design.json")
+
+
+@needs_fzk
+class TestDesignFZK(FreeCADTestCase):
+
+    def test_fzk_design_meets_every_requirement_with_typed_fixtures(self):
+        imp = ifcrooms.import_ifc(FZK)
+        doc = imp.doc
+        try:
+            self._run(doc)
+        finally:
+            FreeCAD.closeDocument(doc.Name)
+
+    def _run(self, doc):
+        spec = app_design.spec_from_targets_file(SPEC)
+        targets.apply_targets_file(doc, SPEC)
+        out = tempfile.mkdtemp(prefix="invrad-design-")
+        n_before = len(doc.Objects)
+        t0 = time.perf_counter()
+        res = pipeline.run(doc, pipeline.PipelineSettings(flux_lm=None, design=spec,
+                                                          report_dir=out))
+        seconds = time.perf_counter() - t0
+        print(f"  FZK design: {seconds:.1f} s, {len(res.luminaires)} luminaires")
+        d = res.summary["design"]
+        names = {r["name"] for r in d["rooms"]}
+        self.assertEqual(names, {"Schlafzimmer", "Bad", "Buero", "Wohnen", "Flur", "Küche",
+                                 "Galerie"})
+        req = json.load(open(SPEC, encoding="utf-8"))["rooms"]
+        for r in d["rooms"]:
+            with self.subTest(room=r["name"]):
+                q = req[r["name"]]["work_plane"]
+                if r["compliant"]:
+                    self.assertGreaterEqual(r["em_lux"], q["lux"] - 0.5)
+                    self.assertGreaterEqual(r["u0"], q["u0"] - 0.005)
+                else:
+                    self.assertTrue(r["notes"], "a failed room must say why")
+                # regular layouts: rows x columns of the room's axes
+                self.assertIn(" grid", r["layout"])
+        fx = all_fixtures(doc)
+        self.assertEqual(len(fx), len(res.luminaires))
+        cat = {e.name for e in spec.catalogue}
+        self.assertTrue(all(f.Model in cat for f in fx))
+        self.assertTrue(os.path.isfile(os.path.join(out, "index.html")))
+        # the IFC keeps the type and the space containment
+        import ifcopenshell
+        import ifcopenshell.util.element as E
+        ifc_out = os.path.join(out, "fzk.ifc")
+        ifcexport.export_ifc(doc, ifc_out)
+        ifc = ifcopenshell.open(ifc_out)
+        lights = ifc.by_type("IfcLightFixture")
+        self.assertEqual(len(lights), len(fx))
+        for ent in lights:
+            self.assertEqual(E.get_container(ent).is_a(), "IfcSpace")
+            psets = E.get_psets(ent)
+            kinds = [p.get("LuminaireType") for p in psets.values() if "LuminaireType" in p]
+            self.assertTrue(kinds and kinds[0] in cat, psets)
+        # one undo step removes every fixture
+        doc.undo()
+        self.assertEqual(len(all_fixtures(doc)), 0)
+        self.assertEqual(len(doc.Objects), n_before)
