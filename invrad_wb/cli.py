@@ -24,6 +24,10 @@ import time
 import numpy as np
 
 from invrad_wb.errors import InvradError
+from invrad_wb.outputs import check_file, check_folder
+
+#: finest mesh of a generated example (metres): finer meshes grow past a laptop's memory
+MIN_EXAMPLE_CELL_M = 0.02
 
 
 def _scene_args(p):
@@ -49,6 +53,7 @@ def _cmd_render(args):
     from invrad_wb.core.model.luminaires import load_luminaires
     from invrad_wb.core.forward.render import render
     from invrad_wb.core.io.sceneio import write_scene
+    check_file(args.output, "-o", inputs=[args.scene, args.luminaires])
     scene = _read(args)
     lums = load_luminaires(args.luminaires)
     t = time.time()
@@ -81,8 +86,11 @@ def _settings_from_args(args):
 def _cmd_locate(args):
     from invrad_wb.core.io.atomic import atomic_write_text
     from invrad_wb.core.inverse.locate import locate
-    scene = _read(args)
+    check_file(args.output, "-o", inputs=[args.scene])
+    if args.vote_maps:
+        check_folder(args.vote_maps, "--vote-maps")
     settings = _settings_from_args(args)
+    scene = _read(args)
 
     def progress(frac, msg):
         if args.verbose:
@@ -109,6 +117,7 @@ def _cmd_verify(args):
     from invrad_wb.core.model.luminaires import load_luminaires
     from invrad_wb.core.forward.render import render
     from invrad_wb.core.output.report import build_report
+    check_folder(args.report, "--report")
     scene = _read(args)
     lums = load_luminaires(args.luminaires)
     achieved = render(scene, lums, interreflection=not args.no_interreflection,
@@ -124,6 +133,14 @@ def _cmd_example(args):
     from invrad_wb.core.io.sceneio import write_scene
     if args.name not in SCENARIOS:
         raise InvradError(f"unknown example {args.name!r}; choose one of {', '.join(SCENARIOS)}")
+    if not (np.isfinite(args.cell) and MIN_EXAMPLE_CELL_M <= args.cell <= 5.0):
+        raise InvradError(f"--cell {args.cell} m: the mesh size must be between"
+                          f" {MIN_EXAMPLE_CELL_M} and 5 m")
+    if not (np.isfinite(args.reflectance) and 0.0 <= args.reflectance < 1.0):
+        raise InvradError(f"--reflectance {args.reflectance}: must be in [0, 1)")
+    check_file(args.output, "-o")
+    if args.truth:
+        check_file(args.truth, "--truth")
     scene, lums = known_scene(args.name, reflectance=args.reflectance, cell=args.cell,
                               backend=args.backend)
     write_scene(args.output, scene)

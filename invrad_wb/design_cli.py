@@ -32,17 +32,6 @@ def add_parser(sub):
     p.set_defaults(func=run)
 
 
-def _check_output(path, what):
-    from invrad_wb.errors import InvradError
-    folder = os.path.dirname(os.path.abspath(path))
-    if os.path.isdir(path):
-        raise InvradError(f"{path}: {what} is a folder; give a file name")
-    if not os.path.isdir(folder):
-        raise InvradError(f"{path}: the folder {folder} does not exist")
-    if not os.access(folder, os.W_OK):
-        raise InvradError(f"{path}: the folder {folder} is not writable")
-
-
 def schedule_csv(result):
     """The luminaire schedule of a design as CSV text (one row per room and type)."""
     buf = io.StringIO()
@@ -80,13 +69,13 @@ def run(args):
     from invrad_wb.core.design.spec import read_spec
     from invrad_wb.core.io.atomic import atomic_write_text
     from invrad_wb.core.io.sceneio import read_scene
+    from invrad_wb.outputs import check_file, check_folder
     spec = read_spec(args.spec)
-    _check_output(args.output, "-o")
+    check_file(args.output, "-o", inputs=[args.scene, args.spec])
     if args.schedule:
-        _check_output(args.schedule, "--schedule")
-    if args.report and os.path.exists(args.report) and not os.path.isdir(args.report):
-        from invrad_wb.errors import InvradError
-        raise InvradError(f"{args.report}: --report must be a folder, this is a file")
+        check_file(args.schedule, "--schedule", inputs=[args.scene, args.spec])
+    if args.report:
+        check_folder(args.report, "--report")
     scene = read_scene(args.scene, unit=args.unit)
 
     def progress(frac, msg):

@@ -118,6 +118,7 @@ def _options(args):
 def main(args):
     """Run the ``freecad`` command (parsed ``args``); returns 0 or raises InvradError."""
     opts = _options(args)
+    _checked_paths(opts)          # before FreeCAD starts: a bad path costs no run
     if in_freecad():
         run_job(opts)
         return 0
@@ -299,6 +300,10 @@ def _checked_paths(opts):
     dext = os.path.splitext(dst)[1].lower()
     if dext not in (".fcstd", ".ifc"):
         raise SettingsError(f"{dst}: output must end in .FCStd or .ifc")
+    from invrad_wb.outputs import check_file, check_folder
+    check_file(dst, "--out", inputs=[src, opts.get("targets")])
+    if opts.get("report"):
+        check_folder(opts["report"], "--report")
     return src, ext, dst, dext
 
 

@@ -12,9 +12,10 @@ def atomic_path(path, suffix=None):
     """Yield a temporary path next to ``path``; on success rename it onto ``path``.
 
     The temporary file keeps ``path``'s extension (or ``suffix``) so that writers that
-    choose a format by extension (OpenImageIO, trimesh) still work.
+    choose a format by extension (OpenImageIO, trimesh) still work. A symbolic link is
+    written through: the file it points to is replaced, the link stays.
     """
-    path = os.fspath(path)
+    path = os.path.realpath(os.fspath(path))
     folder = os.path.dirname(os.path.abspath(path))
     os.makedirs(folder, exist_ok=True)
     ext = suffix if suffix is not None else os.path.splitext(path)[1]

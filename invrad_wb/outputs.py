@@ -1,0 +1,58 @@
+"""Output paths checked before any work starts.
+
+Every command checks where it will write before it reads or computes anything, so a typo
+in ``-o`` costs a second, not the whole run, and never replaces a file it should not:
+
+* a file output must not be a folder, its folder must exist and be writable, it must not
+  be one of the command's inputs, and an existing read-only file is refused (never made
+  writable behind the user's back);
+* a folder output must not be an existing file, and its parent must be writable;
+* a symbolic link is written through (the file it points to is replaced atomically; the
+  link stays a link): :func:`resolve`.
+"""
+import os
+
+from invrad_wb.errors import InvradError
+
+
+def resolve(path):
+    """The path writes go to: a symbolic link's target, else the path itself."""
+    return os.path.realpath(os.fspath(path))
+
+
+def check_file(path, what="output", inputs=()):
+    """Refuse an output file path that cannot or must not be written (InvradError)."""
+    path = os.fspath(path)
+    real = resolve(path)
+    if os.path.isdir(real):
+        raise InvradError(f"{path}: {what} is a folder; give a file name")
+    folder = os.path.dirname(real) or "."
+    if not os.path.isdir(folder):
+        raise InvradError(f"{path}: {what}: the folder {folder} does not exist")
+    if not os.access(folder, os.W_OK):
+        raise InvradError(f"{path}: {what}: the folder {folder} is not writable")
+    for src in inputs:
+        if src and os.path.exists(src) and os.path.exists(real) \
+                and os.path.samefile(src, real):
+            raise InvradError(f"{path}: {what} is the input file {src}; write to another"
+                              " file (invrad never replaces its input)")
+    if os.path.exists(real) and not (os.stat(real).st_mode & 0o222 and
+                                     os.access(real, os.W_OK)):
+        # by its mode bits too: root may write anything, but a file marked read-only
+        # says its owner wants it kept
+        raise InvradError(f"{path}: {what} exists and is read-only; not replacing it")
+    return real
+
+
+def check_folder(path, what="output folder"):
+    """Refuse an output folder path that is a file or cannot be created (InvradError)."""
+    path = os.fspath(path)
+    real = resolve(path)
+    if os.path.exists(real) and not os.path.isdir(real):
+        raise InvradError(f"{path}: {what} is an existing file, not a folder")
+    parent = os.path.dirname(os.path.abspath(real)) or "."
+    if not os.path.isdir(parent):
+        raise InvradError(f"{path}: {what}: the folder {parent} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise InvradError(f"{path}: {what}: the folder {parent} is not writable")
+    return real

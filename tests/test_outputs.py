@@ -1,0 +1,111 @@
+"""Outputs are checked before any work and a user's files are never replaced unasked
+(each case a command line a user could type; clean one-line errors, exit 2, nothing
+written)."""
+import json
+import os
+import stat
+import subprocess
+import sys
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+OFFICE = os.path.join(ROOT, "examples", "office.ply")
+
+
+def run(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "invrad_wb", *args], cwd=cwd,
+                          capture_output=True, text=True, timeout=300)
+
+
+def one_line_error(cp, *words):
+    assert cp.returncode == 2, cp.stderr
+    err = cp.stderr.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("invrad: error:"), cp.stderr
+    assert "Traceback" not in cp.stderr
+    for w in words:
+        assert w in err[0], err[0]
+
+
+def test_output_on_a_folder_is_refused_before_reading(tmp_path):
+    (tmp_path / "out").mkdir()
+    cp = run("locate", OFFICE, "--flux", "3000", "-o", "out", cwd=tmp_path)
+    one_line_error(cp, "out", "is a folder")
+
+
+def test_output_in_a_missing_or_unwritable_folder(tmp_path):
+    cp = run("locate", OFFICE, "--flux", "3000", "-o", "nope/r.json", cwd=tmp_path)
+    one_line_error(cp, "does not exist")
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        if os.access(ro, os.W_OK):
+            pytest.skip("running as a user that can write anywhere (root)")
+        cp = run("locate", OFFICE, "--flux", "3000", "-o", "ro/r.json", cwd=tmp_path)
+        one_line_error(cp, "not writable")
+    finally:
+        ro.chmod(0o755)
+
+
+def test_read_only_result_is_not_replaced(tmp_path):
+    res = tmp_path / "r.json"
+    res.write_text("{}")
+    res.chmod(0o444)
+    cp = run("locate", OFFICE, "--flux", "3000", "-o", "r.json", cwd=tmp_path)
+    one_line_error(cp, "read-only")
+    assert res.read_text() == "{}" and stat.S_IMODE(res.stat().st_mode) == 0o444
+
+
+def test_vote_maps_and_report_on_a_file_are_refused_first(tmp_path):
+    (tmp_path / "f").write_text("keep")
+    cp = run("locate", OFFICE, "--flux", "3000", "-o", "r.json", "--vote-maps", "f",
+             cwd=tmp_path)
+    one_line_error(cp, "--vote-maps", "existing file")
+    assert not (tmp_path / "r.json").exists()     # nothing written before the refusal
+    lums = tmp_path / "l.json"
+    lums.write_text(json.dumps({"luminaires": [{"position": [3, 2, 3], "flux_lm": 3000}]}))
+    cp = run("verify", OFFICE, "--luminaires", "l.json", "--report", "f", cwd=tmp_path)
+    one_line_error(cp, "--report", "existing file")
+    assert (tmp_path / "f").read_text() == "keep"
+
+
+def test_render_never_replaces_its_input(tmp_path):
+    lums = tmp_path / "l.json"
+    lums.write_text(json.dumps({"luminaires": [{"position": [3, 2, 3], "flux_lm": 3000}]}))
+    scene = tmp_path / "s.ply"
+    scene.write_bytes(open(OFFICE, "rb").read())
+    before = scene.read_bytes()
+    cp = run("render", "s.ply", "--luminaires", "l.json", "-o", "s.ply", cwd=tmp_path)
+    one_line_error(cp, "input file")
+    assert scene.read_bytes() == before
+
+
+def test_symlinked_output_stays_a_link(tmp_path):
+    target = tmp_path / "real.ply"
+    target.write_text("old")
+    (tmp_path / "link.ply").symlink_to(target)
+    cp = run("example", "one_ceiling", "-o", "link.ply", "--cell", "0.5", cwd=tmp_path)
+    assert cp.returncode == 0, cp.stderr
+    assert (tmp_path / "link.ply").is_symlink()
+    assert target.read_bytes().startswith(b"ply")
+
+
+@pytest.mark.parametrize("cell", ["0", "nan", "-1", "0.001", "inf"])
+def test_example_cell_out_of_range(tmp_path, cell):
+    cp = run("example", "one_ceiling", "-o", "x.ply", "--cell", cell, cwd=tmp_path)
+    one_line_error(cp, "--cell")
+    assert not (tmp_path / "x.ply").exists()
+
+
+def test_freecad_output_over_its_input_is_refused(tmp_path):
+    src = tmp_path / "in.ifc"
+    src.write_bytes(open(os.path.join(ROOT, "tests", "data", "AC20-FZK-Haus.ifc"),
+                         "rb").read())
+    before = src.stat().st_mtime_ns
+    cp = run("freecad", "in.ifc", "--out", "in.ifc", "--report", "rep", cwd=tmp_path)
+    one_line_error(cp, "input file")
+    assert src.stat().st_mtime_ns == before
+    (tmp_path / "rep").write_text("a file")
+    cp = run("freecad", "in.ifc", "--out", "out.ifc", "--report", "rep", cwd=tmp_path)
+    one_line_error(cp, "--report", "existing file")
