@@ -77,9 +77,15 @@ def _settings_from_args(args):
         try:
             with open(args.settings, "r", encoding="utf-8") as fh:
                 d = json.load(fh)
-        except (OSError, json.JSONDecodeError) as exc:
+        except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise InvradError(f"{args.settings}: cannot read settings: {exc}")
-        s = LocateSettings.from_dict({**asdict(s), **d})
+        if not isinstance(d, dict):
+            raise InvradError(f"{args.settings}: settings must be a JSON object of"
+                              f" name: value, got {type(d).__name__}")
+        try:
+            s = LocateSettings.from_dict({**asdict(s), **d})
+        except InvradError as exc:
+            raise InvradError(f"{args.settings}: {exc}")
     return s.check()
 
 

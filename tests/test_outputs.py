@@ -109,3 +109,18 @@ def test_freecad_output_over_its_input_is_refused(tmp_path):
     (tmp_path / "rep").write_text("a file")
     cp = run("freecad", "in.ifc", "--out", "out.ifc", "--report", "rep", cwd=tmp_path)
     one_line_error(cp, "--report", "existing file")
+
+
+@pytest.mark.parametrize("content, words", [
+    ('{"threshold": "high"}', "threshold must be a number"),
+    ('[1, 2]', "must be a JSON object"),
+    ('{"refine": "yes"}', "refine must be true or false"),
+    ('{"dummy_count": 2.5}', "dummy_count must be a whole number"),
+    ('{"pixel_m": 1e-4', "cannot read settings"),
+])
+def test_bad_settings_files_fail_before_reading_the_scene(tmp_path, content, words):
+    (tmp_path / "s.json").write_text(content)
+    cp = run("locate", OFFICE, "--flux", "3000", "-o", "r.json", "--settings", "s.json",
+             cwd=tmp_path)
+    one_line_error(cp, "s.json", words)
+    assert not (tmp_path / "r.json").exists()

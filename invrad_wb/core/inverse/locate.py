@@ -97,7 +97,33 @@ class LocateSettings:
     shade_limit_lux: float = None
     seed: int = 0
 
+    def _check_types(self):
+        """Each setting has its field's type: a number is a real number (not text, not
+        true/false), a switch is true/false, a name is text; None where allowed."""
+        import typing
+        hints = typing.get_type_hints(type(self))
+        for name, f in self.__dataclass_fields__.items():
+            v, kind = getattr(self, name), hints.get(name)
+            if v is None and f.default is None:
+                continue
+            if kind is bool:
+                ok = isinstance(v, (bool, np.bool_))
+            elif kind in (int, float):
+                ok = isinstance(v, (int, float, np.integer, np.floating)) and \
+                    not isinstance(v, (bool, np.bool_))
+                if ok and kind is int and not float(v).is_integer():
+                    ok = False
+            elif kind is str:
+                ok = isinstance(v, str)
+            else:
+                ok = isinstance(v, (str, bool, int, float))
+            if not ok:
+                want = {bool: "true or false", int: "a whole number", float: "a number",
+                        str: "a name"}.get(kind, "a value")
+                raise SettingsError(f"{name} must be {want}, got {v!r}")
+
     def check(self):
+        self._check_types()
         if self.vote_model not in VOTE_MODELS:
             raise SettingsError(f"vote_model must be one of {VOTE_MODELS}, got"
                                 f" {self.vote_model!r}")
@@ -127,6 +153,9 @@ class LocateSettings:
 
     @classmethod
     def from_dict(cls, d):
+        if not isinstance(d, dict):
+            raise SettingsError(f"locate settings must be an object of name: value, got"
+                                f" {type(d).__name__}")
         known = set(cls.__dataclass_fields__)
         unknown = set(d) - known
         if unknown:
