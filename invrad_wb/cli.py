@@ -106,7 +106,7 @@ def _cmd_locate(args):
     result = locate(scene, args.flux, settings=settings, backend=args.backend,
                     progress=progress)
     data = result.to_dict()
-    atomic_write_text(args.output, json.dumps(data, indent=2, default=_json_default) + "\n")
+    atomic_write_text(args.output, strict_json(data))
     for l in result.luminaires:
         p = ", ".join(f"{x:.3f}" for x in l.position)
         n = ", ".join(f"{x:.2f}" for x in l.normal)
@@ -117,6 +117,14 @@ def _cmd_locate(args):
     if args.vote_maps:
         files = result.save_vote_maps(args.vote_maps)
         print(f"vote maps: {len(files)} files in {args.vote_maps}")
+    if not result.luminaires:
+        lit = np.nan_to_num(scene.vertex_targets(), nan=0.0) > 0
+        if lit.any():
+            print(f"invrad: no luminaire of {args.flux:g} lm explains the targets of"
+                  f" {args.scene} ({int(lit.sum())} lit target points): check the flux, the"
+                  " units (--unit) and that the targets are reachable from the room's"
+                  " surfaces", file=sys.stderr)
+            return 3
 
 
 def _cmd_verify(args):
@@ -169,6 +177,23 @@ def _cmd_info(args):
     for p in scene.planes:
         print(f"  plane {p.index:3d} room {p.room} normal {p.normal.round(3).tolist()}"
               f" area {p.area:.2f} m^2 ({len(p.faces)} faces){' virtual' if p.is_virtual else ''}")
+
+
+def strict_json(data):
+    """JSON text any strict reader accepts: NaN and infinities become null."""
+    def clean(o):
+        if isinstance(o, dict):
+            return {k: clean(v) for k, v in o.items()}
+        if isinstance(o, (list, tuple)):
+            return [clean(v) for v in o]
+        if isinstance(o, np.ndarray):
+            return clean(o.tolist())
+        if isinstance(o, (np.floating, np.integer, np.bool_)):
+            o = o.item()
+        if isinstance(o, float) and not np.isfinite(o):
+            return None
+        return o
+    return json.dumps(clean(data), indent=2, allow_nan=False, default=_json_default) + "\n"
 
 
 def _json_default(o):

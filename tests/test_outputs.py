@@ -124,3 +124,11 @@ def test_bad_settings_files_fail_before_reading_the_scene(tmp_path, content, wor
              cwd=tmp_path)
     one_line_error(cp, "s.json", words)
     assert not (tmp_path / "r.json").exists()
+
+
+def test_impossible_flux_says_so_and_exits_3_with_strict_json(tmp_path):
+    cp = run("locate", OFFICE, "--flux", "1e30", "-o", "r.json", cwd=tmp_path)
+    assert cp.returncode == 3
+    assert "no luminaire of 1e+30 lm explains the targets" in cp.stderr
+    text = (tmp_path / "r.json").read_text()
+    json.loads(text, parse_constant=lambda c: pytest.fail(f"non-strict JSON: {c}"))
