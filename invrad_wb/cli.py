@@ -41,6 +41,26 @@ def _scene_args(p):
                    help="length unit of the scene file (default m)")
     p.add_argument("--backend", default="auto", choices=("auto", "opencl", "numpy"),
                    help="compute backend (default: OpenCL if a device is present)")
+    p.add_argument("--photometry", metavar="FILE",
+                   help="EULUMDAT (.ldt) or IES (.ies) intensity distribution of every"
+                        " luminaire without its own (default: lambertian)")
+
+
+def _photometry(args):
+    """The --photometry file read (or None); errors name the file."""
+    if not getattr(args, "photometry", None):
+        return None
+    from invrad_wb.core.model.photometry import read_photometry
+    return read_photometry(args.photometry)
+
+
+def _with_photometry(lums, phot):
+    """Give luminaires without their own distribution the --photometry one."""
+    if phot is not None:
+        for lum in lums:
+            if lum.photometry is None:
+                lum.photometry = phot
+    return lums
 
 
 def _read(args):
@@ -54,8 +74,9 @@ def _cmd_render(args):
     from invrad_wb.core.forward.render import render
     from invrad_wb.core.io.sceneio import write_scene
     check_file(args.output, "-o", inputs=[args.scene, args.luminaires])
+    phot = _photometry(args)
     scene = _read(args)
-    lums = load_luminaires(args.luminaires)
+    lums = _with_photometry(load_luminaires(args.luminaires), phot)
     t = time.time()
     total, direct, indirect = render(scene, lums, interreflection=not args.no_interreflection,
                                      occlusion=not args.no_occlusion, backend=args.backend,
@@ -96,6 +117,17 @@ def _cmd_locate(args):
     if args.vote_maps:
         check_folder(args.vote_maps, "--vote-maps")
     settings = _settings_from_args(args)
+    phot = _photometry(args)
+    if args.flux is None:
+        if phot is None:
+            raise InvradError("give the flux of one luminaire with --flux LM (or a"
+                              " --photometry file, whose flux is then used)")
+        args.flux = phot.flux_lm
+        print(f"flux of one luminaire: {args.flux:.0f} lm, from {args.photometry}")
+    if phot is not None:
+        import warnings
+        warnings.warn("votes and refinement model the luminaires as lambertian; the"
+                      " photometry is kept in the result for render/verify")
     scene = _read(args)
 
     def progress(frac, msg):
@@ -105,6 +137,7 @@ def _cmd_locate(args):
 
     result = locate(scene, args.flux, settings=settings, backend=args.backend,
                     progress=progress)
+    _with_photometry(result.luminaires, phot)
     data = result.to_dict()
     atomic_write_text(args.output, strict_json(data))
     for l in result.luminaires:
@@ -132,8 +165,9 @@ def _cmd_verify(args):
     from invrad_wb.core.forward.render import render
     from invrad_wb.core.output.report import build_report
     check_folder(args.report, "--report")
+    phot = _photometry(args)
     scene = _read(args)
-    lums = load_luminaires(args.luminaires)
+    lums = _with_photometry(load_luminaires(args.luminaires), phot)
     achieved = render(scene, lums, interreflection=not args.no_interreflection,
                       backend=args.backend)
     paths = build_report(scene, scene.vertex_targets(), achieved, lums, args.report,
@@ -229,7 +263,8 @@ def build_parser():
 
     p = sub.add_parser("locate", help="find luminaire positions for the scene's targets")
     _scene_args(p)
-    p.add_argument("--flux", type=float, required=True, help="flux of one luminaire, lm")
+    p.add_argument("--flux", type=float,
+                   help="flux of one luminaire, lm (default: the --photometry file's)")
     p.add_argument("-o", "--output", required=True, help="RESULT.json")
     p.add_argument("--vote-maps", help="folder for vote-map images")
     p.add_argument("--settings", help="JSON file with locate settings")

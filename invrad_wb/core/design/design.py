@@ -218,6 +218,9 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
         rd.notes.append(f"no catalogue entry may be mounted at {mount_h:.2f} m"
                         f" ({rs.mounting.kind}): nothing designed")
         return rd
+    if photometry is None:
+        from invrad_wb.core.model.photometry import read_photometry
+        photometry = {e.name: read_photometry(e.photometry) for e in entries if e.photometry}
     search = RoomSearch(model, req, rs, entries, photometry, mixed=mixed, dimming=dimming,
                         fractions=fractions)
     if not search.geoms:

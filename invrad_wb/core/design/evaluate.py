@@ -172,11 +172,13 @@ class RoomModel:
         return self.mf * e * self.correction
 
 
-def luminaires_of(positions, normals, fluxes, entries, entry_index, room):
-    """Luminaire objects of a layout (the catalogue entry's name kept in ``extra``)."""
+def luminaires_of(positions, normals, fluxes, entries, entry_index, room, photometry=None):
+    """Luminaire objects of a layout (the catalogue entry's name kept in ``extra``, its
+    intensity distribution from ``photometry``: entry name -> Photometry)."""
+    photometry = photometry or {}
     out = []
     for p, n, f, k in zip(positions, normals, fluxes, entry_index):
         e = entries[k]
         out.append(Luminaire(p, n, float(f), e.radius_m, room=room,
-                             extra={"type": e.name}))
+                             extra={"type": e.name}, photometry=photometry.get(e.name)))
     return out

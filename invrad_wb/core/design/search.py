@@ -174,7 +174,8 @@ class RoomSearch:
                                              abs(g.count - med)))
         for k, e in enumerate(self.entries):
             lums = luminaires_of(mid.positions, mid.normals, np.full(mid.count, e.flux_lm),
-                                 self.entries, np.full(mid.count, k), m.droom.room)
+                                 self.entries, np.full(mid.count, k), m.droom.room,
+                                 self.phot)
             m.calibrate(e.name, lums, None)
 
     def evaluate(self, pair, sel):
@@ -259,7 +260,7 @@ class RoomSearch:
         idx = np.asarray(cand.entries)[g.cls]
         flux = np.array([self.entries[k].flux_lm for k in idx]) * cand.dim
         return luminaires_of(g.positions, g.normals, flux, self.entries, idx,
-                             self.model.droom.room)
+                             self.model.droom.room, self.phot)
 
     def check(self, cand, fast_lux=None):
         """Exact figures of a candidate (cached); re-dims it to the exact Em."""

@@ -225,6 +225,12 @@ def _entry(d, where, base_dir):
         phot = phot if os.path.isabs(phot) else os.path.join(base_dir, phot)
         if not os.path.isfile(phot):
             raise (w / "photometry").error(f"no such file: {phot}")
+        from invrad_wb.core.model.photometry import read_photometry
+        from invrad_wb.errors import LuminaireError
+        try:
+            read_photometry(phot)      # parsed now: a bad file fails before any work
+        except LuminaireError as exc:
+            raise (w / "photometry").error(str(exc))
     mh = d.get("mount_height_m", [0.0, None])
     if not (isinstance(mh, (list, tuple)) and len(mh) == 2):
         raise (w / "mount_height_m").error(f"{mh!r}: give [lowest, highest] metres")

@@ -25,6 +25,40 @@ def _geometry(points, normals, c, n, flux):
     return np.where(ok, g, 0.0), ok
 
 
+def photometric_numpy(points, normals, luminaires, bvh=None, occlusion=True):
+    """Direct illuminance of luminaires with an intensity distribution (numpy), lux:
+    ``E = I(direction) * cos(theta_s) / r^2`` with ``I = flux * photometry(direction)``
+    in the luminaire's frame (:mod:`invrad_wb.core.model.photometry`); disk luminaires
+    are taken at their centre."""
+    from invrad_wb.core.model.scene import plane_basis
+    points = np.asarray(points, dtype=np.float64)
+    normals = np.asarray(normals, dtype=np.float64)
+    out = np.zeros(len(points))
+    for lum in luminaires:
+        u, v = plane_basis(lum.normal)
+        r = points - lum.position
+        r2 = np.maximum(np.einsum("ij,ij->i", r, r), 1e-12)
+        d = r / np.sqrt(r2)[:, None]
+        cs = -np.einsum("ij,ij->i", normals, d)
+        ok = (cs > 0) & (r2 > 1e-12)
+        i_cd = lum.flux_lm * lum.photometry.intensity_per_lm(
+            np.stack([d @ u, d @ v, d @ lum.normal], axis=1))
+        g = np.where(ok, i_cd * cs / r2, 0.0)
+        if occlusion and bvh is not None and ok.any():
+            idx = np.flatnonzero(g > 0)
+            occ = segments_occluded_numpy(bvh, np.broadcast_to(lum.position, (len(idx), 3)),
+                                          points[idx])
+            g[idx[occ]] = 0.0
+        out += g
+    return out
+
+
+def _split(luminaires):
+    """(lambertian luminaires, luminaires with a photometry)."""
+    return ([lum for lum in luminaires if getattr(lum, "photometry", None) is None],
+            [lum for lum in luminaires if getattr(lum, "photometry", None) is not None])
+
+
 def direct_illuminance_numpy(points, normals, luminaires, bvh=None, occlusion=True):
     """Direct illuminance (numpy twin).
 
@@ -42,8 +76,9 @@ def direct_illuminance_numpy(points, normals, luminaires, bvh=None, occlusion=Tr
     """
     points = np.asarray(points, dtype=np.float64)
     normals = np.asarray(normals, dtype=np.float64)
+    luminaires, photometric = _split(luminaires)
     pos, nrm, flux, _ = emitter_samples(luminaires)
-    out = np.zeros(len(points))
+    out = photometric_numpy(points, normals, photometric, bvh, occlusion)
     for c, n, f in zip(pos, nrm, flux):
         g, ok = _geometry(points, normals, c, n, f)
         if occlusion and bvh is not None and ok.any():
@@ -56,7 +91,14 @@ def direct_illuminance_numpy(points, normals, luminaires, bvh=None, occlusion=Tr
 
 
 def direct_illuminance_opencl(points, normals, luminaires, bvh=None, occlusion=True):
-    """Direct illuminance on the OpenCL device (same contract as the numpy twin)."""
+    """Direct illuminance on the OpenCL device (same contract as the numpy twin).
+
+    Luminaires with an intensity distribution are added by :func:`photometric_numpy`
+    (the kernel is lambertian)."""
+    luminaires, photometric = _split(luminaires)
+    if photometric:
+        rest = photometric_numpy(points, normals, photometric, bvh, occlusion)
+        return rest + direct_illuminance_opencl(points, normals, luminaires, bvh, occlusion)
     env = get_env()
     cl = env.cl
     points = np.asarray(points, dtype=np.float64)

@@ -9,10 +9,14 @@ with a fixed quadrature (Gauss-Legendre rings in ``r^2`` times equally spaced an
 JSON form (``LUMS.json``, also the ``luminaires`` list of a locate result)::
 
     {"luminaires": [{"position": [x, y, z], "normal": [x, y, z],
-                     "flux_lm": F, "radius_m": r}]}
+                     "flux_lm": F, "radius_m": r, "photometry": "dl.ldt"}]}
+
+``photometry`` (optional, relative to the JSON file's folder): an EULUMDAT or IES file whose
+intensity distribution replaces the lambertian one (the flux still scales it).
 """
 from dataclasses import dataclass, field
 import json
+import os
 
 import numpy as np
 
@@ -33,6 +37,9 @@ class Luminaire:
     room : int or None
     score : float or None
         How much this luminaire lowers the locate cost (locate results only).
+    photometry : Photometry or None
+        Its intensity distribution (:mod:`invrad_wb.core.model.photometry`); None:
+        lambertian. The flux scales the distribution.
     """
 
     position: np.ndarray
@@ -42,6 +49,7 @@ class Luminaire:
     room: int = None
     score: float = None
     extra: dict = field(default_factory=dict)
+    photometry: object = None
 
     def __post_init__(self):
         self.position = np.asarray(self.position, dtype=np.float64).reshape(3)
@@ -57,6 +65,8 @@ class Luminaire:
         if self.score is not None:
             d["score"] = float(self.score)
         d.update(self.extra)
+        if self.photometry is not None and getattr(self.photometry, "path", None):
+            d["photometry"] = self.photometry.path
         return d
 
 
@@ -70,7 +80,7 @@ def _vec3(value, what):
     return a
 
 
-def luminaire_from_dict(d, where="luminaire"):
+def luminaire_from_dict(d, where="luminaire", base_dir=None):
     """Build and check a :class:`Luminaire` from its JSON dict."""
     if not isinstance(d, dict):
         raise LuminaireError(f"{where} must be an object, got {d!r}")
@@ -91,10 +101,18 @@ def luminaire_from_dict(d, where="luminaire"):
                              " of lumens")
     if not np.isfinite(radius) or radius < 0:
         raise LuminaireError(f"{where}.radius_m is {d.get('radius_m')!r}: must be >= 0 metres")
-    known = {"position", "normal", "flux_lm", "radius_m", "room", "score"}
+    known = {"position", "normal", "flux_lm", "radius_m", "room", "score", "photometry"}
     extra = {k: v for k, v in d.items() if k not in known}
+    phot = None
+    if d.get("photometry") is not None:
+        from invrad_wb.core.model.photometry import read_photometry
+        f = d["photometry"]
+        if not isinstance(f, str):
+            raise LuminaireError(f"{where}.photometry must be a file name, got {f!r}")
+        phot = read_photometry(f if os.path.isabs(f) or base_dir is None
+                               else os.path.join(base_dir, f))
     return Luminaire(pos, nrm, flux, radius, room=d.get("room"), score=d.get("score"),
-                     extra=extra)
+                     extra=extra, photometry=phot)
 
 
 def load_luminaires(path):
@@ -113,7 +131,8 @@ def load_luminaires(path):
     if not isinstance(items, list):
         raise LuminaireError(f"{path}: expected {{\"luminaires\": [...]}}")
     try:
-        return [luminaire_from_dict(d, f"luminaires[{i}]") for i, d in enumerate(items)]
+        base = os.path.dirname(os.path.abspath(path))
+        return [luminaire_from_dict(d, f"luminaires[{i}]", base) for i, d in enumerate(items)]
     except LuminaireError as exc:
         raise LuminaireError(f"{path}: {exc}")
 
