@@ -58,7 +58,9 @@ def _print_room(r):
     print(f"{r.name}: {types} ({r.candidate.geom.describe()}"
           + (f", dimmed to {100 * r.candidate.dim:.0f} %" if r.candidate.dim < 1 else "")
           + f"): Em {m.em:.0f} lx (>= {q.lux:g}), U0 {m.u0:.2f} (>= {q.u0:g}),"
-          f" {r.watts:.1f} W, {r.watts / max(r.area_m2, 1e-9):.2f} W/m^2: {verdict}"
+          + (f" UGR {r.ugr:.1f}" + (f" (<= {r.ugr_limit:g})" if r.ugr_limit else "") + ","
+             if r.ugr is not None else "")
+          + f" {r.watts:.1f} W, {r.watts / max(r.area_m2, 1e-9):.2f} W/m^2: {verdict}"
           " the requirement")
     for note in r.notes:
         print(f"  note: {note}")

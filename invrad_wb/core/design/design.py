@@ -38,6 +38,8 @@ class RoomDesign:
     reflectance: dict = field(default_factory=dict)
     outline: np.ndarray = field(default=None, repr=False)   # (k, 2, 2) walls in plan, m
     floor_z: float = 0.0
+    ugr: float = None            # CIE 117, worst standard observer (None: not computable)
+    ugr_limit: float = None
 
     @property
     def watts(self):
@@ -49,8 +51,11 @@ class RoomDesign:
         if self.metrics is None:
             return {}
         r, m = self.requirement, self.metrics
-        return {"Em": m.em >= r.lux - 1e-9, "U0": m.u0 >= r.u0 - 1e-9,
-                "shade": bool(self.candidate.ok or m.shade_max <= self._shade_limit)}
+        out = {"Em": m.em >= r.lux - 1e-9, "U0": m.u0 >= r.u0 - 1e-9,
+               "shade": bool(self.candidate.ok or m.shade_max <= self._shade_limit)}
+        if self.ugr_limit is not None and self.ugr is not None:
+            out["UGR"] = self.ugr <= self.ugr_limit + 1e-9
+        return out
 
     _shade_limit = 5.0
 
@@ -84,6 +89,8 @@ class RoomDesign:
                       "w_per_m2": round(self.watts / max(self.area_m2, 1e-9), 3),
                       "layout": self.candidate.geom.describe(),
                       "dim": round(self.candidate.dim, 4),
+                      "ugr": None if self.ugr is None else round(self.ugr, 1),
+                      "ugr_limit": self.ugr_limit,
                       "grid_points": int(self.metrics.lux is not None and
                                          len(self.grid_points))})
             d["schedule"] = self.schedule()
@@ -165,6 +172,23 @@ def _surface_goals(scene, room):
     return int(np.count_nonzero(t[idx] > 0))
 
 
+def _room_ugr(model, droom, luminaires):
+    """Worst UGR over the CIE 117 standard observers (None without luminous areas)."""
+    from invrad_wb.core.output.glare import observers, ugr
+    from invrad_wb.core.output.glare import _luminous_area
+    if not luminaires or any(_luminous_area(lum) is None for lum in luminaires):
+        return None
+    obs = observers(droom)
+    if not obs:
+        return None
+    eyes = np.array([e for e, _ in obs])
+    views = np.array([v for _, v in obs])
+    lb = model.mf * model.indirect_at(eyes, views, luminaires)
+    values = [ugr(luminaires, e, v, b) for (e, v), b in zip(obs, lb)]
+    values = [u for u in values if u is not None]
+    return max(values) if values else None
+
+
 def _explain(rd, search, entries):
     """Plain-language notes on a non-compliant or wasteful design."""
     r, m, c = rd.requirement, rd.metrics, rd.candidate
@@ -178,6 +202,10 @@ def _explain(rd, search, entries):
         rd.notes.append(f"uniformity U0 {m.u0:.2f} is below the required {r.u0:.2f}:"
                         " no layout of the catalogue's luminaires spreads the light evenly"
                         " enough at the mounting allowed")
+    if rd.ugr is not None and rd.ugr_limit is not None and rd.ugr > rd.ugr_limit:
+        rd.notes.append(f"UGR {rd.ugr:.1f} exceeds the limit {rd.ugr_limit:g}: choose"
+                        " luminaires with less luminance towards the eye (louvres, larger"
+                        " luminous area)")
     if m.shade_max > search.rs.shade_limit_lux:
         rd.notes.append(f"a point that must stay dark receives {m.shade_max:.1f} lx"
                         f" (limit {search.rs.shade_limit_lux:g} lx)")
@@ -231,6 +259,8 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
     rd.luminaires = search.luminaires(cand)
     rd.grid_points = points
     rd._shade_limit = rs.shade_limit_lux
+    rd.ugr_limit = rs.ugr_max
+    rd.ugr = _room_ugr(model, droom, rd.luminaires)
     _explain(rd, search, entries)
     rd.seconds = time.perf_counter() - t0
     return rd

@@ -145,6 +145,18 @@ class RoomModel:
                                     occlusion=occl, backend=self.backend)
         return self.mf * (direct + indirect), self.mf * direct
 
+    def indirect_at(self, points, normals, luminaires):
+        """Interreflected illuminance (lux, new installation) at any receivers in the
+        room, e.g. an observer's eye for the background luminance of UGR."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        cen = self.mesh.face_centroids
+        near = np.argmin(np.linalg.norm(cen[None] - points[:, None], axis=2), axis=1)
+        op = self.rad.gather(points, normals, self.rad.face_patch[near])
+        d_v = direct_illuminance(self.mesh.vertices, self.mesh.vertex_normals, luminaires,
+                                 bvh=self.bvh, occlusion=self.bvh is not None,
+                                 backend=self.backend)
+        return op(self.rad.solve(self.rad.patch_direct_from_vertices(d_v)))
+
     def calibrate(self, key, luminaires, fast_lux):
         """Learn the indirect light per lumen of a catalogue entry (``key``; None: skip) from
         an exact solve of ``luminaires``, and the per-point correction ``exact / fast``.

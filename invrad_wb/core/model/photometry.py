@@ -38,9 +38,10 @@ class Photometry:
     flux_lm : float, the luminaire flux the file describes (lm)
     path : str or None, the file it came from
     name : str
+    luminous_area_m2 : float or None, area of the luminous opening (for luminance / UGR)
     """
 
-    def __init__(self, cd, flux_lm=None, path=None, name=None):
+    def __init__(self, cd, flux_lm=None, path=None, name=None, luminous_area_m2=None):
         cd = np.asarray(cd, dtype=np.float64)
         if cd.shape != (361, 181) or not np.all(np.isfinite(cd)) or np.any(cd < 0):
             raise LuminaireError(f"{path or name}: intensity table must be finite, >= 0"
@@ -53,6 +54,8 @@ class Photometry:
         self.flux_lm = float(total if flux_lm is None else flux_lm)
         self.path = path
         self.name = name or (os.path.basename(path) if path else "photometry")
+        self.luminous_area_m2 = (float(luminous_area_m2) if luminous_area_m2
+                                 and luminous_area_m2 > 0 else None)
 
     @classmethod
     def lambertian(cls):
@@ -135,7 +138,10 @@ def _read(path):
         raise LuminaireError(f"{path}: not a valid {ext[1:].upper()} file"
                              f" ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'no detail'})")
     cd = np.asarray(grid.values, dtype=np.float64)        # (361 phis, 181 thetas)
-    return Photometry(np.nan_to_num(cd), path=path)
+    h = f.header
+    to_m = 0.3048 if int(getattr(h.units, "value", h.units)) == 1 else 1.0   # 1: feet
+    area = abs(float(h.width) * float(h.length)) * to_m ** 2
+    return Photometry(np.nan_to_num(cd), path=path, luminous_area_m2=area)
 
 
 def _read_ldt(path):
@@ -164,7 +170,9 @@ def _read_ldt(path):
                              f" {v.shape} values read)")
     lamp_lm = float(np.dot(h.lamp_flux, h.num_lamps)) if h.lamp_flux else 1000.0
     cd = resample(c, g, v * lamp_lm / 1000.0)       # cd/klm of lamp flux -> candela
-    return Photometry(cd, path=path)
+    a, b = float(h.length_lum_area) / 1000.0, float(h.width_lum_area) / 1000.0   # mm
+    area = a * b if b > 0 else np.pi * a * a / 4.0         # width 0: round, diameter a
+    return Photometry(cd, path=path, luminous_area_m2=area)
 
 
 def resample(c_deg, g_deg, cd):

@@ -206,6 +206,9 @@ def room_rows(result):
                        em_ok=v["Em"], u0_ok=v["U0"], ok=r.compliant,
                        watts=f"{r.watts:.1f}", wpm2=f"{r.watts / max(r.area_m2, 1e-9):.2f}",
                        layout=r.candidate.geom.describe(), source=q.source,
+                       ugr="-" if r.ugr is None else f"{r.ugr:.1f}",
+                       ugr_limit="-" if r.ugr_limit is None else f"{r.ugr_limit:g}",
+                       ugr_ok=v.get("UGR", True),
                        height=f"{q.height_m:g}", margin=f"{q.margin_m:g}")
         rows.append(row)
     return rows
@@ -241,8 +244,8 @@ def write_design_report(result, out_dir, title="Lighting design", project=None):
         _write(tmp, "schedule.csv", _csv(sched, list(sched[0]) if sched else ["room"]))
         rows = room_rows(result)
         _write(tmp, "rooms.csv", _csv(rows, ["name", "area", "size", "em_req", "em", "emin",
-                                              "emax", "u0_req", "u0", "ok", "watts", "wpm2",
-                                              "layout"]))
+                                              "emax", "u0_req", "u0", "ugr", "ugr_limit", "ok",
+                                              "watts", "wpm2", "layout"]))
         area = sum(r.area_m2 for r in designed)
         html = env.get_template(_TEMPLATE).render(
             title=title, project=project, date=datetime.date.today().isoformat(),
