@@ -215,27 +215,13 @@ def _cmd_info(args):
 
 def strict_json(data):
     """JSON text any strict reader accepts: NaN and infinities become null."""
-    def clean(o):
-        if isinstance(o, dict):
-            return {k: clean(v) for k, v in o.items()}
-        if isinstance(o, (list, tuple)):
-            return [clean(v) for v in o]
-        if isinstance(o, np.ndarray):
-            return clean(o.tolist())
-        if isinstance(o, (np.floating, np.integer, np.bool_)):
-            o = o.item()
-        if isinstance(o, float) and not np.isfinite(o):
-            return None
-        return o
-    return json.dumps(clean(data), indent=2, allow_nan=False, default=_json_default) + "\n"
+    from invrad_wb.core.io.jsonout import dumps
+    return dumps(data)
 
 
 def _json_default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer, np.bool_)):
-        return o.item()
-    raise TypeError(f"cannot serialise {type(o).__name__}")
+    from invrad_wb.core.io.jsonout import jsonable
+    return jsonable(o)
 
 
 def _bool(s):

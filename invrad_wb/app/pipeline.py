@@ -20,14 +20,13 @@ leaves the document exactly as it was.
 GUI commands call :func:`run` (or :func:`prepare` to preview meshes and targets).
 """
 from dataclasses import dataclass, field
-import json
 import os
 import time
 
 import numpy as np
 
 from invrad_wb.core.model import targets as CT
-from invrad_wb.errors import Cancelled, SceneError, SettingsError
+from invrad_wb.errors import Cancelled, SceneError
 from invrad_wb.app import settings as S
 from invrad_wb.app.document import describe
 from invrad_wb.app.rooms import find_spaces, get_space, mesh_room, room_shape
@@ -104,14 +103,9 @@ class PipelineResult:
 
 
 def check_flux(flux_lm):
-    try:
-        f = float(flux_lm)
-    except (TypeError, ValueError):
-        raise SettingsError(f"flux {flux_lm!r} is not a number of lumens")
-    if not np.isfinite(f) or f <= 0:
-        raise SettingsError(f"flux is {flux_lm!r} lm: the luminous flux of a luminaire must"
-                            " be a positive number of lumens")
-    return f
+    """The flux of one luminaire as a positive float, lm (else SettingsError)."""
+    from invrad_wb.core.inverse.locate import check_flux as core_check
+    return core_check(flux_lm)
 
 
 def _progress(progress, lo, hi):
@@ -273,7 +267,7 @@ def run(doc, settings, progress=None, locate=None, building=None):
                         progress=_progress(progress, 0.1, 0.75), backend=settings.backend)
     timings["locate" if settings.design is None else "design"] = time.perf_counter() - t
     lums = list(result.luminaires)
-    per_room = _per_room(lums, building)
+    per_room = by_room(building, lums)
     step = _progress(progress, 0.75, 0.9)
     step(0.0, f"verify {len(lums)} luminaire(s)")
     t = time.perf_counter()
@@ -321,15 +315,15 @@ def run(doc, settings, progress=None, locate=None, building=None):
                           timings=timings)
 
 
-def _per_room(lums, building):
-    """{room id: [Luminaire, ...]} for every room of ``building`` (SceneError for a
-    luminaire of a room that is not there)."""
-    per_room = {p.room_id: [] for p in building.rooms}
-    for lum in lums:
-        if lum.room not in per_room:
-            raise SceneError(f"locate returned a luminaire for unknown room id {lum.room!r}")
-        per_room[lum.room].append(lum)
-    return per_room
+def by_room(building, luminaires):
+    """``{room id: [Luminaire, ...]}`` for every room of ``building`` (empty lists too;
+    SceneError for a luminaire of a room that is not there)."""
+    out = {p.room_id: [] for p in building.rooms}
+    for lum in luminaires:
+        if lum.room not in out:
+            raise SceneError(f"a luminaire belongs to unknown room id {lum.room!r}")
+        out[lum.room].append(lum)
+    return out
 
 
 def _summary(doc, flux, settings, building, target, achieved, per_room):
@@ -353,14 +347,8 @@ def _summary(doc, flux, settings, building, target, achieved, per_room):
 
 def _write_json(path, data):
     from invrad_wb.core.io.atomic import atomic_write_text
-
-    def default(o):
-        if isinstance(o, np.ndarray):
-            return o.tolist()
-        if isinstance(o, (np.floating, np.integer, np.bool_)):
-            return o.item()
-        return str(o)
-    atomic_write_text(path, json.dumps(data, indent=2, default=default) + "\n")
+    from invrad_wb.core.io.jsonout import dumps
+    atomic_write_text(path, dumps(data))
 
 
 def write_report(out_dir, building, target, achieved, luminaires, summary):

@@ -25,7 +25,7 @@ import numpy as np
 from invrad_wb.errors import SceneError
 from invrad_wb.app.document import transaction
 from invrad_wb.app.fixtures import fixture_luminaire, insert_fixtures, room_fixtures
-from invrad_wb.app.pipeline import _progress, prepare, write_report, _write_json
+from invrad_wb.app.pipeline import _progress, by_room, prepare, write_report, _write_json
 
 #: Name of the metrics spreadsheet (its Label is :data:`SHEET_LABEL`).
 SHEET_NAME = "InvRadReport"
@@ -79,16 +79,6 @@ class VerifyResult:
     report: object = None
     skipped: list = field(default_factory=list)
     timings: dict = field(default_factory=dict)
-
-
-def by_room(building, luminaires):
-    """``{room id: [Luminaire, ...]}`` for every room of ``building`` (empty lists too)."""
-    out = {p.room_id: [] for p in building.rooms}
-    for lum in luminaires:
-        if lum.room not in out:
-            raise SceneError(f"a luminaire belongs to unknown room id {lum.room!r}")
-        out[lum.room].append(lum)
-    return out
 
 
 def insert(doc, building, luminaires, replace=True, name=None):

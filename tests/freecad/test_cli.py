@@ -2,14 +2,13 @@
 import json
 import os
 import subprocess
-import sys
 
 import numpy as np
 
 import FreeCAD
 
-from fctest import (FZK, ROOT, FreeCADTestCase, make_walled_room, needs_fzk, needs_locate)
-from invrad_wb.app import fixtures, rooms, targets
+from fctest import (FZK, ROOT, FreeCADTestCase, needs_fzk, needs_locate)
+from invrad_wb.app import fixtures
 
 PYTHON = os.path.join(ROOT, ".venv", "bin", "python")
 if not os.path.exists(PYTHON):
@@ -92,12 +91,8 @@ class TestCliErrors(FreeCADTestCase):
 class TestCliRuns(FreeCADTestCase):
 
     def test_fcstd_in_fcstd_out_finds_known_luminaires(self):
-        from test_pipeline import down, texture_targets_from
-        space = make_walled_room(self.doc, label="Office")
-        targets.set_reflectance(space, 0.0, surface_type="All")
-        truth = [down(1.15, 1.5, 2.7, 2000.0), down(2.85, 1.5, 2.7, 2000.0)]
-        faces = rooms.faces_by_kind(space, "floor") + rooms.faces_by_kind(space, "walls")
-        texture_targets_from(space, truth, faces, self.tmp)
+        from test_pipeline import office_with_two_lights
+        _, truth = office_with_two_lights(self.doc, self.tmp)
         src = self.path("office.FCStd")
         self.doc.saveAs(src)
         out = self.path("lit.FCStd")

@@ -188,6 +188,17 @@ class TestBadDocuments(FreeCADTestCase):
         self.run_expecting(SceneError, "Office", "not below the ceiling")
 
 
+def office_with_two_lights(doc, folder):
+    """A black walled office whose floor and wall targets are the direct light of two
+    known 2000 lm ceiling luminaires: (space, true luminaires)."""
+    space = make_walled_room(doc, label="Office")
+    targets.set_reflectance(space, 0.0, surface_type="All")
+    truth = [down(1.15, 1.5, 2.7, 2000.0), down(2.85, 1.5, 2.7, 2000.0)]
+    faces = rooms.faces_by_kind(space, "floor") + rooms.faces_by_kind(space, "walls")
+    texture_targets_from(space, truth, faces, folder)
+    return space, truth
+
+
 def texture_targets_from(space, lums, faces, folder, px=48):
     """Target images on ``faces``: the direct light of known luminaires (forward solver)."""
     import OpenImageIO as oiio
@@ -221,11 +232,7 @@ class TestLocateKnownAnswer(FreeCADTestCase):
     """The full pipeline with the real locate finds luminaires where they were."""
 
     def test_two_ceiling_luminaires_are_found(self):
-        space = make_walled_room(self.doc, label="Office")
-        targets.set_reflectance(space, 0.0, surface_type="All")
-        truth = [down(1.15, 1.5, 2.7, 2000.0), down(2.85, 1.5, 2.7, 2000.0)]
-        faces = rooms.faces_by_kind(space, "floor") + rooms.faces_by_kind(space, "walls")
-        texture_targets_from(space, truth, faces, self.tmp)
+        space, truth = office_with_two_lights(self.doc, self.tmp)
         res = pipeline.run(self.doc, PipelineSettings(flux_lm=2000.0, resolution_m=0.2,
                                                       interreflection=False,
                                                       report_dir=self.path("report")))

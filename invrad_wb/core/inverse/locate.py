@@ -703,7 +703,7 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
     LocateResult
     """
     s = _checked_settings(settings, overrides)
-    flux = _checked_flux(flux_lm)
+    flux = check_flux(flux_lm)
     if not scene.has_targets:
         raise SceneError("the scene has no target illuminance (no 'lux' values)", scene.source)
     backend = check_backend(backend)
@@ -743,7 +743,7 @@ def _checked_settings(settings, overrides):
     return settings.check()
 
 
-def _checked_flux(flux_lm):
+def check_flux(flux_lm):
     """The flux of one luminaire as a positive float, lm (else SettingsError)."""
     try:
         flux = float(flux_lm)

@@ -425,11 +425,8 @@ def _csv_text(header, rows):
 
 
 def _json_default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer, np.bool_)):
-        return o.item()
-    return str(o)
+    from invrad_wb.core.io.jsonout import jsonable
+    return jsonable(o)
 
 
 def _json_clean(o):
