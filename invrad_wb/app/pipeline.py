@@ -256,15 +256,8 @@ def run(doc, settings, progress=None, locate=None, building=None):
     timings["prepare"] = building.seconds
     scene = building.scene
     t = time.perf_counter()
-    if settings.design is not None:
-        from invrad_wb.core.design.design import design
-        result = design(scene, settings.design, room_names=building.room_names,
-                        backend=settings.backend, progress=_progress(progress, 0.1, 0.75))
-    else:
-        if locate is None:
-            from invrad_wb.core.inverse.locate import locate
-        result = locate(scene, flux_lm=flux, settings=settings.locate,
-                        progress=_progress(progress, 0.1, 0.75), backend=settings.backend)
+    result = _find_luminaires(building, settings, flux, _progress(progress, 0.1, 0.75),
+                              locate)
     timings["locate" if settings.design is None else "design"] = time.perf_counter() - t
     lums = list(result.luminaires)
     per_room = by_room(building, lums)
@@ -313,6 +306,19 @@ def run(doc, settings, progress=None, locate=None, building=None):
     return PipelineResult(building, lums, [f.Name for f in fixtures], target, achieved,
                           locate_result=result, report=report_out, summary=summary,
                           timings=timings)
+
+
+def _find_luminaires(building, settings, flux, progress, locate=None):
+    """Design from requirements (``settings.design``) or locate luminaires of ``flux``;
+    the core's result (with ``.luminaires``)."""
+    if settings.design is not None:
+        from invrad_wb.core.design.design import design
+        return design(building.scene, settings.design, room_names=building.room_names,
+                      backend=settings.backend, progress=progress)
+    if locate is None:
+        from invrad_wb.core.inverse.locate import locate
+    return locate(building.scene, flux_lm=flux, settings=settings.locate, progress=progress,
+                  backend=settings.backend)
 
 
 def by_room(building, luminaires):

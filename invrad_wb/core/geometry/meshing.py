@@ -48,58 +48,63 @@ def refine(vertices, triangles, max_edge, tags=None, max_rounds=64):
         too_long = lengths[np.arange(len(t)), longest] > max_edge * (1 + 1e-9)
         if not too_long.any():
             break
-        # rotate every triangle so that its longest edge is (t0, t1): split patterns below
-        # then only need the flags of edges 1 (t1 t2) and 2 (t2 t0)
-        rot = np.stack([longest, (longest + 1) % 3, (longest + 2) % 3], axis=1)
-        t = np.take_along_axis(t, rot, axis=1)
-        n = len(v)
-        a = t.reshape(-1)
-        b = t[:, [1, 2, 0]].reshape(-1)
-        key = np.minimum(a, b) * n + np.maximum(a, b)
-        ukey, edge_of = np.unique(key, return_inverse=True)
-        edge_of = edge_of.reshape(-1, 3)
-        marked = np.zeros(len(ukey), dtype=bool)
-        marked[edge_of[too_long, 0]] = True
-        # closure: a triangle with any marked edge must have its longest edge marked
-        while True:
-            flags = marked[edge_of]
-            need = flags.any(axis=1) & ~flags[:, 0]
-            if not need.any():
-                break
-            marked[edge_of[need, 0]] = True
-        flags = marked[edge_of]
-        # one midpoint per marked edge
-        mk = np.flatnonzero(marked)
-        ea, eb = ukey[mk] // n, ukey[mk] % n
-        mid_index = np.full(len(ukey), -1, dtype=np.int64)
-        mid_index[mk] = n + np.arange(len(mk))
-        v = np.concatenate([v, 0.5 * (v[ea] + v[eb])])
-        m0, m1, m2 = (mid_index[edge_of[:, k]] for k in range(3))
-        p0, p1, p2 = t[:, 0], t[:, 1], t[:, 2]
-        new_t, new_tags = [], []
-
-        def emit(sel, *tris):
-            for tri in tris:
-                new_t.append(np.stack([x[sel] for x in tri], axis=1))
-                if tg is not None:
-                    new_tags.append(tg[sel])
-
-        keep = ~flags[:, 0]
-        emit(keep, (p0, p1, p2))
-        only0 = flags[:, 0] & ~flags[:, 1] & ~flags[:, 2]
-        emit(only0, (p0, m0, p2), (m0, p1, p2))
-        with1 = flags[:, 0] & flags[:, 1] & ~flags[:, 2]
-        emit(with1, (p0, m0, p2), (m0, p1, m1), (m0, m1, p2))
-        with2 = flags[:, 0] & ~flags[:, 1] & flags[:, 2]
-        emit(with2, (p0, m0, m2), (m2, m0, p2), (m0, p1, p2))
-        all3 = flags[:, 0] & flags[:, 1] & flags[:, 2]
-        emit(all3, (p0, m0, m2), (m0, p1, m1), (m0, m1, p2), (m0, p2, m2))
-        t = np.concatenate(new_t)
-        if tg is not None:
-            tg = np.concatenate(new_tags)
+        v, t, tg = _bisect(v, t, tg, longest, too_long)
     else:
         raise RuntimeError(f"mesh refinement did not converge in {max_rounds} rounds")
     return v, t, tg
+
+
+def _marked_edges(t, n, too_long):
+    """Unique edges (keys), each triangle's edge indices and which edges are split: the
+    longest edges of ``too_long`` triangles, closed so that a triangle with any split edge
+    also splits its longest (edge 0 after the rotation in :func:`_bisect`)."""
+    a = t.reshape(-1)
+    b = t[:, [1, 2, 0]].reshape(-1)
+    key = np.minimum(a, b) * n + np.maximum(a, b)
+    ukey, edge_of = np.unique(key, return_inverse=True)
+    edge_of = edge_of.reshape(-1, 3)
+    marked = np.zeros(len(ukey), dtype=bool)
+    marked[edge_of[too_long, 0]] = True
+    while True:
+        flags = marked[edge_of]
+        need = flags.any(axis=1) & ~flags[:, 0]
+        if not need.any():
+            return ukey, edge_of, marked
+        marked[edge_of[need, 0]] = True
+
+
+def _bisect(v, t, tg, longest, too_long):
+    """One round of conforming longest-edge bisection."""
+    # rotate every triangle so that its longest edge is (t0, t1): split patterns below
+    # then only need the flags of edges 1 (t1 t2) and 2 (t2 t0)
+    rot = np.stack([longest, (longest + 1) % 3, (longest + 2) % 3], axis=1)
+    t = np.take_along_axis(t, rot, axis=1)
+    n = len(v)
+    ukey, edge_of, marked = _marked_edges(t, n, too_long)
+    flags = marked[edge_of]
+    # one midpoint per marked edge
+    mk = np.flatnonzero(marked)
+    ea, eb = ukey[mk] // n, ukey[mk] % n
+    mid_index = np.full(len(ukey), -1, dtype=np.int64)
+    mid_index[mk] = n + np.arange(len(mk))
+    v = np.concatenate([v, 0.5 * (v[ea] + v[eb])])
+    m0, m1, m2 = (mid_index[edge_of[:, k]] for k in range(3))
+    p0, p1, p2 = t[:, 0], t[:, 1], t[:, 2]
+    new_t, new_tags = [], []
+
+    def emit(sel, *tris):
+        for tri in tris:
+            new_t.append(np.stack([x[sel] for x in tri], axis=1))
+            if tg is not None:
+                new_tags.append(tg[sel])
+
+    f0, f1, f2 = flags[:, 0], flags[:, 1], flags[:, 2]
+    emit(~f0, (p0, p1, p2))
+    emit(f0 & ~f1 & ~f2, (p0, m0, p2), (m0, p1, p2))
+    emit(f0 & f1 & ~f2, (p0, m0, p2), (m0, p1, m1), (m0, m1, p2))
+    emit(f0 & ~f1 & f2, (p0, m0, m2), (m2, m0, p2), (m0, p1, p2))
+    emit(f0 & f1 & f2, (p0, m0, m2), (m0, p1, m1), (m0, m1, p2), (m0, p2, m2))
+    return v, np.concatenate(new_t), (np.concatenate(new_tags) if tg is not None else None)
 
 
 def triangle_normals(vertices, triangles):
