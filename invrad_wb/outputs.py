@@ -3,7 +3,7 @@
 Every command checks where it will write before it reads or computes anything, so a typo
 in ``-o`` costs a second, not the whole run, and never replaces a file it should not:
 
-* a file output must not be a folder, its folder must exist and be writable, it must not
+* a file output must not be a folder, its folder must be writable (or creatable), it must not
   be one of the command's inputs, and an existing read-only file is refused (never made
   writable behind the user's back);
 * a folder output must not be an existing file, and its parent must be writable;
@@ -26,11 +26,7 @@ def check_file(path, what="output", inputs=()):
     real = resolve(path)
     if os.path.isdir(real):
         raise InvradError(f"{path}: {what} is a folder; give a file name")
-    folder = os.path.dirname(real) or "."
-    if not os.path.isdir(folder):
-        raise InvradError(f"{path}: {what}: the folder {folder} does not exist")
-    if not os.access(folder, os.W_OK):
-        raise InvradError(f"{path}: {what}: the folder {folder} is not writable")
+    _check_parent(path, os.path.dirname(real) or ".", what)
     for src in inputs:
         if src and os.path.exists(src) and os.path.exists(real) \
                 and os.path.samefile(src, real):
@@ -50,9 +46,17 @@ def check_folder(path, what="output folder"):
     real = resolve(path)
     if os.path.exists(real) and not os.path.isdir(real):
         raise InvradError(f"{path}: {what} is an existing file, not a folder")
-    parent = os.path.dirname(os.path.abspath(real)) or "."
-    if not os.path.isdir(parent):
-        raise InvradError(f"{path}: {what}: the folder {parent} does not exist")
-    if not os.access(parent, os.W_OK):
-        raise InvradError(f"{path}: {what}: the folder {parent} is not writable")
+    _check_parent(path, os.path.dirname(os.path.abspath(real)) or ".", what)
     return real
+
+
+def _check_parent(path, folder, what):
+    """The folder an output goes into exists and is writable, or can be created: its
+    nearest existing ancestor is a writable folder (not a file)."""
+    probe = os.path.abspath(folder)
+    while not os.path.exists(probe):
+        probe = os.path.dirname(probe)
+    if not os.path.isdir(probe):
+        raise InvradError(f"{path}: {what}: {probe} is a file, not a folder")
+    if not os.access(probe, os.W_OK):
+        raise InvradError(f"{path}: {what}: the folder {probe} is not writable")

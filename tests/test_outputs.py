@@ -33,9 +33,11 @@ def test_output_on_a_folder_is_refused_before_reading(tmp_path):
     one_line_error(cp, "out", "is a folder")
 
 
-def test_output_in_a_missing_or_unwritable_folder(tmp_path):
-    cp = run("locate", OFFICE, "--flux", "3000", "-o", "nope/r.json", cwd=tmp_path)
-    one_line_error(cp, "does not exist")
+def test_output_under_a_file_or_in_an_unwritable_folder(tmp_path):
+    (tmp_path / "f").write_text("keep")
+    cp = run("locate", OFFICE, "--flux", "3000", "-o", "f/sub/r.json", cwd=tmp_path)
+    one_line_error(cp, "is a file, not a folder")
+    assert (tmp_path / "f").read_text() == "keep"
     ro = tmp_path / "ro"
     ro.mkdir()
     ro.chmod(0o555)

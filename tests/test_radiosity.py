@@ -17,8 +17,7 @@ from invrad_wb.core.model.scene import Scene
 from invrad_wb.errors import DeviceError, SettingsError
 
 HAVE_CL = clenv.opencl_available()
-needs_cl = pytest.mark.skipif(not HAVE_CL, reason="no OpenCL device")
-BACKENDS = ["numpy", pytest.param("opencl", marks=needs_cl)]
+BACKENDS = ["numpy", pytest.param("opencl", marks=pytest.mark.opencl)]
 FAST = "opencl" if HAVE_CL else "numpy"
 
 
@@ -195,7 +194,7 @@ def test_exact_formula_matches_quadrature():
 
 
 # ---------------------------------------------------------------------------- 4. backends
-@needs_cl
+@pytest.mark.opencl
 @pytest.mark.parametrize("make", [generate.pillar_room, generate.l_room],
                          ids=["pillar", "L"])
 def test_opencl_matches_numpy(make):

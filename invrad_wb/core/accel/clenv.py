@@ -120,6 +120,16 @@ def _pick_device(cl):
     return sorted(candidates, key=rank)[0]
 
 
+#: set INVRAD_OPENCL=0 to run every step with its numpy twin (and skip OpenCL tests)
+ENV_SWITCH = "INVRAD_OPENCL"
+
+
+def opencl_disabled():
+    """True when the user switched OpenCL off (``INVRAD_OPENCL=0``)."""
+    import os
+    return os.environ.get(ENV_SWITCH, "").strip().lower() in ("0", "false", "no", "off")
+
+
 def get_env():
     """The process-wide :class:`CLEnv` (created on first use).
 
@@ -128,6 +138,8 @@ def get_env():
     DeviceError
         If OpenCL cannot be used; the message says what to install.
     """
+    if opencl_disabled():
+        raise DeviceError(f"OpenCL is switched off ({ENV_SWITCH}=0)")
     global _env
     with _lock:
         if _env is None:

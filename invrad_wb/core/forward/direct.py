@@ -9,7 +9,8 @@ import numpy as np
 
 from invrad_wb import constants as C
 from invrad_wb.core.geometry.bvh import BVH, segments_occluded_numpy
-from invrad_wb.core.accel.clenv import get_env, check_backend, launch_chunked, float4
+from invrad_wb.core.accel.clenv import get_env, launch_chunked, float4
+from invrad_wb.core.accel.registry import implementation, register
 from invrad_wb.core.model.luminaires import emitter_samples
 
 
@@ -128,6 +129,9 @@ def direct_illuminance_opencl(points, normals, luminaires, bvh=None, occlusion=T
 def direct_illuminance(points, normals, luminaires, bvh=None, occlusion=True,
                        backend="opencl"):
     """Direct illuminance (lux) at points; ``backend`` is 'opencl', 'numpy' or 'auto'."""
-    backend = check_backend(backend)
-    fn = direct_illuminance_opencl if backend == "opencl" else direct_illuminance_numpy
+    fn = implementation("direct_illuminance", backend)
     return fn(points, normals, luminaires, bvh=bvh, occlusion=occlusion)
+
+
+register("direct_illuminance", direct_illuminance_opencl, direct_illuminance_numpy,
+         "direct light of point/disk luminaires with occlusion (kernels/direct.cl)")

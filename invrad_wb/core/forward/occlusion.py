@@ -6,7 +6,9 @@ reference :func:`invrad_wb.core.geometry.bvh.segments_occluded_bruteforce`).
 import numpy as np
 
 from invrad_wb import constants as C
-from invrad_wb.core.accel.clenv import get_env, launch_chunked
+from invrad_wb.core.accel.clenv import float4, get_env, launch_chunked
+from invrad_wb.core.accel.registry import implementation, register
+from invrad_wb.core.geometry.bvh import segments_occluded_numpy
 
 
 def segments_occluded_opencl(bvh, p, q, eps=C.RAY_EPS_M):
@@ -19,16 +21,22 @@ def segments_occluded_opencl(bvh, p, q, eps=C.RAY_EPS_M):
     env = get_env()
     cl = env.cl
     mf = cl.mem_flags
-    p4 = np.zeros((n, 4), np.float32)
-    q4 = np.zeros((n, 4), np.float32)
-    p4[:, :3] = p
-    q4[:, :3] = q
     out = np.empty(n, np.uint8)
-    d_p = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=p4)
-    d_q = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=q4)
+    d_p = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=float4(p))
+    d_q = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=float4(q))
     d_o = cl.Buffer(env.ctx, mf.WRITE_ONLY, out.nbytes)
     knl = env.kernel("occlusion", "segments_occluded")
     launch_chunked(env, knl, n, (d_p, d_q, np.float32(eps)), (*bvh.cl_buffers(env), d_o),
                    C.CL_CHUNK_SEGMENTS)
     cl.enqueue_copy(env.queue, out, d_o)
     return out.astype(bool)
+
+
+def segments_occluded(bvh, p, q, backend="auto"):
+    """(k,) bool: is segment p[i] -> q[i] blocked by a triangle of ``bvh``?"""
+    return implementation("segments_occluded", backend)(bvh, p, q)
+
+
+register("segments_occluded", segments_occluded_opencl,
+         lambda bvh, p, q, eps=C.RAY_EPS_M: segments_occluded_numpy(bvh, p, q, eps),
+         "segment occlusion through the BVH (kernels/occlusion.cl)")

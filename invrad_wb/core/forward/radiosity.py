@@ -77,6 +77,7 @@ from invrad_wb import constants as C
 from invrad_wb.errors import SettingsError
 from invrad_wb.core.geometry.bvh import BVH
 from invrad_wb.core.accel.clenv import check_backend, get_env, round_up, float4
+from invrad_wb.core.accel.registry import implementation, register
 
 #: Patches per OpenCL work-item (float16 lanes) and triangles per near-field vector.
 PATCH_LANES = 16
@@ -365,11 +366,8 @@ def form_factor_matrix(points, normals, point_plane, patches, point_patch=None,
         if point_patch is None:
             raise ValueError("visibility needs point_patch")
         point_patch = np.asarray(point_patch, dtype=np.int64).reshape(-1)
-    if backend == "opencl":
-        return _form_factors_opencl(points, normals, point_plane, patches, point_patch,
-                                    visibility, centre)
-    return _form_factors_numpy(points, normals, point_plane, patches, point_patch,
-                               visibility)
+    fn = implementation("form_factors", backend)
+    return fn(points, normals, point_plane, patches, point_patch, visibility, centre)
 
 
 def _near_field_numpy(p, m, ps, pj):
@@ -404,7 +402,7 @@ def _inner_ratio():
     return (C.RADIOSITY_NEAR_FACTOR / (C.RADIOSITY_NEAR_FACTOR + C.RADIOSITY_NEAR_BLEND)) ** 2
 
 
-def _form_factors_numpy(points, normals, point_plane, ps, point_patch, vis):
+def _form_factors_numpy(points, normals, point_plane, ps, point_patch, vis, centre=None):
     """Numpy twin of ``kernels/radiosity.cl`` (float64); see :func:`form_factor_matrix`."""
     k, n = len(points), ps.n
     out = np.zeros((k, n))
@@ -437,7 +435,7 @@ def _form_factors_numpy(points, normals, point_plane, ps, point_patch, vis):
 
 
 
-def _form_factors_opencl(points, normals, point_plane, ps, point_patch, vis, centre):
+def _form_factors_opencl(points, normals, point_plane, ps, point_patch, vis, centre=None):
     """Form factors with ``kernels/radiosity.cl`` (float32); see :func:`form_factor_matrix`."""
     env = get_env()
     cl = env.cl
@@ -482,14 +480,15 @@ def _form_factors_opencl(points, normals, point_plane, ps, point_patch, vis, cen
     return out
 
 
+register("form_factors", _form_factors_opencl, _form_factors_numpy,
+         "point-to-patch form factors, exact near and point far (kernels/radiosity.cl)")
+
+
 # ---------------------------------------------------------------------------- visibility
 def _segments_occluded(bvh, p, q, backend):
     """(k,) bool: is the segment p -> q blocked by the scene (see :mod:`.bvh`)?"""
-    if backend != "opencl":
-        from invrad_wb.core.geometry.bvh import segments_occluded_numpy
-        return segments_occluded_numpy(bvh, p, q)
-    from invrad_wb.core.forward.occlusion import segments_occluded_opencl
-    return segments_occluded_opencl(bvh, p, q)
+    from invrad_wb.core.forward.occlusion import segments_occluded
+    return segments_occluded(bvh, p, q, backend)
 
 
 def patch_visibility(patches, bvh, backend="numpy"):

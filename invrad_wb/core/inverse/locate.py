@@ -32,7 +32,7 @@ from invrad_wb.core.inverse.peaks import find_peaks
 from invrad_wb.core.inverse.refine import Light, RefineProblem, greedy_select, swap_search
 from invrad_wb.core.inverse.sampling import voting_points, default_density
 from invrad_wb.core.inverse.votemaps import build_canvas
-from invrad_wb.core.inverse.votes import vote_weights, cast_exact_numpy, cast_exact_opencl
+from invrad_wb.core.inverse.votes import vote_weights, cast_exact
 
 VOTE_MODELS = ("exact", "ellipse")
 #: luminaires stay this far above a work plane (nothing is mounted right above a desk)
@@ -832,9 +832,8 @@ def _vote_function(canvas, pts, ambient, occ, s, flux, backend, timings):
         vl = vote_lux / share
         W = vote_weights(canvas, pts, vl, s.weighting, s.vote_strength)
         if s.vote_model == "exact":
-            cast = cast_exact_opencl if backend == "opencl" else cast_exact_numpy
-            out = cast(canvas, pts, W, vl, flux, bvh=occ, shade=shade,
-                       shade_limit_lux=shade_limit)
+            out = cast_exact(canvas, pts, W, vl, flux, backend=backend, bvh=occ,
+                             shade=shade, shade_limit_lux=shade_limit)
         else:
             from invrad_wb.core.inverse.votes_ellipse import cast_ellipse
             out = cast_ellipse(canvas, pts, W, vl, flux, bvh=occ, shade=shade,
@@ -849,10 +848,9 @@ def _refine_problem(scene, pts, canvas, occ, s, flux, backend, has_rho, timings)
 
     Returns ``(RefineProblem, _Indirect or None)``.
     """
-    occluded_fn = None
-    if occ is not None and backend == "opencl":
-        from invrad_wb.core.forward.occlusion import segments_occluded_opencl
-        occluded_fn = lambda p, q, _b=occ: segments_occluded_opencl(_b, p, q)
+    from invrad_wb.core.forward.occlusion import segments_occluded
+    occluded_fn = None if occ is None else (
+        lambda p, q, _b=occ: segments_occluded(_b, p, q, backend))
     prob = RefineProblem(positions=pts.positions, normals=pts.normals, target=pts.lux,
                          flux=flux, area=pts.area, bvh=occ, inside=_make_inside(canvas),
                          occluded_fn=occluded_fn)

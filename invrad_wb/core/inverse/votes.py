@@ -21,6 +21,7 @@ from invrad_wb import constants as C
 from invrad_wb.errors import SettingsError
 from invrad_wb.core.geometry.bvh import segments_occluded_numpy
 from invrad_wb.core.accel.clenv import get_env, launch_chunked, float4, device_buffer
+from invrad_wb.core.accel.registry import implementation, register
 from invrad_wb.core.inverse.formfactor import _g1, _x_max_unit
 
 WEIGHTINGS = ("illumination", "distance", "both", "none")
@@ -248,3 +249,13 @@ def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
     # blocks skipped as fully masked stay 0; masked pixels inside blocks are zeroed here
     out[~canvas.mask_flat()] = 0.0
     return out
+
+
+register("votes_exact", cast_exact_opencl, cast_exact_numpy,
+         "exact votes: iso-illuminance contours per voting point (kernels/votes_exact.cl)")
+
+
+def cast_exact(canvas, points, W, vote_lux, flux, backend="auto", **kwargs):
+    """Exact votes on the backend chosen once (see :func:`cast_exact_numpy`)."""
+    return implementation("votes_exact", backend)(canvas, points, W, vote_lux, flux,
+                                                  **kwargs)

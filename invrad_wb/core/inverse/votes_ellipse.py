@@ -23,6 +23,7 @@ import numpy as np
 from invrad_wb import constants as C
 from invrad_wb.core.geometry.bvh import BVH, segments_occluded_numpy
 from invrad_wb.core.accel.clenv import get_env, launch_chunked, float4, device_buffer
+from invrad_wb.core.accel.registry import implementation, register
 from invrad_wb.core.inverse.table import load_voting_table
 
 FIXED_POINT = 65536.0
@@ -70,12 +71,11 @@ def ellipse_votes_params(canvas, points, W, vote_lux, flux, table=None):
 
 def shade_forbidden(canvas, shade, limit_lux, flux, bvh=None, backend="numpy"):
     """(canvas.size,) bool: pixels whose luminaire would give a shade point > limit lux."""
-    from invrad_wb.core.inverse.votes import cast_exact_numpy, cast_exact_opencl
     if shade is None or len(shade) == 0 or limit_lux is None:
         return np.zeros(canvas.size, dtype=bool)
     # the exact-vote machinery with a unit vote everywhere: forbidden pixels come back 0
     probe = _UnitProbe(canvas)
-    fn = cast_exact_opencl if backend == "opencl" else cast_exact_numpy
+    fn = implementation("votes_exact", backend)
     out = fn(canvas, probe.points, probe.W, probe.lux, flux, bvh=bvh, shade=shade,
              shade_limit_lux=limit_lux, baseline=1.0)
     return canvas.mask_flat() & (out < 0.5)
@@ -211,6 +211,11 @@ def cast_ellipse_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
 
 def cast_ellipse(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
                  shade_limit_lux=None, backend="opencl"):
-    fn = cast_ellipse_opencl if backend == "opencl" else cast_ellipse_numpy
+    fn = implementation("votes_ellipse", backend)
     return fn(canvas, points, W, vote_lux, flux, bvh=bvh, shade=shade,
               shade_limit_lux=shade_limit_lux)
+
+
+register("votes_ellipse", cast_ellipse_opencl, cast_ellipse_numpy,
+         "the thesis' deformed-ellipse votes from the voting table"
+         " (kernels/votes_ellipse.cl)")
