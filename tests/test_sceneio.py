@@ -392,11 +392,15 @@ def test_exr_texture_gives_target_lux_at_uv(tmp_path, mesh_name):
     np.testing.assert_allclose(got, expected, rtol=1e-6)  # GLB stores float32
 
 
-def test_rgb_texture_uses_rec709_luminance_and_ignores_alpha(tmp_path):
+def test_rgb_texture_uses_rec709_luminance_and_alpha_marks_no_target(tmp_path):
+    # one image rule for every reader (core/io/oiio.py): alpha < 0.5 is "no target"
     img = np.zeros((2, 3, 4), np.float32)
-    img[..., 0], img[..., 1], img[..., 2], img[..., 3] = 100, 200, 50, 0
+    img[..., 0], img[..., 1], img[..., 2], img[..., 3] = 100, 200, 50, 1
+    img[0, 1, 3] = 0.2
     lux = sceneio.read_lux_texture(write_image(tmp_path / "rgba.exr", img, "float"))
-    np.testing.assert_allclose(lux, 0.2126 * 100 + 0.7152 * 200 + 0.0722 * 50, rtol=1e-12)
+    expected = np.full((2, 3), 0.2126 * 100 + 0.7152 * 200 + 0.0722 * 50)
+    expected[0, 1] = np.nan
+    np.testing.assert_allclose(lux, expected, rtol=1e-12)
 
 
 def test_8bit_texture_needs_and_uses_max_lux(tmp_path):

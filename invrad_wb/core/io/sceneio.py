@@ -47,7 +47,6 @@ UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 #: Names of lux sidecars next to a mesh ``ROOM.ext``: ``ROOM`` + one of these.
 SIDECAR_SUFFIXES = (".lux.json", ".lux.csv", ".lux.txt")
 #: Rec.709 luminance weights for RGB lux textures.
-REC709 = (0.2126, 0.7152, 0.0722)
 #: Mesh extensions whose up axis is +Y by specification (converted to +Z).
 Y_UP_EXTENSIONS = (".glb", ".gltf")
 
@@ -1056,7 +1055,8 @@ def read_lux_texture(path, max_lux=None):
     -------
     (h, w) float64, lux
         Row 0 is the image's top row (v = 1). RGB is reduced to Rec.709 luminance, other
-        images use their first channel; alpha is ignored. NaN = no target.
+        images use their first channel; alpha below 0.5 and NaN pixels are no target
+        (:mod:`invrad_wb.core.io.oiio`).
     """
     path = os.fspath(path)
     _check_readable(path)
@@ -1067,43 +1067,18 @@ def read_lux_texture(path, max_lux=None):
             ok = False
         if not ok:
             raise SettingsError(f"texture_max_lux must be a positive number, not {max_lux!r}")
+    from invrad_wb.core.io.oiio import read_lux_image
     try:
-        import OpenImageIO as oiio
-    except ImportError as exc:
-        raise InvradError(f"reading lux textures needs OpenImageIO: {exc}") from None
-    inp = oiio.ImageInput.open(path)
-    if inp is None:
-        raise SceneError(f"cannot read as an image: {oiio.geterror() or 'unknown format'}",
-                         path)
-    try:
-        spec = inp.spec()
-        pixels = inp.read_image(0, 0, 0, spec.nchannels, "float")
-        error = inp.geterror() if pixels is None else ""
-    finally:
-        inp.close()
-    if pixels is None or not spec.width or not spec.height:
-        raise SceneError(f"cannot read the image's pixels: {error or 'empty image'}", path)
-    h, w, nc = spec.height, spec.width, spec.nchannels
-    img = np.asarray(pixels, dtype=np.float64).reshape(h, w, nc)
-    names = [str(n).upper() for n in spec.channelnames]
-    colour = [c for c in range(nc) if c != spec.alpha_channel and names[c] not in ("A", "ALPHA")]
-    if all(c in names for c in "RGB"):
-        rgb = [names.index(c) for c in "RGB"]
-    elif len(colour) >= 3:
-        rgb = colour[:3]
-    else:
-        rgb = None
-    if rgb is not None:
-        lux = img[..., rgb] @ np.array(REC709)
-    else:
-        lux = img[..., colour[0] if colour else 0]
-    is_float = spec.format.basetype in (oiio.FLOAT, oiio.HALF, oiio.DOUBLE)
+        image = read_lux_image(path)
+    except OSError as exc:
+        raise SceneError(f"cannot read as an image: {exc}", path)
+    lux, is_float = image.values, image.is_float
     if is_float and max_lux is not None:
-        raise SceneError(f"a {spec.format} image holds lux already: texture_max_lux applies"
+        raise SceneError(f"a {image.format} image holds lux already: texture_max_lux applies"
                          " to 8/16-bit images only", path)
     if not is_float:
         if max_lux is None:
-            raise SceneError(f"a {spec.format} image holds no lux values: give"
+            raise SceneError(f"a {image.format} image holds no lux values: give"
                              " texture_max_lux, the lux of a white pixel (or use a float"
                              " EXR/HDR/TIFF holding lux)", path)
         lux = lux * float(max_lux)

@@ -54,8 +54,6 @@ from invrad_wb.core.model.scene import plane_basis, winding_number
 
 FALLOFFS = ("cosine", "gaussian", "flat")
 
-#: Luminance weights of linear RGB (Rec. 709) used to read colour illuminance images.
-REC709 = np.array([0.2126, 0.7152, 0.0722])
 
 
 # --------------------------------------------------------------------------- specs
@@ -249,32 +247,11 @@ def load_lux_image(path, source=None):
     (h, w) float64: the first channel of a grey image or the Rec. 709 luminance of a colour
     one (as floats: 8-bit images give 0..1); NaN where alpha < 0.5. Row 0 is the top row.
     """
+    from invrad_wb.core.io.oiio import read_lux_image
     try:
-        import OpenImageIO as oiio
-    except ImportError as exc:
-        raise SceneError(f"cannot read illuminance image {path}: OpenImageIO is not"
-                         f" installed ({exc})", source)
-    inp = oiio.ImageInput.open(str(path))
-    if inp is None:
-        raise SceneError(f"cannot read illuminance image {path}: {oiio.geterror()}", source)
-    try:
-        spec = inp.spec()
-        pixels = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
-    finally:
-        inp.close()
-    if pixels is None:
-        raise SceneError(f"cannot read illuminance image {path}: {oiio.geterror()}", source)
-    px = np.asarray(pixels, dtype=np.float64).reshape(spec.height, spec.width, spec.nchannels)
-    a = spec.alpha_channel
-    if a < 0 and spec.nchannels in (2, 4):      # grey+alpha, RGBA without alpha flag
-        a = spec.nchannels - 1
-    colour = [i for i in range(spec.nchannels) if i != a]
-    img = px[..., colour[:3]] @ REC709 if len(colour) >= 3 else px[..., colour[0]]
-    alpha = px[..., a] if a >= 0 else None
-    img = img.copy()
-    if alpha is not None:
-        img[alpha < 0.5] = np.nan
-    return img
+        return read_lux_image(path).values
+    except OSError as exc:
+        raise SceneError(f"cannot read illuminance image {path}: {exc}", source)
 
 
 def sample_image_clamped(image, st):

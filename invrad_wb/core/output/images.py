@@ -34,6 +34,9 @@ import math
 
 import numpy as np
 
+from invrad_wb.errors import InvradError
+from invrad_wb.core.io.oiio import oiio_module
+
 from invrad_wb.core.io.atomic import atomic_path
 from invrad_wb.core.geometry.raster import locate_points
 
@@ -171,8 +174,8 @@ def draw_text(img, items, size=13):
     if not items:
         return img
     try:
-        import OpenImageIO as oiio
-    except ImportError:
+        oiio = oiio_module("drawing text")
+    except InvradError:
         return img
     img = np.array(img, dtype=np.uint8, copy=True)
     for it in items:                       # label boxes first, text over them
@@ -214,7 +217,7 @@ def draw_text(img, items, size=13):
 def _text_box(img, x, y, text, size, align, valign, colour, alpha=0.8, pad=3):
     """Blend a box behind where :func:`draw_text` will put ``text`` (in place)."""
     try:
-        import OpenImageIO as oiio
+        oiio = oiio_module("measuring text")
         r = oiio.ImageBufAlgo.text_size(str(text), size, _FONT[0])
         x0, x1, y0, y1 = r.xbegin, r.xend, r.ybegin, r.yend
         if not r.defined:
@@ -235,7 +238,7 @@ def _text_box(img, x, y, text, size, align, valign, colour, alpha=0.8, pad=3):
 def text_width(text, size=13):
     """Width in pixels of ``text`` (an estimate if the font cannot be measured)."""
     try:
-        import OpenImageIO as oiio
+        oiio = oiio_module("measuring text")
         r = oiio.ImageBufAlgo.text_size(str(text), size, _FONT[0])
         if r.defined:
             return int(r.xend - r.xbegin)
@@ -914,12 +917,7 @@ def compose(title, parts, subtitle=None, pad=10):
 
 # ---------------------------------------------------------------------------- files
 def _oiio():
-    try:
-        import OpenImageIO as oiio
-    except ImportError as exc:      # pragma: no cover - a dependency of the package
-        raise ImportError("writing images needs OpenImageIO (pip install OpenImageIO)"
-                          f": {exc}") from exc
-    return oiio
+    return oiio_module("writing images")
 
 
 def _write(path, pixels, fmt, suffix, channel_names=None, compression=None):
