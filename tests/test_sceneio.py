@@ -647,7 +647,8 @@ def test_failed_write_keeps_previous_file(tmp_path, monkeypatch, failure):
     sceneio.write_ply(path, generate.box_room(cell=1.5))
     before = path.read_bytes()
     calls = []
-    real_block = sceneio._write_block
+    from invrad_wb.core.io import ply
+    real_block = ply._write_block
 
     def failing_block(fh, records, binary):
         calls.append(1)
@@ -660,9 +661,9 @@ def test_failed_write_keeps_previous_file(tmp_path, monkeypatch, failure):
         raise OSError(28, "No space left on device")
 
     if failure == "fsync":
-        monkeypatch.setattr(sceneio.os, "fsync", failing_fsync)
+        monkeypatch.setattr(ply.os, "fsync", failing_fsync)
     else:
-        monkeypatch.setattr(sceneio, "_write_block", failing_block)
+        monkeypatch.setattr(ply, "_write_block", failing_block)
     other = rich_scene()
     with pytest.raises((RuntimeError, OSError, KeyboardInterrupt)):
         sceneio.write_ply(path, other)
