@@ -468,14 +468,21 @@ def greedy_select(problem, candidates, min_gain=0.05, min_gain_total=0.005, max_
             misses += 1
             trace.append({"candidate": ci, "result": "rejected", "cost_before": cost,
                           "cost_after": c_trial})
-    # prune luminaires the cost does not need (a later one may have taken over their job)
+    lights, cost = _prune(problem, lights, cost, opt, enough, min_gain_total * cost0, trace)
+    _score(problem, lights, cost)
+    return lights, cost, trace
+
+
+def _prune(problem, lights, cost, opt, enough, floor, trace):
+    """Drop luminaires the cost does not need (a later one may have taken over their job);
+    returns (lights, cost)."""
     changed = True
     while changed and len(lights) > 1:
         changed = False
         for i in range(len(lights)):
             rest = lights[:i] + lights[i + 1:]
             # clearly needed (removing it triples the cost): no refit of the others
-            if problem.cost(rest) > 3.0 * cost + min_gain_total * cost0:
+            if problem.cost(rest) > 3.0 * cost + floor:
                 continue
             rest_opt, c_rest = opt(rest)
             if not enough(c_rest, cost):
@@ -483,12 +490,15 @@ def greedy_select(problem, candidates, min_gain=0.05, min_gain_total=0.005, max_
                 lights, cost = rest_opt, c_rest
                 changed = True
                 break
-    # score: how much each luminaire is needed
+    return lights, cost
+
+
+def _score(problem, lights, cost):
+    """Each luminaire's score: the relative cost increase without it."""
     for i, L in enumerate(lights):
         rest = lights[:i] + lights[i + 1:]
         c_rest = problem.cost(rest)
         L.score = float((c_rest - cost) / max(c_rest, 1e-12))
-    return lights, cost, trace
 
 
 def swap_search(problem, lights, candidates, min_gain=0.05, merge_distance=0.25, tries=8,
