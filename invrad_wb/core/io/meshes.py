@@ -11,7 +11,6 @@ from invrad_wb.core.io.common import (_MeshData, _check_face_values, _check_vert
                                       _extension, _read_bytes)
 
 
-#: Rec.709 luminance weights for RGB lux textures.
 #: Mesh extensions whose up axis is +Y by specification (converted to +Z).
 Y_UP_EXTENSIONS = (".glb", ".gltf")
 

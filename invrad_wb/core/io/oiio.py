@@ -1,11 +1,13 @@
 """The one place that imports OpenImageIO, and the one image reader of invrad.
 
-Illuminance images (UV textures of a scene, texture targets of the workbench) are read by
-:func:`read_lux_image` with one rule for every caller: pixels as floats (8/16-bit images
-give 0..1), a colour image reduced to its Rec. 709 luminance (channels named R, G, B, else
-the first three that are not alpha), a grey image its first channel; pixels whose alpha is
-below 0.5 are "no target" (NaN). The alpha channel is the one the file declares, else one
-named A/alpha, else the last of a 2- or 4-channel image.
+:func:`read_pixels` reads any image as float pixels (8/16-bit images give 0..1); every
+reader of image files goes through it (lux textures of a scene, texture targets of the
+workbench, the report's images read back). Illuminance images are then reduced by
+:func:`read_lux_image` with one rule for every caller: a colour image to its Rec. 709
+luminance (channels named R, G, B, else the first three that are not alpha), a grey image
+to its first channel; pixels whose alpha is below 0.5 are "no target" (NaN). The alpha
+channel is the one the file declares, else one named A/alpha, else the last of a 2- or
+4-channel image.
 """
 from dataclasses import dataclass
 
@@ -28,6 +30,16 @@ def oiio_module(purpose="reading images"):
 
 
 @dataclass
+class Pixels:
+    """An image file's pixels, as read by :func:`read_pixels`."""
+    values: np.ndarray       # (h, w, c) float32; 8/16-bit images give 0..1; row 0 = top
+    channel_names: list      # c str, upper case ("R", "G", "B", "A", "Y", ...)
+    alpha: int               # index of the alpha channel, -1 if none
+    is_float: bool           # float pixels (EXR/HDR/float TIFF)
+    format: str              # the stored pixel type, e.g. "uint8", "half"
+
+
+@dataclass
 class LuxImage:
     """An image read by :func:`read_lux_image`."""
     values: np.ndarray       # (h, w) float64, NaN where alpha < 0.5; row 0 = top row
@@ -44,16 +56,27 @@ def _alpha_channel(spec, names):
     return spec.nchannels - 1 if spec.nchannels in (2, 4) else -1
 
 
-def read_lux_image(path):
-    """Read an image as one value per pixel (see the module docstring).
+def read_pixels(path):
+    """Read the first sub-image of an image file as float pixels.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Any image OpenImageIO reads (EXR, HDR, TIFF, PNG, JPEG, ...).
+
+    Returns
+    -------
+    Pixels
 
     Raises
     ------
     InvradError
-        OpenImageIO missing; ValueError-like SceneError messages are the caller's: here a
-        file that is not an image raises ``OSError`` with OpenImageIO's reason.
+        If OpenImageIO is missing.
+    OSError
+        For a file that is not an image or cannot be read, with OpenImageIO's reason (the
+        caller names the file).
     """
-    oiio = oiio_module("reading illuminance images")
+    oiio = oiio_module("reading images")
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
         raise OSError(oiio.geterror() or "unknown image format")
@@ -65,11 +88,32 @@ def read_lux_image(path):
         inp.close()
     if pixels is None or not spec.width or not spec.height:
         raise OSError(f"cannot read the image's pixels: {error or 'empty image'}")
-    h, w, nc = spec.height, spec.width, spec.nchannels
-    px = np.asarray(pixels, dtype=np.float64).reshape(h, w, nc)
+    values = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width,
+                                                          spec.nchannels)
     names = [str(n).upper() for n in spec.channelnames]
-    a = _alpha_channel(spec, names)
-    colour = [c for c in range(nc) if c != a]
+    is_float = spec.format.basetype in (oiio.FLOAT, oiio.HALF, oiio.DOUBLE)
+    return Pixels(values, names, _alpha_channel(spec, names), is_float, str(spec.format))
+
+
+def read_lux_image(path):
+    """Read an image as one value per pixel (see the module docstring).
+
+    Returns
+    -------
+    LuxImage
+        ``values (h, w) float64``: luminance or first channel, NaN where alpha < 0.5.
+
+    Raises
+    ------
+    InvradError
+        If OpenImageIO is missing.
+    OSError
+        For a file that is not an image, with OpenImageIO's reason (the caller names the
+        file in its own error).
+    """
+    image = read_pixels(path)
+    px, names, a = image.values.astype(np.float64), image.channel_names, image.alpha
+    colour = [c for c in range(px.shape[2]) if c != a]
     if all(c in names for c in "RGB"):
         rgb = [names.index(c) for c in "RGB"]
     else:
@@ -78,5 +122,4 @@ def read_lux_image(path):
     img = np.array(img, dtype=np.float64)
     if a >= 0:
         img[px[..., a] < 0.5] = np.nan
-    is_float = spec.format.basetype in (oiio.FLOAT, oiio.HALF, oiio.DOUBLE)
-    return LuxImage(img, is_float, str(spec.format))
+    return LuxImage(img, image.is_float, image.format)

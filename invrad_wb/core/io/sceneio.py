@@ -4,10 +4,11 @@ Three input forms, chosen by :func:`read_scene` from the file name:
 
 1. **PLY** (the interchange format): vertex properties ``x y z [lux]``, face properties
    ``vertex_indices [room] [reflectance] [lux]`` (per-face ``lux`` instead of per-vertex),
-   ASCII or binary (little or big endian). Read by this module's own PLY parser (see
-   :func:`read_ply_elements` for why not trimesh's). Polygons are triangulated here (a fan
-   for convex ones, ear clipping for concave ones), their per-face properties copied to
-   every triangle; non-planar polygons are refused.
+   ASCII or binary (little or big endian). Read by invrad's own PLY parser
+   (:mod:`invrad_wb.core.io.ply` says why not trimesh's or plyfile's). Polygons are
+   triangulated (:mod:`invrad_wb.core.geometry.triangulation`: a fan for convex ones, ear
+   clipping for concave ones), their per-face properties copied to every triangle;
+   non-planar polygons are refused.
 2. **Any mesh trimesh reads** (OBJ, STL, OFF, GLB/glTF, ...) plus a lux *sidecar*:
    ``ROOM.lux.json`` holding ``{"vertex_lux": [...]}`` or ``{"face_lux": [...]}`` and
    optionally ``"face_room"`` and ``"face_reflectance"``, or a ``.csv``/``.txt`` with one
@@ -17,8 +18,8 @@ Three input forms, chosen by :func:`read_scene` from the file name:
 3. **UV-mapped illuminance textures**: a mesh with texture coordinates plus an image read
    by OpenImageIO. Float images (EXR, HDR, float TIFF) hold lux; 8/16-bit images (PNG,
    JPEG, TIFF) hold fractions of ``texture_max_lux`` (white = that many lux, linear in the
-   stored code value, no sRGB decoding). RGB is reduced to Rec.709 luminance; alpha is
-   ignored.
+   stored code value, no sRGB decoding). RGB is reduced to Rec.709 luminance; pixels whose
+   alpha is below 0.5 are no target (:mod:`invrad_wb.core.io.oiio`, the one image reader).
 
 Coordinates are converted to metres at this boundary (``unit``). Every error is a
 :class:`SceneError` naming the file and the offending face/vertex/pixel and value. Writes

@@ -35,7 +35,7 @@ import math
 import numpy as np
 
 from invrad_wb.errors import InvradError
-from invrad_wb.core.io.oiio import oiio_module
+from invrad_wb.core.io.oiio import oiio_module, read_pixels
 
 from invrad_wb.core.io.atomic import atomic_path
 from invrad_wb.core.geometry.raster import locate_points
@@ -995,8 +995,7 @@ def save_exr(path, values, channel_names=None, half=False):
 
 def read_image(path):
     """(h, w, c) float32 pixels of an image file (PNG scaled to [0, 1])."""
-    oiio = _oiio()
-    buf = oiio.ImageBuf(str(path))
-    if buf.has_error:
-        raise OSError(f"cannot read {path}: {buf.geterror()}")
-    return buf.get_pixels(oiio.FLOAT)
+    try:
+        return read_pixels(path).values
+    except OSError as exc:
+        raise OSError(f"cannot read {path}: {exc}") from None
