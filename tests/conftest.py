@@ -1,7 +1,10 @@
 """Shared pytest set-up for the core tests.
 
-``@pytest.mark.opencl`` marks tests that need an OpenCL device; they are skipped (with the
-reason) where none exists. FreeCAD's tests live in tests/freecad and run under freecadcmd.
+``@pytest.mark.opencl`` is the one way a test says it needs an OpenCL device (also as
+``pytest.param(..., marks=pytest.mark.opencl)``). Such tests are skipped, with the reason
+(no pyopencl, no driver, or ``INVRAD_OPENCL=0``), where no device is usable. Tests that
+merely want the fastest backend pass ``backend="auto"``. FreeCAD's tests live in
+tests/freecad and run under freecadcmd.
 """
 import os
 import sys
@@ -17,13 +20,16 @@ def pytest_configure(config):
 
 
 def pytest_collection_modifyitems(config, items):
-    from invrad_wb.core.accel import clenv
-    if clenv.opencl_available():
+    needs = [item for item in items if item.get_closest_marker("opencl") is not None]
+    if not needs:
+        return                                    # no device set-up for numpy-only runs
+    from invrad_wb.core.accel.device import opencl_unavailable_reason
+    reason = opencl_unavailable_reason()
+    if reason is None:
         return
-    skip = pytest.mark.skip(reason="no OpenCL device")
-    for item in items:
-        if "opencl" in item.keywords:
-            item.add_marker(skip)
+    skip = pytest.mark.skip(reason=f"needs OpenCL: {reason}")
+    for item in needs:
+        item.add_marker(skip)
 
 
 @pytest.fixture

@@ -58,7 +58,7 @@ def _form_factors():
     return args, {}, same
 
 
-def _votes(model):
+def _votes():
     from invrad_wb.core.forward.render import render
     from invrad_wb.core.inverse.locate import occluding_faces
     from invrad_wb.core.inverse.sampling import voting_points
@@ -81,18 +81,20 @@ def _votes(model):
     return (canvas, pts, W, pts.lux, 2000.0), kw, same
 
 
+#: one small deterministic case per registered pair: () -> (args, kwargs, same(numpy, opencl))
 CASES = {"direct_illuminance": _direct, "segments_occluded": _occlusion,
-         "form_factors": _form_factors, "votes_exact": lambda: _votes("exact"),
-         "votes_ellipse": lambda: _votes("ellipse")}
+         "form_factors": _form_factors, "votes_exact": _votes, "votes_ellipse": _votes}
 
 
 def test_every_pair_has_a_case():
-    assert set(pairs()) == set(CASES)
+    # runs without a device too, so a kernel added without a parity case fails everywhere
+    assert sorted(pairs()) == sorted(CASES)
 
 
 @pytest.mark.opencl
-@pytest.mark.parametrize("name", sorted(CASES))
+@pytest.mark.parametrize("name", sorted(pairs()))
 def test_opencl_matches_its_numpy_twin(name):
+    assert name in CASES, f"the pair {name!r} has no parity case in tests/test_accel.py"
     pair = pairs()[name]
     args, kw, same = CASES[name]()
     same(pair.numpy(*args, **kw), pair.opencl(*args, **kw))
@@ -110,3 +112,89 @@ def test_the_switch_turns_opencl_off():
                          text=True, timeout=120, cwd=os.path.dirname(os.path.dirname(
                              os.path.abspath(__file__))))
     assert out.stdout.split() == ["False", "numpy", "True"], out.stderr
+
+
+# ------------------------------------------------------------------ one dispatch, one policy
+def test_the_backend_is_resolved_in_one_place(monkeypatch):
+    from invrad_wb.core.accel import device
+    from invrad_wb.core.accel.registry import implementation
+    from invrad_wb.errors import DeviceError, SettingsError
+    pair = pairs()["segments_occluded"]
+    assert implementation("segments_occluded", "numpy") is pair.numpy
+    with pytest.raises(SettingsError, match="backend must be one of"):
+        implementation("segments_occluded", "cuda")
+    with pytest.raises(KeyError, match="no OpenCL/numpy pair named 'teleport'"):
+        implementation("teleport", "numpy")
+    monkeypatch.setenv("INVRAD_OPENCL", "0")
+    with pytest.raises(DeviceError, match=r"switched off \(INVRAD_OPENCL=0\)"):
+        implementation("segments_occluded", "opencl")
+    monkeypatch.setattr(device, "_warned", False)
+    with pytest.warns(RuntimeWarning, match="INVRAD_OPENCL=0.*numpy backend"):
+        assert implementation("segments_occluded", "auto") is pair.numpy
+    # the numpy twin computes without a device: a wall between p and q blocks, a gap does not
+    from invrad_wb.core.forward.occlusion import segments_occluded
+    wall = BVH(np.array([[[1, -1, -1], [1, 1, -1], [1, 0, 2]]], float))
+    got = segments_occluded(wall, [[0, 0, 0], [0, 5, 0]], [[2, 0, 0], [2, 5, 0]], "auto")
+    assert got.tolist() == [True, False]
+
+
+def test_without_pyopencl_auto_means_numpy_and_opencl_says_what_to_install(monkeypatch):
+    from invrad_wb.core.accel import device
+    from invrad_wb.errors import DeviceError
+    monkeypatch.setitem(sys.modules, "pyopencl", None)     # import fails
+    monkeypatch.setattr(device, "_env", None)
+    monkeypatch.setattr(device, "_warned", True)
+    monkeypatch.delenv("INVRAD_OPENCL", raising=False)
+    assert device.check_backend("auto") == "numpy"
+    assert "cannot import pyopencl" in device.opencl_unavailable_reason()
+    with pytest.raises(DeviceError, match="Install the 'pyopencl' package"):
+        device.check_backend("opencl")
+
+
+def _fake_cl(*platform_types):
+    """A pyopencl stand-in: one platform per entry, each a list of device type names."""
+    from types import SimpleNamespace as NS
+    kinds = NS(GPU=4, CPU=2, ACCELERATOR=8)
+    plats = [NS(get_devices=lambda devs=[NS(type=getattr(kinds, t), name=f"{t}{pi}.{di}")
+                                         for di, t in enumerate(types)]: devs)
+             for pi, types in enumerate(platform_types)]
+    return NS(get_platforms=lambda: plats, device_type=kinds)
+
+
+def test_device_policy_prefers_a_gpu_then_a_cpu_and_honours_pyopencl_ctx(monkeypatch):
+    from invrad_wb.core.accel.device import _pick_device
+    from invrad_wb.errors import DeviceError
+    monkeypatch.delenv("PYOPENCL_CTX", raising=False)
+    assert _pick_device(_fake_cl(["CPU"], ["ACCELERATOR", "GPU"])).name == "GPU1.1"
+    assert _pick_device(_fake_cl(["ACCELERATOR"], ["CPU"])).name == "CPU1.0"
+    monkeypatch.setenv("PYOPENCL_CTX", "1:0")
+    assert _pick_device(_fake_cl(["CPU"], ["ACCELERATOR", "GPU"])).name == "ACCELERATOR1.0"
+    monkeypatch.setenv("PYOPENCL_CTX", "0")
+    assert _pick_device(_fake_cl(["CPU"], ["GPU"])).name == "CPU0.0"
+    monkeypatch.setenv("PYOPENCL_CTX", "3")
+    with pytest.raises(DeviceError, match="PYOPENCL_CTX='3' names no OpenCL device"):
+        _pick_device(_fake_cl(["CPU"]))
+    monkeypatch.delenv("PYOPENCL_CTX")
+    with pytest.raises(DeviceError, match="no device"):
+        _pick_device(_fake_cl([]))
+
+
+def test_device_buffer_rejects_an_unknown_access():
+    from invrad_wb.core.accel.buffers import device_buffer
+    with pytest.raises(ValueError, match="access must be one of"):
+        device_buffer(None, np.zeros(3), "append")
+
+
+@pytest.mark.opencl
+def test_device_buffers_carry_data_both_ways():
+    from invrad_wb.core.accel.buffers import device_buffer, float4
+    from invrad_wb.core.accel.device import get_env
+    env = get_env()
+    host = float4([[1.5, -2.0, 3.25], [0.0, 4.0, -1.0]], [7.0, 8.0])
+    assert host.dtype == np.float32 and host[:, 3].tolist() == [7.0, 8.0]
+    back = np.empty_like(host)
+    for access in ("read", "readwrite"):
+        env.cl.enqueue_copy(env.queue, back, device_buffer(env, host, access))
+        assert np.array_equal(back, host)
+    assert device_buffer(env, np.empty(10, np.int32), "write").size == 40
+    assert device_buffer(env, np.zeros(0, np.float32)).size == 16     # empty: a stand-in

@@ -9,7 +9,8 @@ import numpy as np
 
 from invrad_wb import constants as C
 from invrad_wb.core.geometry.bvh import BVH, segments_occluded_numpy
-from invrad_wb.core.accel.clenv import get_env, launch_chunked, float4
+from invrad_wb.core.accel.buffers import device_buffer, float4, launch_chunked
+from invrad_wb.core.accel.device import get_env
 from invrad_wb.core.accel.registry import implementation, register
 from invrad_wb.core.model.luminaires import emitter_samples
 
@@ -111,14 +112,11 @@ def direct_illuminance_opencl(points, normals, luminaires, bvh=None, occlusion=T
         bvh = BVH(np.zeros((0, 3, 3)))
         occlusion = False
     knl = env.kernel("direct", "direct_illuminance", [f"-D OCCLUSION={1 if occlusion else 0}"])
-    mf = cl.mem_flags
     bufs = bvh.cl_buffers(env)
     out = np.empty(n, np.float32)
-    d_pts = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=float4(points))
-    d_nrm = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=float4(normals))
-    d_epos = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=float4(pos))
-    d_enrm = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=float4(nrm, flux))
-    d_out = cl.Buffer(env.ctx, mf.WRITE_ONLY, out.nbytes)
+    d_pts, d_nrm = device_buffer(env, float4(points)), device_buffer(env, float4(normals))
+    d_epos, d_enrm = device_buffer(env, float4(pos)), device_buffer(env, float4(nrm, flux))
+    d_out = device_buffer(env, out, "write")
     launch_chunked(env, knl, n, (d_pts, d_nrm, np.int32(len(pos)), d_epos, d_enrm,
                                  np.float32(C.RAY_EPS_M)), (*bufs, d_out),
                    max(64, C.CL_CHUNK_RECEIVERS // max(1, len(pos))))

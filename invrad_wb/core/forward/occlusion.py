@@ -6,7 +6,8 @@ reference :func:`invrad_wb.core.geometry.bvh.segments_occluded_bruteforce`).
 import numpy as np
 
 from invrad_wb import constants as C
-from invrad_wb.core.accel.clenv import float4, get_env, launch_chunked
+from invrad_wb.core.accel.buffers import device_buffer, float4, launch_chunked
+from invrad_wb.core.accel.device import get_env
 from invrad_wb.core.accel.registry import implementation, register
 from invrad_wb.core.geometry.bvh import segments_occluded_numpy
 
@@ -19,16 +20,13 @@ def segments_occluded_opencl(bvh, p, q, eps=C.RAY_EPS_M):
     if n == 0 or bvh.n_triangles == 0:
         return np.zeros(n, dtype=bool)
     env = get_env()
-    cl = env.cl
-    mf = cl.mem_flags
     out = np.empty(n, np.uint8)
-    d_p = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=float4(p))
-    d_q = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=float4(q))
-    d_o = cl.Buffer(env.ctx, mf.WRITE_ONLY, out.nbytes)
+    d_p, d_q = device_buffer(env, float4(p)), device_buffer(env, float4(q))
+    d_o = device_buffer(env, out, "write")
     knl = env.kernel("occlusion", "segments_occluded")
     launch_chunked(env, knl, n, (d_p, d_q, np.float32(eps)), (*bvh.cl_buffers(env), d_o),
                    C.CL_CHUNK_SEGMENTS)
-    cl.enqueue_copy(env.queue, out, d_o)
+    env.cl.enqueue_copy(env.queue, out, d_o)
     return out.astype(bool)
 
 

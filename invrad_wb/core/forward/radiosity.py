@@ -76,7 +76,8 @@ import numpy as np
 from invrad_wb import constants as C
 from invrad_wb.errors import SettingsError
 from invrad_wb.core.geometry.bvh import BVH
-from invrad_wb.core.accel.clenv import check_backend, get_env, round_up, float4
+from invrad_wb.core.accel.buffers import device_buffer, float4, round_up
+from invrad_wb.core.accel.device import check_backend, get_env
 from invrad_wb.core.accel.registry import implementation, register
 
 #: Patches per OpenCL work-item (float16 lanes) and triangles per near-field vector.
@@ -265,8 +266,6 @@ class PatchSet:
         key = (env.ctx, tuple(np.round(centre, 12)))
         if self._cl is not None and self._cl[0] == key:
             return self._cl[1]
-        cl = env.cl
-        mf = cl.mem_flags
         n = self.n
         nblk = max(1, -(-n // PATCH_LANES))
         ppad = nblk * PATCH_LANES
@@ -297,8 +296,7 @@ class PatchSet:
         if len(slot_patch):
             tris[:len(slot_patch) // TRI_LANES] = (
                 t.reshape(-1, TRI_LANES, 9).transpose(0, 2, 1))
-        bufs = tuple(cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
-                     for a in (pblk, pplane, tstart, np.ascontiguousarray(tris)))
+        bufs = tuple(device_buffer(env, a) for a in (pblk, pplane, tstart, tris))
         self._cl = (key, bufs)
         return bufs
 
@@ -438,8 +436,6 @@ def _form_factors_numpy(points, normals, point_plane, ps, point_patch, vis, cent
 def _form_factors_opencl(points, normals, point_plane, ps, point_patch, vis, centre=None):
     """Form factors with ``kernels/radiosity.cl`` (float32); see :func:`form_factor_matrix`."""
     env = get_env()
-    cl = env.cl
-    mf = cl.mem_flags
     k, n = len(points), ps.n
     out = np.zeros((k, n), np.float32)
     if k == 0 or n == 0:
@@ -452,30 +448,28 @@ def _form_factors_opencl(points, normals, point_plane, ps, point_patch, vis, cen
     pblk, pplane, tstart, tris = ps.cl_buffers(env, centre)
     knl = env.kernel("radiosity", "form_factors", [f"-D VIS={0 if vis is None else 1}"])
     if vis is None:
-        d_vis = cl.Buffer(env.ctx, mf.READ_ONLY, 16)
+        d_vis = device_buffer(env, np.zeros(16, np.uint8))     # not read with VIS=0
     else:
         vpad = np.zeros((n, ppad), np.uint8)
         vpad[:, :n] = vis
-        d_vis = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=vpad)
+        d_vis = device_buffer(env, vpad)
     info = np.zeros((k, 2), np.int32)
     info[:, 0] = point_plane
     if point_patch is not None:
         info[:, 1] = point_patch
     rows = max(1, min(k, (C.RADIOSITY_CL_CHUNK_MB << 20) // (4 * ppad)))
     host = np.empty((rows, ppad), np.float32)
-    d_out = cl.Buffer(env.ctx, mf.WRITE_ONLY, host.nbytes)
+    d_out = device_buffer(env, host, "write")
     for s in range(0, k, rows):
         e = min(k, s + rows)
         c = e - s
-        d_pts = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR,
-                          hostbuf=float4(points[s:e] - centre))
-        d_nrm = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=float4(normals[s:e]))
-        d_inf = cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR,
-                          hostbuf=np.ascontiguousarray(info[s:e]))
+        d_pts = device_buffer(env, float4(points[s:e] - centre))
+        d_nrm = device_buffer(env, float4(normals[s:e]))
+        d_inf = device_buffer(env, info[s:e])
         knl(env.queue, (round_up(c, 8), nblk), None, np.int32(c), np.int32(ppad),
             d_pts, d_nrm, d_inf, pblk, pplane, tstart, tris, d_vis,
             np.float32(C.RAY_EPS_M), np.float32(_inner_ratio()), d_out)
-        cl.enqueue_copy(env.queue, host[:c], d_out)
+        env.cl.enqueue_copy(env.queue, host[:c], d_out)
         out[s:e] = host[:c, :n]
     return out
 

@@ -8,7 +8,7 @@ known answer) and the verification report use: direct light with occlusion
 import numpy as np
 
 from invrad_wb.core.geometry.bvh import BVH
-from invrad_wb.core.accel.clenv import check_backend
+from invrad_wb.core.accel.device import check_backend
 from invrad_wb.core.forward.direct import direct_illuminance
 
 

@@ -106,8 +106,7 @@ class BVH:
         """Device buffers (node lo, node hi, node info, leaf triangles), uploaded once."""
         if self._cl_buffers is not None and self._cl_buffers[0] is env.ctx:
             return self._cl_buffers[1]
-        cl = env.cl
-        mf = cl.mem_flags
+        from invrad_wb.core.accel.buffers import device_buffer
         n = self.n_nodes
         lo4 = np.zeros((n, 4), np.float32)
         hi4 = np.zeros((n, 4), np.float32)
@@ -123,8 +122,7 @@ class BVH:
         tris = np.ascontiguousarray(self.tris.astype(np.float32))
         if tris.size == 0:
             tris = np.zeros((1, 9, LEAF), np.float32)
-        bufs = tuple(cl.Buffer(env.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
-                     for a in (lo4, hi4, info, tris))
+        bufs = tuple(device_buffer(env, a) for a in (lo4, hi4, info, tris))
         self._cl_buffers = (env.ctx, bufs)
         return bufs
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from invrad_wb.errors import Cancelled, SceneError, SettingsError
 from invrad_wb.core.geometry.bvh import BVH
-from invrad_wb.core.accel.clenv import check_backend
+from invrad_wb.core.accel.device import check_backend
 from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.core.inverse.peaks import find_peaks
 from invrad_wb.core.inverse.refine import Light, RefineProblem, greedy_select, swap_search

@@ -20,7 +20,8 @@ import numpy as np
 from invrad_wb import constants as C
 from invrad_wb.errors import SettingsError
 from invrad_wb.core.geometry.bvh import segments_occluded_numpy
-from invrad_wb.core.accel.clenv import get_env, launch_chunked, float4, device_buffer
+from invrad_wb.core.accel.buffers import device_buffer, float4, launch_chunked
+from invrad_wb.core.accel.device import get_env
 from invrad_wb.core.accel.registry import implementation, register
 from invrad_wb.core.inverse.formfactor import _g1, _x_max_unit
 
@@ -207,8 +208,6 @@ def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
                       shade_limit_lux=None, baseline=0.0):
     """Exact votes on the OpenCL device; same contract as :func:`cast_exact_numpy`."""
     env = get_env()
-    cl = env.cl
-    mf = cl.mem_flags
     out = np.zeros(canvas.size, np.float32)
     if canvas.size == 0 or (len(points) == 0 and baseline == 0):
         return out
@@ -235,7 +234,7 @@ def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
     else:
         sp = sn = np.zeros((1, 4), np.float32)
         ln_lim, ns = 0.0, 0
-    d_out = cl.Buffer(env.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=out)
+    d_out = device_buffer(env, out, "readwrite")          # the kernel adds to zeros
     nb = len(blocks)
     launch_chunked(env, knl, nb,
                    (buf(blocks), buf(origin), buf(u), buf(v), buf(n), buf(info),
@@ -245,7 +244,7 @@ def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
                     np.float32(ln_lim), np.float32(C.RAY_EPS_M), np.float32(baseline)),
                    (*bvh_bufs, d_out),
                    max(32, C.CL_CHUNK_VOTE_PAIRS // max(1, len(points) + ns)), local=32)
-    cl.enqueue_copy(env.queue, out, d_out)
+    env.cl.enqueue_copy(env.queue, out, d_out)
     # blocks skipped as fully masked stay 0; masked pixels inside blocks are zeroed here
     out[~canvas.mask_flat()] = 0.0
     return out

@@ -22,7 +22,8 @@ import numpy as np
 
 from invrad_wb import constants as C
 from invrad_wb.core.geometry.bvh import BVH, segments_occluded_numpy
-from invrad_wb.core.accel.clenv import get_env, launch_chunked, float4, device_buffer
+from invrad_wb.core.accel.buffers import device_buffer, float4, launch_chunked
+from invrad_wb.core.accel.device import get_env
 from invrad_wb.core.accel.registry import implementation, register
 from invrad_wb.core.inverse.table import load_voting_table
 
@@ -167,8 +168,6 @@ def cast_ellipse_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
                         shade_limit_lux=None, table=None):
     """Deformed-ellipse votes on the OpenCL device (``kernels/votes_ellipse.cl``)."""
     env = get_env()
-    cl = env.cl
-    mf = cl.mem_flags
     P = ellipse_votes_params(canvas, points, W, vote_lux, flux, table)
     n = len(P["K"])
     out = np.zeros(canvas.size, np.uint32)
@@ -195,14 +194,14 @@ def cast_ellipse_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
     ell_i = np.stack([P["map"], P["point"], P["K"], np.zeros(n, np.int64)], 1).astype(np.int32)
     ell_d = P["d"].astype(np.float32)
     bvh_bufs = (bvh if occlusion else BVH(np.zeros((0, 3, 3)))).cl_buffers(env)
-    d_out = cl.Buffer(env.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=out)
+    d_out = device_buffer(env, out, "readwrite")          # the kernel adds to zeros
     launch_chunked(env, knl, n,
                    (buf(ell_c), buf(ell_w), buf(ell_v), buf(ell_i), buf(ell_d), buf(m_origin),
                     buf(m_u), buf(m_v), buf(m_n), buf(m_info), buf(mask),
                     np.float32(canvas.pixel), buf(f4(points.positions)),
                     buf(f4(points.normals)), np.float32(C.RAY_EPS_M)), (*bvh_bufs, d_out),
                    C.CL_CHUNK_ELLIPSES, local=32)
-    cl.enqueue_copy(env.queue, out, d_out)
+    env.cl.enqueue_copy(env.queue, out, d_out)
     acc = out.astype(np.float64) / FIXED_POINT
     if shade is not None and len(shade) and shade_limit_lux is not None:
         acc[shade_forbidden(canvas, shade, shade_limit_lux, flux, bvh, "opencl")] = 0.0
