@@ -17,7 +17,8 @@ import numpy as np  # noqa: E402
 from invrad_wb.core.accel.clenv import opencl_available, get_env  # noqa: E402
 from invrad_wb.core.inverse.locate import locate  # noqa: E402
 from invrad_wb.core.inverse.sampling import voting_points  # noqa: E402
-from invrad_wb.core.synthetic.scenarios import known_scene, match, SCENARIOS  # noqa: E402
+from invrad_wb.core.synthetic.scenarios import (known_scene, match, SCENARIOS,  # noqa: E402
+                                                 MIXED_SCENARIOS)
 from invrad_wb.core.inverse.votemaps import build_canvas  # noqa: E402
 from invrad_wb.core.inverse.votes import vote_weights, cast_exact_numpy, cast_exact_opencl  # noqa: E402
 from invrad_wb.core.inverse.votes_ellipse import (cast_ellipse_numpy, cast_ellipse_opencl,  # noqa: E402
@@ -75,6 +76,40 @@ def accuracy_table(backend, models, rhos, repeat):
             print(f"  {model:8s} rho {rho:.1f}: all found, none spurious: {ok};"
                   f" worst error {worst:.2f} cm; median {tot:.2f} s per scene")
     return rows
+
+
+def free_flux_table(backend, rhos):
+    """Locate without a flux: the generated scenes with luminaires of different fluxes, and
+    the one-flux scenarios with each luminaire's flux drawn from 1200-4800 lm."""
+    print("\n== Without a flux: count, position error and flux error per scene")
+    print(f"{'scenario':20s} {'rho':>4s} {'found':>6s} {'max cm':>7s} {'max flux %':>10s}"
+          f" {'s':>6s} {'(of it votes s)':>15s}")
+    rng = np.random.default_rng(1)
+    worst_cm, worst_flux, all_ok = 0.0, 0.0, True
+    for name in MIXED_SCENARIOS + SCENARIOS:
+        for rho in rhos:
+            scene, true = known_scene(name, reflectance=rho, backend=backend)
+            if name in SCENARIOS:       # redraw each luminaire's flux and render again
+                from invrad_wb.core.forward.render import render
+                for L in true:
+                    L.flux_lm = float(np.round(rng.uniform(1200.0, 4800.0)))
+                scene = scene.with_vertex_lux(render(scene, true, interreflection=rho > 0,
+                                                     backend=backend))
+            t, r = timed(lambda: locate(scene, None, backend=backend))
+            m = match(r.luminaires, true)
+            ferr = 0.0
+            for tl in true:
+                near = min(r.luminaires, default=None,
+                           key=lambda l: np.linalg.norm(np.asarray(l.position) - tl.position))
+                if near is not None:
+                    ferr = max(ferr, abs(near.flux_lm / tl.flux_lm - 1.0) * 100.0)
+            ok = m["found"] == m["true"] == len(r.luminaires)
+            all_ok &= ok
+            worst_cm = max(worst_cm, m["max_error_cm"] or 0.0)
+            worst_flux = max(worst_flux, ferr)
+            print(f"{name:20s} {rho:4.1f} {m['found']:>3d}/{m['true']:<2d} "
+                  f"{m['max_error_cm'] or 0.0:7.2f} {ferr:10.2f} {t:6.2f} {r.timings['votes']:15.2f}")
+    print(f"  every count right: {all_ok}; worst {worst_cm:.2f} cm, worst flux {worst_flux:.2f} %")
 
 
 def votes_per_second(backends, repeat):
@@ -135,6 +170,7 @@ def main():
     models = ["exact"] if args.quick else ["exact", "ellipse"]
     rhos = [0.0] if args.quick else [0.0, 0.6]
     accuracy_table(backend, models, rhos, args.repeat)
+    free_flux_table(backend, rhos)
     votes_per_second(([] if args.skip_numpy else ["numpy"]) + ([backend] if backend == "opencl"
                                                                 else []), args.repeat)
     scaling(backend, args.repeat)

@@ -4,7 +4,8 @@ Commands work on plain meshes without FreeCAD:
 
 * ``render SCENE --luminaires LUMS.json -o OUT.ply``: forward solve, writes the scene with
   its computed illuminance as ``lux`` (a target scene with a known answer).
-* ``locate SCENE --flux LM -o RESULT.json [--vote-maps DIR]``: find luminaire positions.
+* ``locate SCENE [--flux LM] -o RESULT.json [--vote-maps DIR]``: find luminaire positions
+  (and, without ``--flux``, each one's flux).
 * ``verify SCENE --luminaires RESULT.json --report DIR``: forward solve of found luminaires
   against the scene's targets, with an HTML/CSV report.
 * ``example NAME -o OUT.ply``: write a generated known-answer scene.
@@ -118,12 +119,11 @@ def _cmd_locate(args):
         check_folder(args.vote_maps, "--vote-maps")
     settings = _settings_from_args(args)
     phot = _photometry(args)
-    if args.flux is None:
-        if phot is None:
-            raise InvradError("give the flux of one luminaire with --flux LM (or a"
-                              " --photometry file, whose flux is then used)")
+    if args.flux is None and phot is not None and phot.flux_lm:
         args.flux = phot.flux_lm
         print(f"flux of one luminaire: {args.flux:.0f} lm, from {args.photometry}")
+    elif args.flux is None:
+        print("no --flux: the number, positions and flux of each luminaire are fitted")
     if phot is not None:
         import warnings
         warnings.warn("votes and refinement model the luminaires as lambertian; the"
@@ -143,9 +143,10 @@ def _cmd_locate(args):
     for l in result.luminaires:
         p = ", ".join(f"{x:.3f}" for x in l.position)
         n = ", ".join(f"{x:.2f}" for x in l.normal)
-        print(f"room {l.room}: luminaire at ({p}) m facing ({n}), score {l.score:.3f}"
-              f" [{l.extra.get('mount', '')}]")
-    print(f"{len(result.luminaires)} luminaire(s) of {args.flux:g} lm in"
+        print(f"room {l.room}: luminaire at ({p}) m facing ({n}), {l.flux_lm:.0f} lm,"
+              f" score {l.score:.3f} [{l.extra.get('mount', '')}]")
+    of = "" if args.flux is None else f" of {args.flux:g} lm"
+    print(f"{len(result.luminaires)} luminaire(s){of} in"
           f" {result.timings['total']:.2f} s ({result.backend}) -> {args.output}")
     if args.vote_maps:
         files = result.save_vote_maps(args.vote_maps)
@@ -153,7 +154,7 @@ def _cmd_locate(args):
     if not result.luminaires:
         lit = np.nan_to_num(scene.vertex_targets(), nan=0.0) > 0
         if lit.any():
-            print(f"invrad: no luminaire of {args.flux:g} lm explains the targets of"
+            print(f"invrad: no luminaire{of} explains the targets of"
                   f" {args.scene} ({int(lit.sum())} lit target points): check the flux, the"
                   " units (--unit) and that the targets are reachable from the room's"
                   " surfaces", file=sys.stderr)
@@ -177,7 +178,9 @@ def _cmd_verify(args):
 
 def _cmd_example(args):
     from invrad_wb.core.model.luminaires import write_luminaires_json
-    from invrad_wb.core.synthetic.scenarios import known_scene, SCENARIOS
+    from invrad_wb.core.synthetic.scenarios import known_scene, MIXED_SCENARIOS
+    from invrad_wb.core.synthetic.scenarios import SCENARIOS as ONE_FLUX
+    SCENARIOS = ONE_FLUX + MIXED_SCENARIOS
     from invrad_wb.core.io.sceneio import write_scene
     if args.name not in SCENARIOS:
         raise InvradError(f"unknown example {args.name!r}; choose one of {', '.join(SCENARIOS)}")
@@ -250,7 +253,8 @@ def build_parser():
     p = sub.add_parser("locate", help="find luminaire positions for the scene's targets")
     _scene_args(p)
     p.add_argument("--flux", type=float,
-                   help="flux of one luminaire, lm (default: the --photometry file's)")
+                   help="flux of one luminaire, lm (default: the --photometry file's; without"
+                        " either, each luminaire's flux is fitted)")
     p.add_argument("-o", "--output", required=True, help="RESULT.json")
     p.add_argument("--vote-maps", help="folder for vote-map images")
     p.add_argument("--settings", help="JSON file with locate settings")

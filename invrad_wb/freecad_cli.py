@@ -65,7 +65,8 @@ def add_arguments(p):
     p.add_argument("--out", required=True, help="output .FCStd or .ifc")
     p.add_argument("--report", required=True, help="folder for the verification report")
     p.add_argument("--flux", type=float, help="luminous flux of one luminaire, lm (or"
-                                              " flux_lm in the targets file)")
+                                              " flux_lm in the targets file; without"
+                                              " either, each luminaire's flux is fitted)")
     p.add_argument("--mesh-size", dest="mesh_size", type=float, metavar="M",
                    help="longest triangle edge of the room meshes, metres (0.3; or"
                         " resolution_m in the targets file)")
@@ -324,9 +325,10 @@ def _run_options(opts, design=False):
     if flux is None and design:
         flux = 1.0       # unused: a design takes its fluxes from the catalogue
     if flux is None:
-        raise SettingsError("give the flux of one luminaire with --flux LM (or flux_lm in"
-                            " the targets file)")
-    flux = check_flux(flux)
+        print("no --flux (nor flux_lm in the targets file): the number, positions and flux"
+              " of each luminaire are fitted")
+    else:
+        flux = check_flux(flux)
     mesh_size = opts.get("mesh_size") or from_file.get("resolution_m")
     locate_settings = None
     if opts.get("settings"):

@@ -20,6 +20,18 @@ def run(*args, env=None, check=False):
     return p
 
 
+def test_locate_without_flux_fits_each_luminaires_flux(tmp_path):
+    scene, truth, result = tmp_path / "s.ply", tmp_path / "t.json", tmp_path / "r.json"
+    run("example", "wall_and_ceiling", "-o", str(scene), "--truth", str(truth), check=True)
+    p = run("locate", str(scene), "-o", str(result), check=True)
+    assert "each luminaire are fitted" in p.stdout and "2 luminaire(s) in" in p.stdout
+    found = sorted(json.loads(result.read_text())["luminaires"], key=lambda l: l["flux_lm"])
+    true = sorted(json.loads(truth.read_text())["luminaires"], key=lambda l: l["flux_lm"])
+    for f, t in zip(found, true):
+        assert np.linalg.norm(np.subtract(f["position"], t["position"])) < 0.02
+        assert f["flux_lm"] == pytest.approx(t["flux_lm"], rel=0.05)
+
+
 def test_example_locate_verify_round_trip(tmp_path):
     scene = tmp_path / "scene.ply"
     truth = tmp_path / "truth.json"

@@ -26,15 +26,17 @@ def _ceiling_light(x, y):
                  v=np.array([0, 1.0, 0]))
 
 
-def _problem(true_lights, flux=2000.0):
+def _problem(true_lights, flux=2000.0, fluxes=None):
+    """The problem of luminaires of ``flux`` lm (or each its own of ``fluxes``)."""
     pts, nrm = _points()
     target = np.zeros(len(pts))
-    for L in true_lights:          # the textbook lambertian formula, independently
+    fluxes = fluxes or [flux] * len(true_lights)
+    for L, F in zip(true_lights, fluxes):   # the textbook lambertian formula, independently
         d = pts - L.position
         r2 = (d * d).sum(1)
         cos_l = np.maximum(d @ L.normal, 0) / np.sqrt(r2)
         cos_s = np.maximum(-(d * nrm).sum(1), 0) / np.sqrt(r2)
-        target += flux * cos_l * cos_s / (np.pi * r2)
+        target += F * cos_l * cos_s / (np.pi * r2)
     return RefineProblem(positions=pts, normals=nrm, target=target, flux=flux,
                          area=np.ones(len(pts)), inside=lambda L: L)
 
@@ -61,6 +63,45 @@ def test_jacobian_matches_finite_differences():
             r2, _ = p.residuals(moved, vis)
             np.testing.assert_allclose(J[:, k], (r2 - r) / h, rtol=1e-4, atol=1e-6)
             k += 1
+
+
+def test_jacobian_with_free_flux_matches_finite_differences():
+    """With each luminaire's flux a parameter (its log), the Jacobian's flux column is the
+    luminaire's whole light, its interreflection (scaled with the flux) included."""
+    p = _problem([_ceiling_light(2.0, 1.5)])
+    p.free_flux = True
+    lights = p._own_copies([_ceiling_light(2.3, 1.2), _ceiling_light(3.9, 2.8)])
+    lights[0].flux_scale, lights[1].flux_scale = 0.6, 1.7
+    lights[1].indirect = np.linspace(1.0, 30.0, len(p.positions))
+    assert all(len(L.params()) == 3 for L in lights)
+    vis = [p.visibility(L) for L in lights]
+    r, J = p.residuals(lights, vis, with_jac=True)
+    h = 1e-6
+    k = 0
+    for i, L in enumerate(lights):
+        for j in range(len(L.params())):
+            q = L.params().copy()
+            q[j] += h
+            moved = [M if m != i else L.with_params(q) for m, M in enumerate(lights)]
+            r2, _ = p.residuals(moved, vis)
+            np.testing.assert_allclose(J[:, k], (r2 - r) / h, rtol=1e-4, atol=1e-6)
+            k += 1
+
+
+def test_levenberg_marquardt_fits_each_flux_with_the_position():
+    truth = [_ceiling_light(1.5, 1.0), _ceiling_light(4.5, 3.0)]
+    p = _problem(truth, flux=2000.0, fluxes=[1200.0, 3100.0])
+    p.free_flux = True
+    start = [_ceiling_light(1.75, 0.8), _ceiling_light(4.3, 3.2)]      # 20-30 cm off
+    fixed_flux = _problem(truth, flux=2000.0, fluxes=[1200.0, 3100.0])
+    _, cost_fixed = fixed_flux.levenberg_marquardt(start, iterations=60)
+    lights, cost = p.levenberg_marquardt(start, iterations=60)
+    lights.sort(key=lambda L: L.position[0])
+    for L, T, F in zip(lights, truth, [1200.0, 3100.0]):
+        assert np.linalg.norm(L.position - T.position) < 1e-3
+        assert L.position[2] == pytest.approx(3.0)
+        assert 2000.0 * L.flux_scale == pytest.approx(F, rel=1e-3)
+    assert cost < 1e-8 < cost_fixed       # one flux for both cannot explain the light
 
 
 def test_levenberg_marquardt_pulls_luminaires_back():

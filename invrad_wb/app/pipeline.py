@@ -39,7 +39,8 @@ class PipelineSettings:
 
     Attributes
     ----------
-    flux_lm : luminous flux of one luminaire (lm), > 0
+    flux_lm : luminous flux of one luminaire (lm), > 0; None: each luminaire's flux is
+        fitted too (locate without a flux)
     resolution_m : longest triangle edge of the room meshes (m)
     interreflection : verify with interreflected light (radiosity)
     locate : LocateSettings, dict or None (core defaults)
@@ -248,7 +249,9 @@ def run(doc, settings, progress=None, locate=None, building=None):
     -------
     PipelineResult
     """
-    flux = check_flux(settings.flux_lm) if settings.design is None else None
+    flux = None
+    if settings.design is None and settings.flux_lm is not None:
+        flux = check_flux(settings.flux_lm)
     timings = {}
     t0 = time.perf_counter()
     if building is None:

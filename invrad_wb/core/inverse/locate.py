@@ -29,7 +29,8 @@ from invrad_wb.core.geometry.bvh import BVH
 from invrad_wb.core.accel.device import check_backend
 from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.core.inverse.peaks import find_peaks
-from invrad_wb.core.inverse.refine import Light, RefineProblem, greedy_select, swap_search
+from invrad_wb.core.inverse.refine import (LOG_SCALE_LIMIT, Light, RefineProblem, greedy_select,
+                                          swap_search)
 from invrad_wb.core.inverse.sampling import voting_points, default_density
 from invrad_wb.core.inverse.votemaps import build_canvas
 from invrad_wb.core.inverse.votes import vote_weights, cast_exact
@@ -178,6 +179,12 @@ class RoomRun:
     indirect_model: object = None
     vote_fn: object = None            # share -> votes as if 1/share of the light per luminaire
     extra_votes: dict = field(default_factory=dict)
+    #: lumens of the problem's luminaire (the given flux, or the free-flux reference)
+    flux: float = None
+    #: the flux was not given: each luminaire's flux is fitted; ``ladder_votes`` maps each
+    #: voted flux (lm) to its votes
+    free_flux: bool = False
+    ladder_votes: dict = field(default_factory=dict)
     peaks: list = field(default_factory=list)
     lights: list = field(default_factory=list)
     trace: list = field(default_factory=list)
@@ -195,7 +202,7 @@ class LocateResult:
     luminaires: list
     settings: dict
     timings: dict
-    flux_lm: float
+    flux_lm: float                    # None: each luminaire's flux was fitted
     rooms: list = field(default_factory=list)
     backend: str = "numpy"
 
@@ -219,10 +226,10 @@ class LocateResult:
         s.check()
         t0 = time.time()
         for run in self.rooms:
-            _postprocess(run, s, self.flux_lm, progress, allow_votes=False)
+            _postprocess(run, s, run.flux, progress, allow_votes=False)
         self.settings = asdict(s)
         self.timings["repeak"] = time.time() - t0
-        self.luminaires = _collect(self.rooms, self.flux_lm)
+        self.luminaires = _collect(self.rooms)
         return self
 
     def save_vote_maps(self, folder):
@@ -299,14 +306,19 @@ def _visible_from_brightest(scene, points, canvas, top_fraction=0.95):
     return keep
 
 
-def _light_from_peak(peak, canvas):
+def _light_from_peak(peak, canvas, flux=None):
+    """A refinement candidate at a vote peak; a peak of a free-flux ladder (it has a
+    ``flux`` of its own) starts with that flux (relative to the problem's ``flux``)."""
     m = canvas.maps[peak.map_index]
+    scale = 1.0
+    if getattr(peak, "flux", None) is not None and flux:
+        scale = float(peak.flux) / float(flux)
     if peak.kind == "surface":
         return Light(kind="surface", position=peak.position.copy(), normal=peak.normal.copy(),
                      map_index=peak.map_index, plane=peak.plane, peak_score=peak.score,
-                     origin=m.origin.copy(), u=m.u.copy(), v=m.v.copy())
+                     origin=m.origin.copy(), u=m.u.copy(), v=m.v.copy(), flux_scale=scale)
     return Light(kind="free", position=peak.position.copy(), normal=peak.normal.copy(),
-                 map_index=peak.map_index, peak_score=peak.score)
+                 map_index=peak.map_index, peak_score=peak.score, flux_scale=scale)
 
 
 def work_plane_height(scene):
@@ -384,7 +396,8 @@ def _prefer_mounted(prob, lights, canvas, optimiser, reach=0.6, tolerance=0.02):
                 continue
             cand = Light(kind="surface", position=p, normal=m.normal.copy(), map_index=k,
                          plane=m.plane, peak_score=L.peak_score, origin=m.origin.copy(),
-                         u=m.u.copy(), v=m.v.copy(), indirect=L.indirect)
+                         u=m.u.copy(), v=m.v.copy(), indirect=L.indirect,
+                         flux_scale=L.flux_scale, free_flux=L.free_flux)
             got, c = opt([cand], fixed=fixed)
             if c <= c_free + tolerance * explains and (best is None or c < best[1]):
                 best = (got[0], c)
@@ -408,7 +421,8 @@ def _snap_to_surfaces(lights, canvas, scene, tol=0.05):
                         L = Light(kind="surface", position=p, normal=m.normal.copy(),
                                   map_index=k, plane=m.plane, peak_score=L.peak_score,
                                   score=L.score, origin=m.origin.copy(), u=m.u.copy(),
-                                  v=m.v.copy())
+                                  v=m.v.copy(), flux_scale=L.flux_scale,
+                                  free_flux=L.free_flux)
                         break
         out.append(L)
     return out
@@ -445,8 +459,11 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
     Sets ``run.peaks``, ``run.lights``, ``run.cost`` and ``run.trace``. ``allow_votes``:
     whether the overlap step may vote again (False when post-processing is redone).
     """
-    peaks, _ = find_peaks(run.canvas, run.votes, threshold=s.threshold,
-                          neighbourhood=s.neighbourhood_m, max_peaks=s.max_candidates)
+    if run.free_flux:
+        peaks = _ladder_peaks(run, s)
+    else:
+        peaks, _ = find_peaks(run.canvas, run.votes, threshold=s.threshold,
+                              neighbourhood=s.neighbourhood_m, max_peaks=s.max_candidates)
     run.peaks = peaks
     if not s.refine:
         run.lights = [_light_from_peak(p, run.canvas) for p in peaks]
@@ -454,11 +471,11 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
             L.score = L.peak_score / 255.0
         return
     fit = _RoomFit(run, s)
-    cands = [_light_from_peak(p, run.canvas) for p in peaks]
+    cands = [_light_from_peak(p, run.canvas, flux) for p in peaks]
     lights, cost = fit.select(cands, progress, deadline)
     # light that several luminaires share: vote again with a fraction of each point's
     # light (thesis 5.2) and offer those peaks too
-    if (run.vote_fn is not None and s.overlap_levels > 1
+    if (run.vote_fn is not None and s.overlap_levels > 1 and not run.free_flux
             and fit_quality(fit.prob, lights) > s.poor_fit):
         lights, cost = fit.overlap(lights, cost, cands, allow_votes)
     # still poor: light spread evenly by many luminaires (a uniform work plane) has no
@@ -579,6 +596,12 @@ class _RoomFit:
             seeds = _grid_seeds(self.run.canvas, n)
             if not seeds:
                 continue
+            if self.run.free_flux:
+                # start from the lumen-method share of one of n luminaires
+                for L in seeds:
+                    L.flux_scale = float(np.clip(_flux_need(self.run) / (n * flux),
+                                                 np.exp(-LOG_SCALE_LIMIT),
+                                                 np.exp(LOG_SCALE_LIMIT)))
             seeds = [prob.with_indirect(L) for L in seeds]
             got, c = self.opt(seeds)
             self.trace.append({"grid_seed": n, "cost_after": c})
@@ -612,9 +635,9 @@ def _seed_counts(run, flux, most=24):
     one luminaire and a utilisation factor of 0.5, gives an estimate n0; counts from 1 to
     2 n0 + 2 are tried (at most ``most``).
     """
-    pts = run.points
-    need = float(np.sum(np.nan_to_num(pts.lux) * pts.area))
-    n0 = need / (0.5 * flux)
+    n0 = _flux_need(run) / flux
+    if run.free_flux:
+        n0 = 12        # any count may do: the fit sets each luminaire's flux
     top = int(min(most, max(2, np.ceil(2 * n0 + 2))))
     return list(range(1, top + 1))
 
@@ -669,10 +692,20 @@ def fit_quality(prob, lights):
     return float(np.sum(prob.w_area * np.abs(r)))
 
 
-def _collect(rooms, flux):
+def _flux_need(run):
+    """Lamp lumens the room's targets need by the lumen method: sum(E * A) over the targeted
+    points over a utilisation factor of 0.5."""
+    pts = run.points
+    return float(np.sum(np.nan_to_num(pts.lux) * pts.area)) / 0.5
+
+
+def _collect(rooms):
     out = []
     for run in rooms:
         for L in run.lights:
+            flux = run.flux * L.flux_scale
+            if run.free_flux:
+                flux = float(np.round(flux, 1))
             out.append(Luminaire(L.position, L.normal, flux, 0.0, room=int(run.room),
                                  score=round(float(L.score), 4),
                                  extra={"mount": "surface" if L.kind == "surface" else "pendant"}))
@@ -687,8 +720,11 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
     ----------
     scene : Scene
         With targets (per vertex, per face or texture).
-    flux_lm : float
-        Luminous flux of one luminaire (lm).
+    flux_lm : float or None
+        Luminous flux of one luminaire (lm). None: unknown, possibly different per
+        luminaire; votes are cast for a ladder of fluxes (:data:`FLUX_LADDER_STEP` apart,
+        from the room's lumen-method need down) and each luminaire's flux is fitted with
+        its position.
     settings : LocateSettings or dict, optional
     progress : callable(fraction, message) -> bool, optional
         Return False to cancel (raises :class:`Cancelled`).
@@ -703,7 +739,7 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
     LocateResult
     """
     s = _checked_settings(settings, overrides)
-    flux = check_flux(flux_lm)
+    flux = None if flux_lm is None else check_flux(flux_lm)
     if not scene.has_targets:
         raise SceneError("the scene has no target illuminance (no 'lux' values)", scene.source)
     backend = check_backend(backend)
@@ -726,7 +762,7 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
                                  lambda f, msg, b=base, st=step: report(b + f * st, msg)))
     report(1.0, "done")
     timings["total"] = time.time() - t_start
-    result = LocateResult(luminaires=_collect(runs, flux), settings=asdict(s),
+    result = LocateResult(luminaires=_collect(runs), settings=asdict(s),
                           timings={k: round(v, 4) for k, v in timings.items()}, flux_lm=flux,
                           rooms=runs, backend=backend)
     return result
@@ -770,7 +806,8 @@ def _locate_room(scene, room, s, flux, backend, timings, report):
         canvas = build_canvas(sub, room, s.pixel_m, dummy=False)
         return RoomRun(room=room, scene=sub, points=pts, canvas=canvas,
                        votes=np.zeros(canvas.size, np.float32), problem=None,
-                       occluders=None, ambient_lux=0.0)
+                       occluders=None, ambient_lux=0.0, flux=flux or 1.0,
+                       free_flux=flux is None)
     lit = pts.lux > 0
     occ = _occluders(sub, s)
     # interreflection
@@ -788,19 +825,74 @@ def _locate_room(scene, room, s, flux, backend, timings, report):
     _exclude_furniture_zone(sub, canvas)
     timings["maps"] += time.time() - t
     report(0.2, f"room {room}: votes")
+    free = flux is None
+    ladder = {}
+    if free:
+        ladder = _flux_ladder(pts)
+        flux = max(ladder)
     vote_fn = _vote_function(canvas, pts, ambient, occ, s, flux, backend, timings)
-    votes = vote_fn(1)
+    if free:
+        # votes as if 1/share of the light came from a luminaire of flux: one of f = share*flux
+        ladder = {f: vote_fn(f / flux) for f in ladder}
+        votes = max(ladder.values(), key=lambda v: float(np.max(v, initial=0.0)))
+    else:
+        votes = vote_fn(1)
     prob, indirect_model = _refine_problem(sub, pts, canvas, occ, s, flux, backend, has_rho,
                                            timings)
+    prob.free_flux = free
     run = RoomRun(room=room, scene=sub, points=pts, canvas=canvas, votes=votes,
                   problem=prob, occluders=occ, ambient_lux=ambient,
-                  indirect_model=indirect_model, vote_fn=vote_fn)
+                  indirect_model=indirect_model, vote_fn=vote_fn, flux=flux,
+                  free_flux=free, ladder_votes=ladder)
     report(0.5, f"room {room}: peaks and refinement")
     t = time.time()
     _postprocess(run, s, flux,
                  progress=lambda f: report(0.5 + 0.5 * f, f"room {room}: refinement"))
     timings["postprocess"] += time.time() - t
     return run
+
+
+#: successive fluxes of the free-flux vote ladder differ by this factor
+FLUX_LADDER_STEP = 2.0
+#: the ladder spans need / 2**FLUX_LADDER_OCTAVES .. need (the room's lumen-method need)
+FLUX_LADDER_OCTAVES = 6
+
+
+def _flux_ladder(pts):
+    """Fluxes (lm) to vote with when the flux is not given, largest first.
+
+    The top is the lamp flux the room's targets need by the lumen method (sum(E A) / 0.5,
+    one luminaire doing it all); each next one is :data:`FLUX_LADDER_STEP` smaller, down
+    to 1/2**:data:`FLUX_LADDER_OCTAVES` of it. A luminaire of flux F gets sharp votes
+    from the rung nearest F; the refinement then fits F itself.
+    """
+    need = float(np.sum(np.nan_to_num(pts.lux) * pts.area)) / 0.5
+    n = int(round(FLUX_LADDER_OCTAVES * np.log(2.0) / np.log(FLUX_LADDER_STEP)))
+    return [need / FLUX_LADDER_STEP ** k for k in range(n + 1)]
+
+
+def _ladder_peaks(run, s):
+    """Peaks of every rung of the free-flux ladder as refinement candidates.
+
+    All rungs share the voting points and weights, so raw votes compare across rungs: the
+    rung nearest a luminaire's flux gives it the sharpest, highest accumulation. But a weak
+    luminaire beside a strong one has lower raw votes than the strong one's blurred peaks
+    on every other rung, so the order is by rank within the rung first. Each peak carries
+    its rung's flux (``peak.flux``); peaks of the same place on several rungs are all kept
+    (the refinement skips those near an accepted luminaire).
+    """
+    out = []
+    for f, votes in run.ladder_votes.items():
+        pk, _ = find_peaks(run.canvas, votes, threshold=s.threshold,
+                           neighbourhood=s.neighbourhood_m, max_peaks=s.max_candidates)
+        pk.sort(key=lambda p: -p.score)
+        for rank, p in enumerate(pk):
+            p.flux, p.rank = f, rank
+        out += pk
+    # each rung's best first (a weak luminaire is the best peak of its own rung only),
+    # strongest raw votes first among equal ranks
+    out.sort(key=lambda p: (p.rank, -p.votes))
+    return out[:2 * s.max_candidates]
 
 
 def _occluders(scene, s):

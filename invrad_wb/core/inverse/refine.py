@@ -35,6 +35,8 @@ from invrad_wb import constants as C
 from invrad_wb.errors import Cancelled, SettingsError
 from invrad_wb.core.geometry.bvh import segments_occluded_numpy
 
+#: a luminaire's fitted flux stays within exp(+-this) of the problem's flux
+LOG_SCALE_LIMIT = np.log(100.0)
 
 @dataclass(eq=False)
 class Light:
@@ -55,24 +57,40 @@ class Light:
     v: np.ndarray = None
     indirect: np.ndarray = None        # (k,) lux this luminaire adds by interreflection
     indirect_at: np.ndarray = None     # position it was computed for (None: an estimate)
+    #: this luminaire's flux / the problem's ``flux`` (its light and its ``indirect``, which
+    #: is computed for the problem's flux, scale with it)
+    flux_scale: float = 1.0
+    #: the flux is a parameter of the fit too (its log, after the position's)
+    free_flux: bool = False
 
     def params(self):
         if self.kind == "surface":
             d = self.position - self.origin
-            return np.array([d @ self.u, d @ self.v])
-        return self.position.copy()
+            p = np.array([d @ self.u, d @ self.v])
+        else:
+            p = self.position.copy()
+        if self.free_flux:
+            p = np.append(p, np.log(self.flux_scale))
+        return p
 
     def with_params(self, p):
         q = Light(**{**self.__dict__})
         if self.kind == "surface":
             q.position = self.origin + p[0] * self.u + p[1] * self.v
         else:
-            q.position = np.asarray(p, dtype=np.float64).copy()
+            q.position = np.asarray(p[:3], dtype=np.float64).copy()
+        if self.free_flux:
+            q.flux_scale = float(np.exp(np.clip(p[-1], -LOG_SCALE_LIMIT, LOG_SCALE_LIMIT)))
         return q
 
     def dpos(self):
         """(n_params, 3) derivative of the position w.r.t. the parameters."""
-        return np.stack([self.u, self.v]) if self.kind == "surface" else np.eye(3)
+        d = np.stack([self.u, self.v]) if self.kind == "surface" else np.eye(3)
+        return np.vstack([d, np.zeros(3)]) if self.free_flux else d
+
+    def own_indirect(self):
+        """(k,) interreflected lux of this luminaire at its flux, or None."""
+        return None if self.indirect is None else self.flux_scale * self.indirect
 
     def copy(self):
         return Light(**{k: (v.copy() if isinstance(v, np.ndarray) else v)
@@ -95,7 +113,9 @@ class RefineProblem:
     occluded_fn : callable(p (n,3), q (n,3)) -> (n,) bool, optional fast occlusion
     indirect : (k,) lux, a base term independent of the luminaires (default 0)
     indirect_estimate : callable(Light) -> (k,) lux, quick interreflection of one luminaire
-    indirect_exact : callable(Light) -> (k,) lux, its forward radiosity solve (optional)
+    indirect_exact : callable(Light) -> (k,) lux, its forward radiosity solve (optional),
+        for a luminaire of ``flux`` (scaled by :attr:`Light.flux_scale` where used)
+    free_flux : bool, fit each luminaire's flux as well as its position
     """
 
     positions: np.ndarray
@@ -111,6 +131,9 @@ class RefineProblem:
     indirect: np.ndarray = None
     indirect_estimate: object = None
     indirect_exact: object = None
+    #: fit each luminaire's flux too (``flux`` is then only the starting value and the unit
+    #: of :attr:`Light.flux_scale`)
+    free_flux: bool = False
     stats: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -149,7 +172,7 @@ class RefineProblem:
         r2 = (d * d).sum(axis=1)
         ok = (A > 1e-9) & (B > 1e-9) & vis
         Ac, Bc = np.where(ok, A, 1.0), np.where(ok, B, 1.0)
-        E = np.where(ok, self.flux * Ac * Bc / (np.pi * r2 * r2), 0.0)
+        E = np.where(ok, light.flux_scale * self.flux * Ac * Bc / (np.pi * r2 * r2), 0.0)
         self.stats["evaluations"] += 1
         if not with_grad:
             return E, None
@@ -204,7 +227,7 @@ class RefineProblem:
         for L in lights:
             E += self.light_of(L, self.visibility(L))[0]
             if L.indirect is not None:
-                E += L.indirect
+                E += L.own_indirect()
         return E
 
     def lights_of(self, lights, vis_list, with_grad=False):
@@ -218,7 +241,8 @@ class RefineProblem:
         r2 = np.einsum("Kkc,Kkc->Kk", d, d)
         ok = (A > 1e-9) & (B > 1e-9) & V
         Ac, Bc = np.where(ok, A, 1.0), np.where(ok, B, 1.0)
-        E = np.where(ok, self.flux * Ac * Bc / (np.pi * r2 * r2), 0.0)
+        scale = np.array([L.flux_scale for L in lights])[:, None]
+        E = np.where(ok, scale * self.flux * Ac * Bc / (np.pi * r2 * r2), 0.0)
         self.stats["evaluations"] += len(lights)
         if not with_grad:
             return E, None
@@ -233,10 +257,15 @@ class RefineProblem:
             e, de = self.lights_of(lights, vis_list, with_jac)
             E += e.sum(axis=0)
             for i, L in enumerate(lights):
-                if L.indirect is not None:
-                    E += L.indirect
+                own = L.own_indirect()
+                if own is not None:
+                    E += own
                 if with_jac:
-                    jac_blocks.append(de[i] @ L.dpos().T)
+                    block = de[i] @ L.dpos().T
+                    if L.free_flux:
+                        # d E / d ln(scale): the luminaire's whole light, direct + indirect
+                        block[:, -1] = e[i] if own is None else e[i] + own
+                    jac_blocks.append(block)
         Ep = E + self.eps_lux
         r = np.log(Ep) - self.log_target
         if not with_jac:
@@ -302,12 +331,19 @@ class RefineProblem:
         return float(np.sum(r * r))
 
     # ------------------------------------------------------------------ optimisers
+    def _own_copies(self, lights):
+        """Copies of ``lights`` whose parameters are those this problem fits."""
+        out = [L.copy() for L in lights]
+        for L in out:
+            L.free_flux = self.free_flux
+        return out
+
     def levenberg_marquardt(self, lights, iterations=25, tol=1e-7, fixed=None):
         """Jointly refine all positions; returns (lights, cost).
 
         ``fixed``: (k,) illuminance of other luminaires that do not move (optional).
         """
-        lights = [L.copy() for L in lights]
+        lights = self._own_copies(lights)
         if not lights:
             return lights, self.cost([], extra=fixed)
         vis = [self.visibility(L) for L in lights]
@@ -366,7 +402,7 @@ class RefineProblem:
     def evolution_strategy(self, lights, iterations=400, sigma=0.1, seed=0, fixed=None):
         """The thesis' (1+1) evolution strategy with the 1/5 success rule (factor 0.85)."""
         rng = np.random.default_rng(seed)
-        lights = [L.copy() for L in lights]
+        lights = self._own_copies(lights)
         if not lights:
             return lights, self.cost([], extra=fixed)
         vis = [self.visibility(L) for L in lights]

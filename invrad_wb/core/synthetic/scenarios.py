@@ -91,12 +91,53 @@ def _four(rho, cell):
 SCENARIOS = tuple(_BUILDERS)
 
 
+#: scenes whose luminaires differ in flux (for locate without a flux); name -> builder
+_MIXED = {}
+
+
+def _mixed(name):
+    def deco(fn):
+        _MIXED[name] = fn
+        return fn
+    return deco
+
+
+@_mixed("three_fluxes")
+def _three_fluxes(rho, cell):
+    return (g.box_room((7, 5, 3), cell=cell, reflectance=rho),
+            [_down([1.6, 1.4, 3.0], 1500.0), _down([4.0, 3.3, 3.0], 3000.0),
+             _down([5.8, 1.5, 3.0], 4500.0)])
+
+
+@_mixed("wall_and_ceiling")
+def _wall_and_ceiling(rho, cell):
+    return (g.box_room((5, 4, 3), cell=cell, reflectance=rho),
+            [Luminaire([0.0, 2.2, 2.2], [1, 0, 0], 800.0), _down([3.2, 2.0, 3.0], 2500.0)])
+
+
+@_mixed("two_rooms_two_fluxes")
+def _two_rooms(rho, cell):
+    scene, origins = g.floor_of_rooms(((4, 4), (5, 4)), height=3.0, cell=cell,
+                                      reflectance=rho)
+    lums = []
+    for room, (o, spots) in enumerate(zip(origins, [[(1.2, 1.5, 1200.0), (2.9, 2.6, 1200.0)],
+                                                    [(1.6, 2.1, 2000.0), (3.7, 1.8, 3500.0)]])):
+        for dx, dy, f in spots:
+            L = _down([o[0] + dx, o[1] + dy, 3.0], f)
+            L.room = room
+            lums.append(L)
+    return scene, lums
+
+
+MIXED_SCENARIOS = tuple(_MIXED)
+
+
 def known_scene(name, reflectance=0.0, interreflection=None, cell=0.1, backend="auto"):
     """A scenario with targets rendered from its luminaires.
 
     Parameters
     ----------
-    name : one of :data:`SCENARIOS`
+    name : one of :data:`SCENARIOS` (one flux) or :data:`MIXED_SCENARIOS` (fluxes differ)
     reflectance : float
         Reflectance of all surfaces (0: direct light only).
     interreflection : bool, optional
@@ -107,9 +148,11 @@ def known_scene(name, reflectance=0.0, interreflection=None, cell=0.1, backend="
     scene : Scene with per-vertex targets
     luminaires : list of Luminaire (the known answer)
     """
-    if name not in _BUILDERS:
-        raise KeyError(f"unknown scenario {name!r}; known: {', '.join(SCENARIOS)}")
-    scene, lums = _BUILDERS[name](reflectance, cell)
+    builders = {**_BUILDERS, **_MIXED}
+    if name not in builders:
+        raise KeyError(f"unknown scenario {name!r}; known: "
+                       f"{', '.join(SCENARIOS + MIXED_SCENARIOS)}")
+    scene, lums = builders[name](reflectance, cell)
     if interreflection is None:
         interreflection = reflectance > 0
     lux = render(scene, lums, interreflection=interreflection, backend=backend)
