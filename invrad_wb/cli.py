@@ -124,10 +124,6 @@ def _cmd_locate(args):
         print(f"flux of one luminaire: {args.flux:.0f} lm, from {args.photometry}")
     elif args.flux is None:
         print("no --flux: the number, positions and flux of each luminaire are fitted")
-    if phot is not None:
-        import warnings
-        warnings.warn("votes and refinement model the luminaires as lambertian; the"
-                      " photometry is kept in the result for render/verify")
     scene = _read(args)
 
     def progress(frac, msg):
@@ -136,7 +132,7 @@ def _cmd_locate(args):
         return True
 
     result = locate(scene, args.flux, settings=settings, backend=args.backend,
-                    progress=progress)
+                    progress=progress, photometry=phot)
     _with_photometry(result.luminaires, phot)
     data = result.to_dict()
     atomic_write_text(args.output, strict_json(data))

@@ -431,8 +431,9 @@ def _snap_to_surfaces(lights, canvas, scene, tol=0.05):
 class _Indirect:
     """Interreflected light at the voting points for a set of luminaires (radiosity)."""
 
-    def __init__(self, scene, points, backend):
+    def __init__(self, scene, points, backend, photometry=None):
         from invrad_wb.core.forward.radiosity import RadiosityModel
+        self.photometry = photometry
         self.scene = scene
         self.backend = backend
         self.model = RadiosityModel.for_scene(scene, backend=backend)
@@ -442,7 +443,8 @@ class _Indirect:
     def __call__(self, lights, flux):
         from invrad_wb.core.forward.direct import direct_illuminance
         from invrad_wb.core.forward.render import scene_bvh
-        lums = [Luminaire(L.position, L.normal, flux) for L in lights]
+        lums = [Luminaire(L.position, L.normal, flux, photometry=self.photometry)
+                for L in lights]
         # direct light at the patches' representative points (a patch's mean in render;
         # the difference is second order for the interreflected part)
         pts, nrm = self.model.patch_points()
@@ -713,7 +715,7 @@ def _collect(rooms):
 
 
 def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=None,
-           **overrides):
+           photometry=None, **overrides):
     """Find luminaire positions that produce a scene's target illuminance.
 
     Parameters
@@ -731,6 +733,10 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
     backend : 'auto', 'opencl' or 'numpy'
     rooms : iterable of int, optional
         Rooms to process (default: all).
+    photometry : Photometry, optional
+        The luminaires' intensity distribution: the refinement and its interreflection
+        model use it (the votes stay lambertian: their peaks are the refinement's starting
+        points). None: lambertian.
     **overrides :
         Individual settings, e.g. ``pixel_m=0.05``.
 
@@ -759,7 +765,8 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
         base = ri / len(room_ids)
         step = 1.0 / len(room_ids)
         runs.append(_locate_room(scene, int(room), s, flux, backend, timings,
-                                 lambda f, msg, b=base, st=step: report(b + f * st, msg)))
+                                 lambda f, msg, b=base, st=step: report(b + f * st, msg),
+                                 photometry))
     report(1.0, "done")
     timings["total"] = time.time() - t_start
     result = LocateResult(luminaires=_collect(runs), settings=asdict(s),
@@ -790,7 +797,7 @@ def check_flux(flux_lm):
     return flux
 
 
-def _locate_room(scene, room, s, flux, backend, timings, report):
+def _locate_room(scene, room, s, flux, backend, timings, report, photometry=None):
     """Steps 1-5 of the module docstring for one room; returns its :class:`RoomRun`.
 
     ``timings`` (seconds per stage) is added to; ``report(fraction of this room, message)``
@@ -838,7 +845,7 @@ def _locate_room(scene, room, s, flux, backend, timings, report):
     else:
         votes = vote_fn(1)
     prob, indirect_model = _refine_problem(sub, pts, canvas, occ, s, flux, backend, has_rho,
-                                           timings)
+                                           timings, photometry)
     prob.free_flux = free
     run = RoomRun(room=room, scene=sub, points=pts, canvas=canvas, votes=votes,
                   problem=prob, occluders=occ, ambient_lux=ambient,
@@ -935,7 +942,8 @@ def _vote_function(canvas, pts, ambient, occ, s, flux, backend, timings):
     return vote_fn
 
 
-def _refine_problem(scene, pts, canvas, occ, s, flux, backend, has_rho, timings):
+def _refine_problem(scene, pts, canvas, occ, s, flux, backend, has_rho, timings,
+                    photometry=None):
     """The joint refinement problem of a room's voting points and its radiosity model.
 
     Returns ``(RefineProblem, _Indirect or None)``.
@@ -945,14 +953,14 @@ def _refine_problem(scene, pts, canvas, occ, s, flux, backend, has_rho, timings)
         lambda p, q, _b=occ: segments_occluded(_b, p, q, backend))
     prob = RefineProblem(positions=pts.positions, normals=pts.normals, target=pts.lux,
                          flux=flux, area=pts.area, bvh=occ, inside=_make_inside(canvas),
-                         occluded_fn=occluded_fn)
+                         occluded_fn=occluded_fn, photometry=photometry)
     indirect_model = None
     if s.indirect != "none" and has_rho:
         per_lumen = _uniform_indirect_per_lumen(scene)
         prob.indirect_estimate = lambda L, _k=len(pts), _a=per_lumen * flux: np.full(_k, _a)
     if s.indirect == "radiosity" and has_rho:
         t = time.time()
-        indirect_model = _Indirect(scene, pts, backend)
+        indirect_model = _Indirect(scene, pts, backend, photometry)
         prob.indirect_exact = lambda L, _m=indirect_model: _m([L], flux)
         timings["radiosity"] += time.time() - t
     return prob, indirect_model

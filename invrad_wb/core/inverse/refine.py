@@ -116,6 +116,9 @@ class RefineProblem:
     indirect_exact : callable(Light) -> (k,) lux, its forward radiosity solve (optional),
         for a luminaire of ``flux`` (scaled by :attr:`Light.flux_scale` where used)
     free_flux : bool, fit each luminaire's flux as well as its position
+    photometry : Photometry or None: every luminaire's intensity distribution (I/F in its
+        frame); None: lambertian, I/F = cos(theta)/pi. With a distribution the position
+        derivatives are central differences (the table is interpolated bilinearly).
     """
 
     positions: np.ndarray
@@ -134,6 +137,8 @@ class RefineProblem:
     #: fit each luminaire's flux too (``flux`` is then only the starting value and the unit
     #: of :attr:`Light.flux_scale`)
     free_flux: bool = False
+    #: the luminaires' intensity distribution (a Photometry; None: lambertian)
+    photometry: object = None
     stats: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -166,6 +171,9 @@ class RefineProblem:
 
     def light_of(self, light, vis, with_grad=False):
         """Illuminance (k,) of one luminaire at the points, and d E / d position (k, 3)."""
+        if self.photometry is not None:
+            E, dE = self.lights_of([light], [vis], with_grad)
+            return E[0], (None if dE is None else dE[0])
         d = light.position - self.positions            # c - s
         A = -(d @ light.normal)
         B = (light.position @ self.normals.T) - self._s_dot_m
@@ -230,8 +238,43 @@ class RefineProblem:
                 E += L.own_indirect()
         return E
 
+    def _photometric(self, C, N, scale):
+        """E (K, k) of luminaires at ``C`` facing ``N`` with the problem's distribution:
+        E = F I(w)/F cos(theta_s) / r^2, w the unit direction luminaire -> point."""
+        from invrad_wb.core.model.scene import plane_basis
+        out = np.zeros((len(C), len(self.positions)))
+        for i, (c, n) in enumerate(zip(C, N)):
+            u, v = plane_basis(n)
+            d = self.positions - c                                  # luminaire -> point
+            r2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-12)
+            w = d / np.sqrt(r2)[:, None]
+            cs = -np.einsum("ij,ij->i", self.normals, w)
+            i_lm = self.photometry.intensity_per_lm(np.stack([w @ u, w @ v, w @ n], axis=1))
+            out[i] = np.where(cs > 1e-9, scale[i] * self.flux * i_lm * cs / r2, 0.0)
+        return out
+
+    def _photometric_lights(self, C, N, scale, V, with_grad):
+        E = np.where(V, self._photometric(C, N, scale), 0.0)
+        if not with_grad:
+            return E, None
+        h = 1e-4
+        dE = np.zeros(E.shape + (3,))
+        for j in range(3):
+            dc = np.zeros(3)
+            dc[j] = h
+            dE[..., j] = np.where(V, (self._photometric(C + dc, N, scale)
+                                      - self._photometric(C - dc, N, scale)) / (2 * h), 0.0)
+        return E, dE
+
     def lights_of(self, lights, vis_list, with_grad=False):
         """All luminaires at once: E (K, k) and, with_grad, d E / d position (K, k, 3)."""
+        if self.photometry is not None:
+            C = np.array([L.position for L in lights])
+            N = np.array([L.normal for L in lights])
+            V = np.array(vis_list, dtype=bool).reshape(len(lights), -1)
+            scale = np.array([L.flux_scale for L in lights])
+            self.stats["evaluations"] += len(lights)
+            return self._photometric_lights(C, N, scale, V, with_grad)
         C = np.array([L.position for L in lights])                  # (K, 3)
         N = np.array([L.normal for L in lights])                    # (K, 3)
         V = np.array(vis_list, dtype=bool).reshape(len(lights), -1)
