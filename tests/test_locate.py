@@ -248,7 +248,7 @@ def test_locate_with_interreflected_light(name):
     assert r.rooms[0].ambient_lux > 0
 
 
-@pytest.mark.parametrize("name,rho", [(n, rho) for n in MIXED_SCENARIOS for rho in (0.0, 0.5)])
+@pytest.mark.parametrize("name,rho", [(n, rho) for n in MIXED_SCENARIOS for rho in (0.0, 0.6)])
 def test_locate_without_flux_finds_mixed_fluxes(name, rho):
     """No flux given, luminaires of different fluxes (800 to 4500 lm, in one room and per
     room), with and without interreflection: the count is right, every luminaire within

@@ -480,6 +480,11 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
     if (run.vote_fn is not None and s.overlap_levels > 1 and not run.free_flux
             and fit_quality(fit.prob, lights) > s.poor_fit):
         lights, cost = fit.overlap(lights, cost, cands, allow_votes)
+    # fluxes free: a weak luminaire beside a strong one may have no clear peak on any
+    # rung while the strong one's light is in the votes; vote again with what the
+    # accepted luminaires leave unexplained
+    if run.free_flux and run.vote_fn is not None and allow_votes and lights:
+        lights, cost = fit.residual(lights, cost, cands)
     # still poor: light spread evenly by many luminaires (a uniform work plane) has no
     # accumulation points at all; seed the refinement with regular arrangements of n
     # luminaires on the ceiling and keep the best refined answer
@@ -508,6 +513,11 @@ class _RoomFit:
         self.trace = []
 
     def _greedy(self, cands, **kwargs):
+        if self.prob.free_flux:
+            # one luminaire of two's summed flux between them explains all but a small
+            # part of their light: the gain that tells two apart is small in absolute
+            # terms, so only the relative gain (min_gain) and a lower floor apply
+            kwargs.setdefault("min_gain_total", FREE_FLUX_MIN_GAIN_TOTAL)
         return greedy_select(self.prob, cands, min_gain=self.s.min_gain,
                              optimiser=self.s.optimiser, **kwargs)
 
@@ -584,6 +594,28 @@ class _RoomFit:
         alt, c_alt = self.tidy(alt, c_alt)
         alt, c_alt = self.settle(alt, c_alt, more + cands)
         self.trace += [{"overlap_votes": len(more), "cost_before": cost,
+                        "cost_after": c_alt}] + t2
+        if c_alt < cost:
+            return alt, c_alt
+        return lights, cost
+
+    def residual(self, lights, cost, cands, significant=0.2):
+        """Free-flux ladder votes with each point's light that ``lights`` do not explain
+        (where that is more than ``significant`` of its target); their peaks join the
+        candidates of a selection that starts from ``lights``; kept if better."""
+        run, s, prob = self.run, self.s, self.prob
+        pts = run.points
+        rest = pts.lux - prob.fixed_light(lights)
+        lux = np.where((pts.lux > 0) & (rest > significant * pts.lux), rest, 0.0)
+        if not np.any(lux > 0):
+            return lights, cost
+        ladder = {f: run.vote_fn(f / run.flux, lux=lux) for f in run.ladder_votes}
+        more = [_light_from_peak(p, run.canvas, run.flux)
+                for p in _ladder_peaks(run, s, ladder)]
+        alt, c_alt, t2 = self._greedy(more + cands, initial=lights)
+        alt, c_alt = self.tidy(alt, c_alt)
+        alt, c_alt = self.settle(alt, c_alt, more + cands)
+        self.trace += [{"residual_votes": len(more), "cost_before": cost,
                         "cost_after": c_alt}] + t2
         if c_alt < cost:
             return alt, c_alt
@@ -859,6 +891,10 @@ def _locate_room(scene, room, s, flux, backend, timings, report, photometry=None
     return run
 
 
+#: a luminaire is kept when the fluxes are free if it lowers the cost by this fraction of
+#: the cost without any luminaire (and by ``min_gain`` of the current cost); greedy
+#: selection's default is 0.005
+FREE_FLUX_MIN_GAIN_TOTAL = 0.002
 #: successive fluxes of the free-flux vote ladder differ by this factor
 FLUX_LADDER_STEP = 2.0
 #: the ladder spans need / 2**FLUX_LADDER_OCTAVES .. need (the room's lumen-method need)
@@ -878,7 +914,7 @@ def _flux_ladder(pts):
     return [need / FLUX_LADDER_STEP ** k for k in range(n + 1)]
 
 
-def _ladder_peaks(run, s):
+def _ladder_peaks(run, s, ladder=None):
     """Peaks of every rung of the free-flux ladder as refinement candidates.
 
     All rungs share the voting points and weights, so raw votes compare across rungs: the
@@ -889,7 +925,7 @@ def _ladder_peaks(run, s):
     (the refinement skips those near an accepted luminaire).
     """
     out = []
-    for f, votes in run.ladder_votes.items():
+    for f, votes in (run.ladder_votes if ladder is None else ladder).items():
         pk, _ = find_peaks(run.canvas, votes, threshold=s.threshold,
                            neighbourhood=s.neighbourhood_m, max_peaks=s.max_candidates)
         pk.sort(key=lambda p: -p.score)
@@ -911,8 +947,8 @@ def _occluders(scene, s):
 
 
 def _vote_function(canvas, pts, ambient, occ, s, flux, backend, timings):
-    """``vote_fn(share=1)``: the votes (canvas.size,) float32 of the voting points as if
-    ``1/share`` of each point's light came from one luminaire of ``flux`` lm.
+    """``vote_fn(share=1, lux=None)``: the votes (canvas.size,) float32 of the voting points
+    as if ``1/share`` of each point's light came from one luminaire of ``flux`` lm.
 
     The ambient (interreflected) estimate, lux, is taken off the targets first; points
     with 0 lx are shade (no luminaire may light them above the shade limit).
@@ -926,9 +962,11 @@ def _vote_function(canvas, pts, ambient, occ, s, flux, backend, timings):
     if shade_limit is None and len(shade):
         shade_limit = max(1.0, 0.1 * float(np.median(pts.lux[lit])))
 
-    def vote_fn(share=1):
+    def vote_fn(share=1, lux=None):
+        """``lux``: (k,) illuminance to vote with instead of the targets less the ambient
+        estimate (e.g. what accepted luminaires leave unexplained)."""
         t0 = time.time()
-        vl = vote_lux / share
+        vl = (vote_lux if lux is None else np.asarray(lux, dtype=np.float64)) / share
         W = vote_weights(canvas, pts, vl, s.weighting, s.vote_strength)
         if s.vote_model == "exact":
             out = cast_exact(canvas, pts, W, vl, flux, backend=backend, bvh=occ,

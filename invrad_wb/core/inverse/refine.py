@@ -532,7 +532,9 @@ def greedy_select(problem, candidates, min_gain=0.05, min_gain_total=0.005, max_
         cand = problem.with_indirect(cand)
         fixed = problem.fixed_light(lights)
         alone, c_alone = opt([cand], fixed=fixed, iterations=12)
-        if not enough(cost, c_alone):
+        # with fluxes free, the others' fluxes may have grown to make up for this one's
+        # light: a candidate that helps at all alone gets the joint refit too
+        if not enough(cost, c_alone) and not (problem.free_flux and c_alone < cost):
             misses += 1
             trace.append({"candidate": ci, "result": "rejected", "cost_before": cost,
                           "cost_after": c_alone})
