@@ -38,20 +38,46 @@ def spec_from_targets_file(path):
         raise SceneError(f"cannot read targets: {exc.strerror}", path)
     except ValueError as exc:
         raise SceneError(f"not valid JSON: {exc}", path)
+    return spec_from_data(data, os.fspath(path), os.path.dirname(os.path.abspath(path)))
+
+
+def spec_from_data(data, source, base_dir):
+    """The :class:`~invrad_wb.core.design.spec.DesignSpec` of a design dict (a targets
+    file's or the design panel's): room keys are labels/names, other target keys are left
+    to the targets; raises SettingsError naming ``source`` and the key."""
+    from invrad_wb.core.design.spec import spec_from_dict
+    if not isinstance(data, dict):
+        raise SettingsError(f"{source}: expected an object with catalogue and rooms")
     if not isinstance(data.get("rooms"), dict):
-        raise SettingsError(f"{path}: rooms: expected an object of rooms")
+        raise SettingsError(f"{source}: rooms: expected an object of rooms")
     rooms = {}
     for key, room in data["rooms"].items():
         if not isinstance(room, dict):
-            raise SettingsError(f"{path}: rooms: {key}: expected an object")
+            raise SettingsError(f"{source}: rooms: {key}: expected an object")
         r = {k: room[k] for k in _SPEC_ROOM_KEYS if k in room}
         if not isinstance(r.get("work_plane", {}), dict):
             r["work_plane"] = {"lux": r["work_plane"]}
         rooms[key] = r
     spec = {k: data[k] for k in ("maintenance_factor", "catalogue") if k in data}
     spec["rooms"] = rooms
-    return spec_from_dict(spec, source=os.fspath(path),
-                          base_dir=os.path.dirname(os.path.abspath(path)))
+    return spec_from_dict(spec, source=source, base_dir=base_dir)
+
+
+def work_planes_for(spaces, spec):
+    """Give each of ``spaces`` that the spec has a work-plane requirement for, and that has
+    no WorkPlane target, one at the required height and margin (the design's work plane
+    is meshed from it). Document edit: call inside a transaction. Returns the Spaces
+    changed."""
+    from invrad_wb.app.targets import set_work_plane, work_plane_target
+    changed = []
+    for sp in spaces:
+        rs = spec.room_spec(sp.Name, sp.Label)
+        if rs is None or rs.work_plane is None or work_plane_target(sp) is not None:
+            continue
+        wp = rs.work_plane
+        set_work_plane(sp, wp.lux, wp.height_m, wp.margin_m)
+        changed.append(sp)
+    return changed
 
 
 def design_summary(result):

@@ -155,6 +155,27 @@ class Locate(_Command):
         return super().IsActive() and _no_task_dialog()
 
 
+class Design(_Command):
+    NAME = "InvRad_Design"
+    PIXMAP = "design.svg"
+    MENU = "Design lighting"
+    TIP = ("Choose luminaires from a catalogue, and how many go where, to meet each room's"
+           " requirement (Em, U0 on the work plane; EN 12464-1 room types) with the fewest"
+           " watts; insert them as light fixtures and write the client report")
+
+    def Activated(self):
+        import FreeCADGui
+        from invrad_wb.gui import selection, taskpanel
+        try:
+            rooms = selection.rooms()
+            FreeCADGui.Control.showDialog(taskpanel.DesignPanel(_active_doc(), rooms))
+        except Exception as exc:
+            messages.exception(self.MENU, exc)
+
+    def IsActive(self):
+        return super().IsActive() and _no_task_dialog()
+
+
 class Repeak(_Command):
     NAME = "InvRad_Repeak"
     PIXMAP = "repeak.svg"
@@ -211,12 +232,12 @@ class Settings(_Command):
         return _no_task_dialog() and not _busy()
 
 
-COMMANDS = [SetTarget, MarkShade, ToggleTargets, Locate, Repeak, Verify, Settings]
+COMMANDS = [SetTarget, MarkShade, ToggleTargets, Locate, Design, Repeak, Verify, Settings]
 #: Toolbar and menu layout ("Separator" between groups).
 TOOLBAR = ["InvRad_SetTarget", "InvRad_MarkShade", "InvRad_ToggleTargets", "Separator",
-           "InvRad_Locate", "InvRad_Repeak", "InvRad_Verify"]
+           "InvRad_Locate", "InvRad_Design", "InvRad_Repeak", "InvRad_Verify"]
 MENU = TOOLBAR + ["Separator", "InvRad_Settings"]
-CONTEXT = ["InvRad_SetTarget", "InvRad_MarkShade", "InvRad_Locate"]
+CONTEXT = ["InvRad_SetTarget", "InvRad_MarkShade", "InvRad_Locate", "InvRad_Design"]
 
 _registered = False
 _observer = None

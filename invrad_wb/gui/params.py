@@ -8,7 +8,9 @@ Group ``User parameter:BaseApp/Preferences/Mod/InvRad`` (Tools > Edit parameters
   name; options whose default is "automatic" (``None`` in the core, e.g. ``votes_per_m2``)
   are stored as text, empty meaning automatic;
 * ``Target``: the last values of the target task panel;
-* ``Display``: the false-colour display (resolution, offset, work-plane transparency).
+* ``Display``: the false-colour display (resolution, offset, work-plane transparency);
+* ``Design``: the design panel's last spec (catalogue, requirements, maintenance factor) as
+  DESIGN.json text under ``Spec`` (empty: :data:`DEFAULT_DESIGN`).
 
 Headless-safe (only ``FreeCAD.ParamGet``), so the tests check it under freecadcmd. Values
 are SI: lumens, metres, lux.
@@ -62,6 +64,37 @@ DISPLAY = {
     "offset_m": ("float", 0.01),
     "work_plane_transparency": ("float", 0.25),
 }
+
+
+#: The design panel's first catalogue and requirement: generic LED downlights and an
+#: EN 12464-1 office; the architect replaces them with her own catalogue.
+DEFAULT_DESIGN = {
+    "maintenance_factor": 0.8,
+    "catalogue": [
+        {"name": "Downlight 1000 lm", "flux_lm": 1000.0, "watts": 8.5},
+        {"name": "Downlight 2000 lm", "flux_lm": 2000.0, "watts": 15.5},
+        {"name": "Panel 3500 lm", "flux_lm": 3500.0, "watts": 26.0, "dimming": [0.1, 1.0]},
+    ],
+    "rooms": {"*": {"room_type": "office"}},
+}
+
+
+def load_design():
+    """The stored design spec as a dict (a copy of :data:`DEFAULT_DESIGN` if none or
+    unreadable)."""
+    import copy
+    import json
+    text = group("Design").GetString("Spec", "")
+    try:
+        d = json.loads(text) if text else None
+    except ValueError:
+        d = None
+    return d if isinstance(d, dict) else copy.deepcopy(DEFAULT_DESIGN)
+
+
+def save_design(spec):
+    import json
+    group("Design").SetString("Spec", json.dumps(spec))
 
 
 def group(name):
@@ -203,7 +236,7 @@ def load_display():
 
 def reset():
     """Forget every stored value (back to the defaults)."""
-    for name in ("Run", "Locate", "Target", "Display"):
+    for name in ("Run", "Locate", "Target", "Display", "Design"):
         group(name).Clear()
 
 

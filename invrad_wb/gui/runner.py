@@ -1,4 +1,4 @@
-"""The workbench's long actions: locate, recalculate peaks, verify and report.
+"""The workbench's long actions: locate, design, recalculate peaks, verify and report.
 
 Each function is what a command records through ``Gui.doCommand`` (so a macro replays
 it) and does the same thing in every case:
@@ -126,6 +126,99 @@ def locate(doc=None, rooms=None, run=None, locate=None):
                              f" {100 * d['rms_relative_error']:.0f} %")
     messages.show("info", title, "\n".join(lines), box=False)
     return res
+
+
+def design(doc=None, spec=None, rooms=None, run=None):
+    """Design lighting from requirements with a catalogue and insert the fixtures.
+
+    Parameters
+    ----------
+    doc : FreeCAD document or its name (default: the active one)
+    spec : dict in the form of DESIGN.json (``maintenance_factor``, ``catalogue``,
+        ``rooms`` keyed by room label or name, ``"*"`` for every other room); default: the
+        design panel's stored spec
+    rooms : list of Spaces or their names/labels (default: every room the spec has a
+        requirement for)
+    run : dict, overrides of the stored run options (``resolution_m``, ``interreflection``,
+        ``backend``, ``replace``)
+
+    A room with a requirement but no work-plane target first gets one (its own undo step,
+    taken back if the design fails or is cancelled); the fixtures are the second undo step.
+    The client report goes to :func:`default_report_dir`. Returns the PipelineResult, or
+    None after an error or a cancel (already reported).
+    """
+    title = "Design lighting"
+    added = []
+    try:
+        doc = _doc(doc)
+        from invrad_wb.app import design as app_design, pipeline, results
+        from invrad_wb.app.document import transaction
+        from invrad_wb.app.rooms import find_spaces
+        data = params.load_design() if spec is None else spec
+        base = os.path.dirname(doc.FileName) if doc.FileName else os.getcwd()
+        dspec = app_design.spec_from_data(data, "design panel", base)
+        keys = _room_keys(rooms)
+        spaces = (pipeline.select_rooms(doc, keys) if keys else
+                  [sp for sp in find_spaces(doc) if dspec.room_spec(sp.Name, sp.Label)])
+        if not spaces:
+            from invrad_wb.errors import SceneError
+            raise SceneError("no room of the document has a requirement in the design"
+                             " (add one per room, or '*' for every room)", doc.Label)
+        with transaction(doc, "invrad: work planes for the design"):
+            added = app_design.work_planes_for(spaces, dspec)
+        out = default_report_dir(doc)
+        settings = params.pipeline_settings(rooms=[sp.Name for sp in spaces],
+                                            report_dir=out, insert=False, run=run)
+        settings.design = dspec
+        building = pipeline.prepare(doc, settings)
+        _import_in_main_thread()
+        res = P.run(title, lambda cb: pipeline.run(doc, settings, progress=cb,
+                                                   building=building))
+        new = results.insert(doc, res.building, res.luminaires, replace=settings.replace,
+                             name=f"invrad: design, {len(res.luminaires)} luminaire(s)")
+    except BaseException as exc:
+        if added:
+            try:
+                doc.undo()            # the work planes this failed run added
+            except Exception:
+                pass
+        messages.exception(title, exc)
+        return None
+    res.fixtures = [o.Name for o in new]
+    _colour_fixtures(doc, res.fixtures)
+    messages.show("info", title, "\n".join(describe_design(res)), box=False)
+    return res
+
+
+def _import_in_main_thread():
+    """Import matplotlib here, before the worker thread draws the report with it.
+
+    In FreeCAD's GUI every import goes through shiboken's import hook; matplotlib's first
+    import in the worker thread, while the GUI thread was handling events, crashed
+    FreeCAD 0.20 (SIGSEGV in the GUI thread, seen in the GUI smoke test).
+    """
+    import matplotlib.figure  # noqa: F401   (no pyplot: FreeCAD's own backend is left alone)
+    import matplotlib.backends.backend_agg  # noqa: F401
+
+
+def describe_design(res):
+    """Lines for the report view: total watts, per room verdict, Em and U0."""
+    d = res.summary.get("design") or {}
+    lines = [f"{len(res.luminaires)} luminaire(s), {d.get('total_watts', 0):.1f} W in"
+             f" {len(res.building.rooms)} room(s);"
+             f" {'every requirement met' if d.get('compliant') else 'NOT every requirement met'};"
+             f" report: {res.summary.get('report', '')}"]
+    nan = float("nan")
+    for r in d.get("rooms", []):
+        name = r.get("name") or r.get("room")
+        req = r.get("requirement") or {}
+        verdict = "meets its requirements" if r.get("compliant") else "FAILS"
+        lines.append(f"  {name}: {verdict}; Em {r.get('em_lux', nan):.0f} lx for"
+                     f" {req.get('lux', nan):.0f}, U0 {r.get('u0', nan):.2f} for"
+                     f" {req.get('u0', nan):.2f}; {r.get('watts', 0):.1f} W"
+                     f" ({r.get('w_per_m2', 0):.1f} W/m2)")
+        lines += [f"    {n}" for n in r.get("notes") or []]
+    return lines
 
 
 def repeak(doc=None, threshold=None, neighbourhood_m=None):

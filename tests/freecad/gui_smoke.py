@@ -51,6 +51,7 @@ def _inside_freecad_gui():
 def relaunch(argv):
     import argparse
     import shutil
+    import signal
     import subprocess
     import sysconfig
     import tempfile
@@ -85,17 +86,23 @@ def relaunch(argv):
                INVRAD_SITE_PACKAGES=os.pathsep.join(paths),
                QTWEBENGINE_DISABLE_SANDBOX="1", INVRAD_SMOKE_OUT=out,
                INVRAD_SMOKE_FZK="1" if args.fzk else "",
-               INVRAD_SMOKE_QUICK="1" if args.quick else "")
+               INVRAD_SMOKE_QUICK="1" if args.quick else "",
+               INVRAD_SMOKE_HANG_S=str(max(args.timeout - 60, 30)))
     env.pop("QT_QPA_PLATFORM", None)
     log = os.path.join(out, "gui_smoke.log")
     t0 = time.time()
     try:
         with open(log, "w") as fh:
-            rc = subprocess.call([xvfb, "-a", "-s", "-screen 0 1280x800x24", exe,
-                                  os.path.abspath(__file__)], env=env, stdout=fh,
-                                 stderr=subprocess.STDOUT, timeout=args.timeout)
-    except subprocess.TimeoutExpired:
-        rc = 124
+            # own process group: a timeout kills FreeCAD and its helpers, not only xvfb-run
+            proc = subprocess.Popen([xvfb, "-a", "-s", "-screen 0 1280x800x24", exe,
+                                     os.path.abspath(__file__)], env=env, stdout=fh,
+                                    stderr=subprocess.STDOUT, start_new_session=True)
+            try:
+                rc = proc.wait(timeout=args.timeout)
+            except subprocess.TimeoutExpired:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+                rc = 124
     finally:
         shutil.rmtree(home, ignore_errors=True)
     if not os.path.isfile(result):
@@ -127,6 +134,8 @@ class Smoke:
         self.shots = []
         self.finished = False
         self.steps = self.run()
+        self.timer = None
+        self.polling = False
 
     # ----------------------------------------------------------------- bookkeeping
     def check(self, name, ok, detail=""):
@@ -186,10 +195,20 @@ class Smoke:
             return
         self.waiting = wait
         self.deadline = time.time() + 300
-        QtCore.QTimer.singleShot(50, self.poll)
+        self.polling = True
+        if self.timer is None:
+            # persistent timers owned here: a chain of QTimer.singleShot calls died when a
+            # pending one went with the progress dialog's nested event loop (after Design)
+            self.timer = QtCore.QTimer()
+            self.timer.timeout.connect(self.poll)
+            self.timer.start(100)
+            self.next_step = QtCore.QTimer()
+            self.next_step.setSingleShot(True)
+            self.next_step.timeout.connect(self.tick)
 
     def poll(self):
-        from PySide import QtCore
+        if not self.polling:
+            return
         ok = True
         if callable(self.waiting):
             try:
@@ -199,9 +218,8 @@ class Smoke:
         if ok or time.time() > self.deadline:
             if not ok:
                 self.check("wait finished in time", False, str(self.waiting))
-            QtCore.QTimer.singleShot(0, self.tick)
-        else:
-            QtCore.QTimer.singleShot(100, self.poll)
+            self.polling = False
+            self.next_step.start(0)      # after the events already queued, as before
 
     def finish(self):
         self.finished = True
@@ -545,8 +563,75 @@ class Smoke:
         panel.reject()
         yield None
 
+        # 6. design from requirements through its task panel
+        yield from self.run_design(doc, space, ceiling)
+
         if self.fzk:
             yield from self.run_fzk()
+
+    def run_design(self, doc, space, ceiling):
+        import FreeCADGui
+        from PySide import QtGui
+        from invrad_wb.app import fixtures
+        from invrad_wb.gui import messages, taskpanel
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.runCommand("InvRad_Design")
+        yield None
+        panel = taskpanel.ACTIVE
+        self.check("design panel opens", isinstance(panel, taskpanel.DesignPanel))
+        if not isinstance(panel, taskpanel.DesignPanel):
+            return
+        least = panel.form.minimumSizeHint()
+        # in a 1280 x 800 window with the combo view 400 px wide (FreeCAD's default of
+        # ~270 px clips even its own OK/Cancel) the panel needs no horizontal scrolling;
+        # it is taller than the task view (~620 px) and scrolls vertically
+        from PySide import QtCore
+        mw = FreeCADGui.getMainWindow()
+        dock = mw.findChild(QtGui.QDockWidget, "Combo View")
+        if dock is not None:
+            mw.resizeDocks([dock], [400], QtCore.Qt.Horizontal)
+        self.check("design panel fits a 400 px combo view of a 1280 x 800 window",
+                   least.width() <= 380 and least.height() <= 800,
+                   (least.width(), least.height()))
+        req = panel.widget("requirements")
+        self.check("design panel lists the room", req.rowCount() == 1
+                   and req.item(0, 0).text() == "Office",
+                   [req.item(r, 0).text() for r in range(req.rowCount())])
+        self.check("its work-plane target is the starting requirement",
+                   req.item(0, 2).text() == "500")
+        self.check("the default catalogue is shown",
+                   panel.widget("catalogue").rowCount() == 3)
+        req.selectRow(0)
+        taskpanel.set_value(panel.widget("room_type"), "office")
+        self.check("a room type shows its EN 12464-1 values",
+                   (req.item(0, 2).text(), req.item(0, 3).text()) == ("500", "0.6"),
+                   (req.item(0, 2).text(), req.item(0, 3).text()))
+        panel.widget("resolution_m").setValue(0.3)
+        if not self.quick:
+            self.grab(panel.form, "panel_design")
+            self.grab(FreeCADGui.getMainWindow(), "main_window_design")
+        n0 = doc.UndoCount
+        spec, run = panel.check()
+        self.check("design panel gives a spec the core accepts",
+                   spec["rooms"]["Office"]["room_type"] == "office", spec["rooms"])
+        before = len(messages.LOG)
+        self.check("design panel accepted", panel.accept())
+        yield lambda: any(m[1] == "Design lighting" for m in messages.LOG[before:])
+        yield self.idle
+        last = ([m for m in messages.LOG[before:] if m[1] == "Design lighting"]
+                or [("", "", "")])[-1]
+        self.check("no other message during the design", len(messages.LOG) == before + 1,
+                   messages.LOG[before:])
+        fx = fixtures.room_fixtures(space)
+        self.check("design inserted fixtures of catalogue types in one undo step",
+                   last[0] == "info" and fx and doc.UndoCount == n0 + 1
+                   and all("Downlight" in f.Description or "Panel" in f.Description
+                           for f in fx),
+                   (last, len(fx), n0, doc.UndoCount, [f.Description for f in fx]))
+        self.check("the office meets its requirement", "meets its requirements" in last[2],
+                   last[2])
+        self.view_iso(hide=ceiling)
+        self.shot("office_designed")
 
     def run_fzk(self):
         import FreeCAD
@@ -606,10 +691,26 @@ class Smoke:
         self.shot("fzk_achieved_iso")
 
 
+SMOKE = None
+
+
 def main_inside():
+    import faulthandler
     from PySide import QtCore
-    smoke = Smoke()
-    QtCore.QTimer.singleShot(1500, smoke.tick)
+    # a crash writes every thread's Python stack there (FreeCAD's stderr has no file
+    # descriptor)
+    stacks = open(os.path.join(os.environ[ENV_OUT], "crash_stacks.txt"), "w")
+    faulthandler.enable(file=stacks, all_threads=True)
+    # a hang writes them too, shortly before the outer timeout kills FreeCAD
+    hang = float(os.environ.get("INVRAD_SMOKE_HANG_S", "0") or 0)
+    if hang > 0:
+        faulthandler.dump_traceback_later(hang, repeat=True, file=stacks)
+    global SMOKE
+    # a module-level reference: PySide's connections to bound methods do not keep the
+    # object alive, and the Smoke <-> its step generator cycle was collected by the cyclic
+    # GC mid-run (seen after Design: the timers went with it, FreeCAD idled to the timeout)
+    SMOKE = Smoke()
+    QtCore.QTimer.singleShot(1500, SMOKE.tick)
 
 
 if _inside_freecad_gui():

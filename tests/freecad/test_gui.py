@@ -86,6 +86,22 @@ class TestResources(FreeCADTestCase):
                    and p.getAttribute("name") == "specialValueText"}
         self.assertEqual(special, set(params.OPTIONAL))
 
+    def test_design_panel_form_and_default_spec(self):
+        w = _ui_widgets(taskpanel.ui_path("design.ui"))
+        for name in taskpanel.DesignPanel.RUN_FIELDS + (
+                "rooms_label", "catalogue", "requirements", "add_entry", "remove_entry",
+                "load_spec", "save_spec", "maintenance_factor", "height_m", "margin_m",
+                "mounting", "pendant_height_m"):
+            self.assertIn(name, w)
+        self.assertEqual((w["catalogue"], w["requirements"]), ("QTableWidget", "QTableWidget"))
+        # the panel's first spec is one the core accepts
+        from invrad_wb.app.design import spec_from_data
+        spec = spec_from_data(params.load_design(), "default", ".")
+        self.assertEqual(spec.room_spec(0, "any room").room_type, "office")
+        params.save_design({"catalogue": [{"name": "X", "flux_lm": 1.0, "watts": 1.0}],
+                            "rooms": {"*": {"work_plane": 100}}})
+        self.assertEqual(params.load_design()["catalogue"][0]["name"], "X")
+
     def test_target_and_repeak_panels(self):
         w = _ui_widgets(taskpanel.ui_path("target.ui"))
         for name in ("kind", "lux", "centre_x", "centre_y", "centre_z", "radius_m",

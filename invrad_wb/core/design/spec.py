@@ -279,7 +279,13 @@ def _room(key, d, where, catalogue_names):
         if not isinstance(rtype, str) or en12464.lookup(rtype) is None:
             raise (where / "room_type").error(
                 f"{rtype!r} is not a known room type (known: {', '.join(en12464.names())})")
-    if wp is not None:
+    if wp is not None and rtype is not None and isinstance(wp, dict) and "lux" not in wp:
+        # the room type's Em and U0 on a work plane of the given height/margin
+        req = en12464.lookup(rtype)
+        work_plane = _work_plane({"lux": req.em_lux, "u0": req.u0, **wp}, where / "work_plane",
+                                 source=f"EN 12464-1 {req.reference}: {req.task}")
+        ugr_max = req.ugr_limit if ugr_max is None else ugr_max
+    elif wp is not None:
         work_plane = _work_plane(wp, where / "work_plane")
     elif rtype is not None:
         req = en12464.lookup(rtype)
