@@ -689,6 +689,36 @@ class Smoke:
         self.shot("fzk_achieved_top")
         self.view_iso()
         self.shot("fzk_achieved_iso")
+        # the design panel with the bundled requirements (examples/fzk_design.json)
+        from invrad_wb.gui import taskpanel
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.runCommand("InvRad_Design")
+        yield None
+        panel = taskpanel.ACTIVE
+        if not self.check("FZK-Haus: design panel opens",
+                          isinstance(panel, taskpanel.DesignPanel), panel):
+            return
+        panel.open_spec(os.path.join(ROOT, "examples", "fzk_design.json"))
+        req = panel.widget("requirements")
+        self.check("FZK-Haus: the spec fills one requirement row per room",
+                   req.rowCount() == 7, req.rowCount())
+        self.grab(panel.form, "fzk_panel_design")
+        before, t1 = len(messages.LOG), time.time()
+        self.check("FZK-Haus: design panel accepted", panel.accept())
+        yield lambda: any(m[1] == "Design lighting" for m in messages.LOG[before:])
+        yield self.idle
+        last = ([m for m in messages.LOG[before:] if m[1] == "Design lighting"]
+                or [("", "", "")])[-1]
+        self.check("FZK-Haus: design ran", last[0] == "info",
+                   f"{last} in {time.time() - t1:.0f} s")
+        self.check("FZK-Haus: every room meets its requirements",
+                   "every requirement met" in last[2], last[2])
+        print(f"FZK-Haus design in the GUI: {time.time() - t1:.1f} s\n{last[2]}")
+        view.viewTop()
+        view.fitAll()
+        self.shot("fzk_designed_top")
+        self.view_iso()
+        self.shot("fzk_designed_iso")
 
 
 SMOKE = None
