@@ -81,6 +81,32 @@ def poisson_tile():
     return np.load(io.BytesIO(data))["points"]
 
 
+#: Peak bytes per candidate point of the tiled Poisson pattern (uv, masks, point location).
+SAMPLE_BYTES_PER_POINT = 320
+
+
+def _tile_grid(plane, side):
+    return (int(np.ceil((plane.size[0] + side) / side)),
+            int(np.ceil((plane.size[1] + side) / side)))
+
+
+def require_sampling_memory(scene, plane_ids, density):
+    """Refuse (:class:`~invrad_wb.core.model.memory.MemoryLimitError`) a votes-per-m^2
+    whose candidate points would not fit in the memory budget, before sampling."""
+    from invrad_wb.core.model.memory import require
+    n_tile = len(poisson_tile())
+    side = np.sqrt(n_tile / density)
+    per_plane = [float(np.prod(_tile_grid(scene.planes[pi], side), dtype=np.float64)) * n_tile
+                 for pi in plane_ids]
+    if not per_plane:
+        return
+    # planes are sampled one at a time; the kept points of all of them stay
+    area = sum(float(np.prod(scene.planes[pi].size)) for pi in plane_ids)
+    require(max(per_plane) * SAMPLE_BYTES_PER_POINT + area * density * 64,
+            f"{density:.3g} votes per m^2 ({max(per_plane):.3g} candidate points on the"
+            f" largest plane)", "use fewer --votes-per-m2")
+
+
 def sample_plane(scene, plane, density, seed=0):
     """Poisson-disk points on one plane's faces.
 
@@ -92,8 +118,7 @@ def sample_plane(scene, plane, density, seed=0):
     side = np.sqrt(len(tile) / density)  # metres covered by one tile
     rng = np.random.default_rng([seed, plane.index])
     offset = rng.random(2) * side
-    nu = int(np.ceil((plane.size[0] + side) / side))
-    nv = int(np.ceil((plane.size[1] + side) / side))
+    nu, nv = _tile_grid(plane, side)
     gi, gj = np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij")
     shifts = np.stack([gi.reshape(-1), gj.reshape(-1)], axis=1) * side - offset
     uv = (tile[None, :, :] * side + shifts[:, None, :]).reshape(-1, 2)
@@ -150,6 +175,7 @@ def voting_points(scene, density=None, planes=None, seed=0, keep_untargeted=Fals
     if not np.isfinite(density) or density <= 0:
         raise SettingsError(f"votes per m^2 must be a positive number, got {density!r}")
     plane_ids = range(len(scene.planes)) if planes is None else planes
+    require_sampling_memory(scene, plane_ids, density)
     pos, fac, bar = [], [], []
     for pi in plane_ids:
         p, f, b = sample_plane(scene, scene.planes[pi], density, seed)

@@ -305,6 +305,38 @@ def _dummy_maps(scene, room, heights, pixel, two_sided, clearance):
     return maps, grid
 
 
+#: Peak bytes per pixel while one vote map is built (pixel centres, point location).
+MAP_BUILD_BYTES_PER_PIXEL = 320
+#: Bytes per pixel for the room's whole canvas over the run (masks, votes, counts, the
+#: smoothed copies of peak detection): measured on examples/office.ply, 71 B at 0.01 m and
+#: >= 97 B at 0.005 m per pixel above the run's baseline.
+CANVAS_BYTES_PER_PIXEL = 128
+
+
+def _grid_shape(size_u, size_v, pixel):
+    return (max(1, int(np.ceil(size_u / pixel - 1e-9))),
+            max(1, int(np.ceil(size_v / pixel - 1e-9))))
+
+
+def require_canvas_memory(scene, room, plane_ids, pixel, dummy_maps):
+    """Refuse (:class:`~invrad_wb.core.model.memory.MemoryLimitError`) a room's vote maps
+    whose pixels would not fit in the memory budget, before any is made."""
+    from invrad_wb.core.model.memory import require
+    sizes = [int(np.prod(_grid_shape(*scene.planes[pi].size, pixel))) for pi in plane_ids]
+    sel = (scene.face_room == room) & ~scene.face_virtual
+    if sel.any():
+        pts = scene.triangles[sel].reshape(-1, 3)
+        span = pts.max(0) - pts.min(0)
+        footprint = int(np.prod(_grid_shape(span[0], span[1], pixel)))
+        sizes += [footprint] * (int(dummy_maps) + 1)     # + the footprint grid
+    total = float(np.sum(sizes, dtype=np.float64)) if sizes else 0.0
+    peak = float(max(sizes)) if sizes else 0.0
+    require(total * CANVAS_BYTES_PER_PIXEL + peak * MAP_BUILD_BYTES_PER_PIXEL,
+            f"room {room}'s vote maps at {pixel:g} m per pixel ({total:.3g} pixels on"
+            f" {len(plane_ids)} surface(s) and {int(dummy_maps)} dummy layer(s))",
+            "use a coarser --resolution (vote-map metres per pixel) or fewer dummy layers")
+
+
 def build_canvas(scene, room, pixel=0.1, dummy=True, dummy_spacing=0.15, dummy_count=None,
                  dummy_lowest=None, two_sided=False, planes=None):
     """Vote maps of one room.
@@ -337,15 +369,16 @@ def build_canvas(scene, room, pixel=0.1, dummy=True, dummy_spacing=0.15, dummy_c
     if planes is not None:
         allowed = set(int(p) for p in planes)
         plane_ids = [p for p in plane_ids if p in allowed]
-    for pi in plane_ids:
-        m = _surface_map(scene, scene.planes[pi], pixel)
-        if m.mask.any():
-            maps.append(m)
     heights = np.zeros(0)
     if dummy:
         if dummy_spacing <= 0:
             raise SettingsError(f"dummy plane spacing must be > 0 m, got {dummy_spacing!r}")
         heights = dummy_layer_heights(scene, room, dummy_spacing, dummy_count, dummy_lowest)
+    require_canvas_memory(scene, room, plane_ids, pixel, len(heights) * (2 if two_sided else 1))
+    for pi in plane_ids:
+        m = _surface_map(scene, scene.planes[pi], pixel)
+        if m.mask.any():
+            maps.append(m)
     # the footprint grid is always built: it also keeps refined luminaires inside the room
     dmaps, grid = _dummy_maps(scene, room, heights, pixel, two_sided,
                               clearance=0.5 * dummy_spacing if dummy else 0.0)

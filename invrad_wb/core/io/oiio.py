@@ -56,6 +56,22 @@ def _alpha_channel(spec, names):
     return spec.nchannels - 1 if spec.nchannels in (2, 4) else -1
 
 
+#: Peak bytes per pixel and channel while an image is read and converted (float32 from
+#: OpenImageIO, a float64 copy), plus per pixel (the float64 lux image and its mask).
+IMAGE_BYTES_PER_SAMPLE = 12
+IMAGE_BYTES_PER_PIXEL = 24
+
+
+def _require_image_memory(path, spec):
+    """Refuse an image whose declared size would not fit in the memory budget (a small
+    compressed file can declare 20000 x 20000 pixels)."""
+    from invrad_wb.core.model.memory import require
+    w, h, c = int(spec.width), int(spec.height), max(1, int(spec.nchannels))
+    n = float(w) * float(h)
+    require(n * (c * IMAGE_BYTES_PER_SAMPLE + IMAGE_BYTES_PER_PIXEL),
+            f"{path}: its {w} x {h} pixels x {c} channel(s)", "use a smaller image")
+
+
 def read_pixels(path):
     """Read the first sub-image of an image file as float pixels.
 
@@ -82,6 +98,7 @@ def read_pixels(path):
         raise OSError(oiio.geterror() or "unknown image format")
     try:
         spec = inp.spec()
+        _require_image_memory(path, spec)
         pixels = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
         error = inp.geterror() if pixels is None else ""
     finally:

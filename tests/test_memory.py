@@ -1,0 +1,113 @@
+"""Memory budget: allocations that grow with a user's number are refused before they are
+made, with the estimate and the limit in one line; ordinary runs pass."""
+import os
+import struct
+import subprocess
+import sys
+import zlib
+
+import numpy as np
+import pytest
+
+from invrad_wb.core.model import memory
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def test_sizes_parse():
+    assert memory.parse_size("6G") == 6 << 30
+    assert memory.parse_size("800 MB") == 800 << 20
+    assert memory.parse_size("1.5GiB") == int(1.5 * (1 << 30))
+    assert memory.parse_size("1e9") == 10 ** 9
+    assert memory.parse_size("0.25", physical=8 << 30) == 2 << 30
+    for bad in ("lots", "-1G", "", "0"):
+        with pytest.raises(ValueError):
+            memory.parse_size(bad)
+
+
+def test_limit_from_the_environment(monkeypatch):
+    monkeypatch.setenv(memory.ENV, "3G")
+    assert memory.limit_bytes() == 3 << 30
+    memory.require(2 << 30, "two gigabytes")
+    with pytest.raises(memory.MemoryLimitError) as e:
+        memory.require(4 << 30, "four gigabytes", "ask for less")
+    msg = str(e.value)
+    assert "four gigabytes" in msg and "4.0 GB" in msg and "3.0 GB" in msg
+    assert "ask for less" in msg and memory.ENV in msg and "\n" not in msg
+    with pytest.raises(memory.MemoryLimitError):
+        memory.require(float("nan"), "NaN bytes")
+    monkeypatch.setenv(memory.ENV, "plenty")
+    with pytest.raises(memory.MemoryLimitError, match="INVRAD_MEMORY_LIMIT='plenty'"):
+        memory.limit_bytes()
+    monkeypatch.delenv(memory.ENV)
+    assert memory.limit_bytes() == int(memory.DEFAULT_FRACTION * memory.physical_memory())
+
+
+def _scene():
+    from invrad_wb.core.synthetic import generate as g
+    return g.box_room((6, 4, 3), cell=0.5)
+
+
+def test_vote_maps_are_estimated_before_they_are_made(monkeypatch):
+    from invrad_wb.core.inverse import votemaps
+    scene = _scene()
+    monkeypatch.setenv(memory.ENV, "200M")
+    canvas = votemaps.build_canvas(scene, 0, pixel=0.1)          # a normal resolution fits
+    # the estimate bounds what is kept: the canvas' pixels at the per-pixel figure
+    assert canvas.size * votemaps.CANVAS_BYTES_PER_PIXEL < 200 << 20
+    calls = []
+    monkeypatch.setattr(votemaps, "_surface_map",
+                        lambda *a: calls.append(a) or pytest.fail("allocated"))
+    with pytest.raises(memory.MemoryLimitError) as e:
+        votemaps.build_canvas(scene, 0, pixel=1e-3)
+    assert "0.001 m per pixel" in str(e.value) and "--resolution" in str(e.value)
+    assert calls == []
+    # a huge dummy-layer count is refused the same way
+    with pytest.raises(memory.MemoryLimitError, match="dummy layer"):
+        votemaps.build_canvas(scene, 0, pixel=0.02, dummy_count=100000, dummy_spacing=1e-5)
+
+
+def test_votes_per_m2_are_estimated_before_sampling(monkeypatch):
+    from invrad_wb.core.inverse import sampling
+    scene = _scene()
+    monkeypatch.setenv(memory.ENV, "200M")
+    pts = sampling.voting_points(scene, density=100.0, keep_untargeted=True)
+    assert len(pts.positions) > 0
+    with pytest.raises(memory.MemoryLimitError, match="votes per m"):
+        sampling.voting_points(scene, density=1e9)
+
+
+def _png_header_only(path, w, h):
+    """A valid-looking PNG of a few hundred bytes that declares w x h RGB pixels."""
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+    ihdr = struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)
+    idat = zlib.compress(b"\0" * 64)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", idat)
+                     + chunk(b"IEND", b""))
+
+
+def test_an_image_declaring_huge_dimensions_is_refused_unread(tmp_path, monkeypatch):
+    pytest.importorskip("OpenImageIO")
+    from invrad_wb.core.io.oiio import read_lux_image
+    path = tmp_path / "bomb.png"
+    _png_header_only(path, 20000, 20000)
+    assert path.stat().st_size < 1000
+    monkeypatch.setenv(memory.ENV, "2G")
+    with pytest.raises(memory.MemoryLimitError) as e:
+        read_lux_image(str(path))
+    assert "bomb.png" in str(e.value) and "20000 x 20000" in str(e.value)
+
+
+def test_cli_refuses_with_one_line_and_writes_nothing(tmp_path):
+    out = tmp_path / "r.json"
+    env = dict(os.environ, INVRAD_MEMORY_LIMIT="1G")
+    p = subprocess.run([sys.executable, "-m", "invrad_wb", "locate", "examples/office.ply",
+                        "--flux", "3000", "-o", str(out), "--resolution", "1e-3"],
+                       cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    assert p.returncode == 2, p.stderr
+    err = [l for l in p.stderr.splitlines() if l.strip()]
+    assert len(err) == 1 and err[0].startswith("invrad: error:"), p.stderr
+    assert "over the limit of 1.0 GB" in err[0]
+    assert not out.exists()
