@@ -78,6 +78,7 @@ def _cmd_render(args):
     phot = _photometry(args)
     scene = _read(args)
     lums = _with_photometry(load_luminaires(args.luminaires), phot)
+    _check_placement(args.luminaires, scene, lums)
     t = time.time()
     total, direct, indirect = render(scene, lums, interreflection=not args.no_interreflection,
                                      occlusion=not args.no_occlusion, backend=args.backend,
@@ -86,6 +87,24 @@ def _cmd_render(args):
     print(f"rendered {len(lums)} luminaire(s) on {len(scene.vertices)} vertices in"
           f" {time.time() - t:.2f} s: {total.min():.1f}-{total.max():.1f} lx"
           f" (indirect up to {indirect.max():.1f} lx) -> {args.output}")
+    if lums and not np.nanmax(total) > 0:
+        print(f"invrad: the luminaires of {args.luminaires} light no surface of"
+              f" {args.scene}: check their positions, normals and units", file=sys.stderr)
+        return 3
+
+
+def _check_placement(path, scene, lums):
+    """Errors (a disk larger than its room) stop the command; the rest are warnings."""
+    from invrad_wb.core.model.luminaires import placement_problems
+    errors, warnings = placement_problems(scene, lums)
+    if errors:
+        raise InvradError(f"{path}: {errors[0]}" + (f" (and {len(errors) - 1} more)"
+                                                    if len(errors) > 1 else ""))
+    for w in warnings[:10]:
+        print(f"invrad: warning: {path}: {w}", file=sys.stderr)
+    if len(warnings) > 10:
+        print(f"invrad: warning: {path}: {len(warnings) - 10} more such luminaire(s)",
+              file=sys.stderr)
 
 
 def _settings_from_args(args):
@@ -165,6 +184,7 @@ def _cmd_verify(args):
     phot = _photometry(args)
     scene = _read(args)
     lums = _with_photometry(load_luminaires(args.luminaires), phot)
+    _check_placement(args.luminaires, scene, lums)
     achieved = render(scene, lums, interreflection=not args.no_interreflection,
                       backend=args.backend)
     paths = build_report(scene, scene.vertex_targets(), achieved, lums, args.report,

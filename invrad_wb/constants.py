@@ -32,6 +32,9 @@ COPLANAR_COS = 1.0 - 1e-6
 PLANE_OFFSET_TOL_M = 1e-4
 #: A scene whose bounding box is larger than this (metres) is probably in millimetres.
 MAX_PLAUSIBLE_EXTENT_M = 2000.0
+#: A scene smaller than this (metres) cannot hold a luminaire: a metres file read as
+#: millimetres (--unit mm) or a model in kilometres.
+MIN_PLAUSIBLE_EXTENT_M = 0.3
 #: Faces smaller than this (m^2) are degenerate.
 MIN_FACE_AREA_M2 = 1e-10
 

@@ -60,3 +60,12 @@ def _check_parent(path, folder, what):
         raise InvradError(f"{path}: {what}: {probe} is a file, not a folder")
     if not os.access(probe, os.W_OK):
         raise InvradError(f"{path}: {what}: the folder {probe} is not writable")
+    # permission bits do not tell everything (root, read-only mounts, /proc): try it
+    import tempfile
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".invrad-probe-", dir=probe)
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as exc:
+        raise InvradError(f"{path}: {what}: cannot write in the folder {probe}"
+                          f" ({exc.strerror or exc})") from None

@@ -120,3 +120,33 @@ def test_failed_run_leaves_existing_output_untouched(tmp_path):
     p = run("locate", "examples/office.ply", "--flux", "0", "-o", str(out))
     assert p.returncode == 2
     assert out.read_text() == "precious"
+
+
+def _one_luminaire(path, **kw):
+    lum = {"position": [1.6, 1.1, 3.0], "normal": [0, 0, -1], "flux_lm": 3000.0,
+           "radius_m": 0.0}
+    lum.update(kw)
+    path.write_text(json.dumps({"luminaires": [lum]}))
+    return str(path)
+
+
+@pytest.mark.parametrize("change,rc,needle", [
+    ({"flux_lm": True}, 2, "flux_lm is true"),
+    ({"radius_m": 1e6}, 2, "larger than the scene"),
+    ({"normal": [0, 0, 1]}, 3, "faces away from every surface"),
+    ({"position": [50, 50, 50]}, 0, "is outside the scene"),
+])
+def test_render_says_when_a_luminaire_cannot_light_the_room(tmp_path, change, rc, needle):
+    lums = _one_luminaire(tmp_path / "l.json", **change)
+    out = tmp_path / "r.ply"
+    p = run("render", "examples/office.ply", "--luminaires", lums, "-o", str(out),
+            "--no-interreflection")
+    assert p.returncode == rc, p.stdout + p.stderr
+    assert needle in p.stderr and "Traceback" not in p.stderr
+    if rc == 2:
+        assert not out.exists()                 # refused before any work
+
+
+def test_a_metres_file_read_as_millimetres_is_refused(tmp_path):
+    p = run("info", "examples/office.ply", "--unit", "mm")
+    assert p.returncode == 2 and "6 mm across" in p.stderr and "--unit m" in p.stderr

@@ -134,3 +134,19 @@ def test_impossible_flux_says_so_and_exits_3_with_strict_json(tmp_path):
     assert "no luminaire of 1e+30 lm explains the targets" in cp.stderr
     text = (tmp_path / "r.json").read_text()
     json.loads(text, parse_constant=lambda c: pytest.fail(f"non-strict JSON: {c}"))
+
+
+def test_a_folder_that_refuses_files_is_caught_before_work(tmp_path, monkeypatch):
+    # permission bits may say yes (root, a read-only mount): the check tries a file
+    import tempfile
+    from invrad_wb import outputs
+    from invrad_wb.errors import InvradError
+
+    def refuse(*a, **k):
+        raise OSError(30, "Read-only file system")
+    monkeypatch.setattr(tempfile, "mkstemp", refuse)
+    with pytest.raises(InvradError, match="cannot write in the folder .*Read-only"):
+        outputs.check_file(tmp_path / "r.json", "-o")
+    monkeypatch.undo()
+    assert outputs.check_file(tmp_path / "r.json", "-o").endswith("r.json")
+    assert not [p for p in os.listdir(tmp_path) if p.startswith(".invrad-probe")]

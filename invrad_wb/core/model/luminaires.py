@@ -91,6 +91,9 @@ def luminaire_from_dict(d, where="luminaire", base_dir=None):
     nrm = _vec3(d.get("normal", [0, 0, -1]), f"{where}.normal")
     if np.linalg.norm(nrm) < 1e-9:
         raise LuminaireError(f"{where}.normal is the zero vector")
+    for key in ("flux_lm", "radius_m"):
+        if isinstance(d.get(key), bool):      # float(True) is 1.0: never what was meant
+            raise LuminaireError(f"{where}.{key} is {str(d[key]).lower()}: must be a number")
     try:
         flux = float(d["flux_lm"])
         radius = float(d.get("radius_m", 0.0))
@@ -113,6 +116,55 @@ def luminaire_from_dict(d, where="luminaire", base_dir=None):
                                else os.path.join(base_dir, f))
     return Luminaire(pos, nrm, flux, radius, room=d.get("room"), score=d.get("score"),
                      extra=extra, photometry=phot)
+
+
+def placement_problems(scene, luminaires, names=None):
+    """What is physically wrong with luminaires placed in a scene.
+
+    Returns
+    -------
+    errors : list of str
+        A disk larger than the space it is in (its room, else the scene).
+    warnings : list of str
+        A luminaire outside the box of its room (of the scene when it names no room), or
+        facing away from every surface of it (it lights nothing there).
+    """
+    names = names or [f"luminaires[{i}]" for i in range(len(luminaires))]
+    errors, warnings = [], []
+    real = ~np.asarray(getattr(scene, "face_virtual", np.zeros(len(scene.faces), bool)))
+    for name, lum in zip(names, luminaires):
+        sel = real.copy()
+        where = "the scene"
+        room = lum.room
+        if room is not None and not isinstance(room, bool):
+            try:
+                in_room = real & (scene.face_room == int(room))
+                if in_room.any():
+                    sel, where = in_room, f"room {room}"
+            except (TypeError, ValueError):
+                pass
+        pts = scene.vertices[np.unique(scene.faces[sel])]
+        if not len(pts):
+            continue
+        lo, hi = pts.min(0), pts.max(0)
+        across = float(np.max(hi - lo))
+        p = np.asarray(lum.position, float)
+        if lum.radius_m > across:
+            errors.append(f"{name}.radius_m {lum.radius_m:g} m is larger than {where}"
+                          f" ({across:.2f} m across)")
+        tol = 0.02
+        if np.any(p < lo - tol) or np.any(p > hi + tol):
+            warnings.append(f"{name} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) is outside"
+                            f" {where} ({lo[0]:.2f}..{hi[0]:.2f}, {lo[1]:.2f}..{hi[1]:.2f},"
+                            f" {lo[2]:.2f}..{hi[2]:.2f} m): check its position and units")
+            continue
+        n = np.asarray(lum.normal, float)
+        n = n / np.linalg.norm(n)
+        if not np.any((pts - p) @ n > 1e-3):
+            warnings.append(f"{name} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) faces away"
+                            f" from every surface of {where} (normal {n.round(3).tolist()}):"
+                            " it lights nothing there")
+    return errors, warnings
 
 
 def load_luminaires(path):

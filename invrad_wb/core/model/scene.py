@@ -296,6 +296,10 @@ class Scene:
             raise SceneError(f"scene is {extent:.0f} m across: coordinates look like"
                              " millimetres; invrad works in metres (CLI: --unit mm)",
                              self.source)
+        if extent < C.MIN_PLAUSIBLE_EXTENT_M:
+            raise SceneError(f"scene is only {extent * 1000:.3g} mm across, smaller than a"
+                             " luminaire: check the length unit (CLI: --unit m for a file"
+                             " in metres)", self.source)
         areas = self.face_areas
         tiny = areas < C.MIN_FACE_AREA_M2 * max(1.0, extent ** 2)
         if tiny.any():
