@@ -127,7 +127,15 @@ def main(args):
 
 
 def find_freecadcmd(explicit=None):
-    for cand in (explicit, os.environ.get("INVRAD_FREECADCMD"), "freecadcmd", "FreeCADCmd"):
+    # a path the user gave is used or refused, never silently replaced by the PATH's
+    for given, how in ((explicit, "--freecadcmd"),
+                       (os.environ.get("INVRAD_FREECADCMD"), "$INVRAD_FREECADCMD")):
+        if given:
+            path = shutil.which(given)
+            if not path:
+                raise FreeCADError(f"{how} {given}: no such executable")
+            return path
+    for cand in ("freecadcmd", "FreeCADCmd"):
         if cand:
             path = shutil.which(cand)
             if path:
@@ -297,6 +305,10 @@ def _checked_paths(opts):
                             " file (.ifc)")
     if not os.path.isfile(src):
         raise SceneError("file does not exist", src)
+    if ext == ".fcstd":
+        _check_fcstd(src)
+    if opts.get("freecadcmd"):
+        find_freecadcmd(opts["freecadcmd"])
     dst = opts["out"]
     dext = os.path.splitext(dst)[1].lower()
     if dext not in (".fcstd", ".ifc"):
@@ -306,6 +318,20 @@ def _checked_paths(opts):
     if opts.get("report"):
         check_folder(opts["report"], "--report")
     return src, ext, dst, dext
+
+
+def _check_fcstd(path):
+    """A .FCStd is a zip archive with Document.xml (FreeCAD itself would open anything
+    else as an empty document, and the run would then say 'no rooms')."""
+    import zipfile
+    from invrad_wb.errors import SceneError
+    try:
+        with zipfile.ZipFile(path) as z:
+            ok = "Document.xml" in z.namelist()
+    except (zipfile.BadZipFile, OSError) as exc:
+        raise SceneError(f"not a FreeCAD document (not a zip archive: {exc})", path) from None
+    if not ok:
+        raise SceneError("not a FreeCAD document (no Document.xml in the archive)", path)
 
 
 def _run_options(opts, design=False):

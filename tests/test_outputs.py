@@ -150,3 +150,29 @@ def test_a_folder_that_refuses_files_is_caught_before_work(tmp_path, monkeypatch
     monkeypatch.undo()
     assert outputs.check_file(tmp_path / "r.json", "-o").endswith("r.json")
     assert not [p for p in os.listdir(tmp_path) if p.startswith(".invrad-probe")]
+
+
+@pytest.mark.parametrize("content,extra,words", [
+    (b"hello", [], ["not a FreeCAD document", "not a zip archive"]),
+    (None, [], ["no Document.xml"]),
+    (None, ["--freecadcmd", "/nonexistent/freecadcmd"], ["--freecadcmd", "no such executable"]),
+])
+def test_freecad_command_checks_its_input_before_freecad_starts(tmp_path, content, extra,
+                                                                 words):
+    pytest.importorskip("invrad_wb.freecad_cli")
+    import zipfile
+    src = tmp_path / "in.FCStd"
+    if content is None:
+        with zipfile.ZipFile(src, "w") as z:
+            z.writestr("GuiDocument.xml", "<x/>")
+            if extra:
+                z.writestr("Document.xml", "<Document/>")
+    else:
+        src.write_bytes(content)
+    p = subprocess.run([sys.executable, "-m", "invrad_wb", "freecad", str(src), "--out",
+                        str(tmp_path / "o.FCStd"), "--report", str(tmp_path / "r"),
+                        *extra], cwd=ROOT, capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 2, p.stderr
+    lines = [l for l in p.stderr.splitlines() if l.strip()]
+    assert len(lines) == 1 and all(w in lines[0] for w in words), p.stderr
