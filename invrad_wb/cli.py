@@ -154,6 +154,8 @@ def _cmd_locate(args):
                     progress=progress, photometry=phot)
     _with_photometry(result.luminaires, phot)
     data = result.to_dict()
+    if args.vote_maps:             # first: an interrupted map write leaves RESULT.json as it was
+        files = result.save_vote_maps(args.vote_maps)
     atomic_write_text(args.output, strict_json(data))
     for l in result.luminaires:
         p = ", ".join(f"{x:.3f}" for x in l.position)
@@ -164,7 +166,6 @@ def _cmd_locate(args):
     print(f"{len(result.luminaires)} luminaire(s){of} in"
           f" {result.timings['total']:.2f} s ({result.backend}) -> {args.output}")
     if args.vote_maps:
-        files = result.save_vote_maps(args.vote_maps)
         print(f"vote maps: {len(files)} files in {args.vote_maps}")
     if not result.luminaires:
         lit = np.nan_to_num(scene.vertex_targets(), nan=0.0) > 0

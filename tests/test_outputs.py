@@ -176,3 +176,51 @@ def test_freecad_command_checks_its_input_before_freecad_starts(tmp_path, conten
     assert p.returncode == 2, p.stderr
     lines = [l for l in p.stderr.splitlines() if l.strip()]
     assert len(lines) == 1 and all(w in lines[0] for w in words), p.stderr
+
+
+def test_a_killed_runs_temporary_files_are_removed_by_the_next(tmp_path):
+    # a child that dies (SIGKILL) inside the atomic writers leaves its temporaries ...
+    code = ("import os, signal, sys\n"
+            "from invrad_wb.core.io.atomic import atomic_dir, atomic_path\n"
+            "with atomic_path(sys.argv[1] + '/r.json') as t:\n"
+            "    open(t, 'w').write('x')\n"
+            "    with atomic_dir(sys.argv[1] + '/report') as d:\n"
+            "        open(os.path.join(d, 'index.html'), 'w').write('x')\n"
+            "        os.kill(os.getpid(), signal.SIGKILL)\n")
+    p = subprocess.run([sys.executable, "-c", code, str(tmp_path)], cwd=ROOT)
+    assert p.returncode == -9
+    left = sorted(os.listdir(tmp_path))
+    assert len(left) == 2 and all(n.startswith(".invrad-") for n in left), left
+    # ... a live process' are kept; the next run removes the dead one's
+    mine = tmp_path / f".invrad-{os.getpid()}-busy.json"
+    mine.write_text("running")
+    from invrad_wb.core.io.atomic import atomic_write_text
+    atomic_write_text(tmp_path / "r.json", "{}")
+    assert sorted(os.listdir(tmp_path)) == sorted([mine.name, "r.json"])
+
+
+def test_interrupted_vote_maps_leave_the_previous_ones_and_the_result(tmp_path, monkeypatch):
+    from invrad_wb import cli
+    from invrad_wb.core.output import votemap_images
+    out, maps = tmp_path / "r.json", tmp_path / "maps"
+    args = ["locate", os.path.join(ROOT, "examples", "office.ply"), "--flux", "3000",
+            "-o", str(out), "--vote-maps", str(maps), "--backend", "numpy",
+            "--resolution", "0.2", "--votes-per-m2", "40"]
+    assert cli.main(args) == 0
+    before = {p: (maps / "room0" / p).read_bytes() for p in os.listdir(maps / "room0")}
+    (maps / "mine.txt").write_text("the user's")
+    out.write_text("previous result")
+    calls = []
+
+    def interrupted(path, a):               # Ctrl-C at the fifth image
+        calls.append(path)
+        if len(calls) == 5:
+            raise KeyboardInterrupt
+        return real(path, a)
+    real = votemap_images.save_png
+    monkeypatch.setattr(votemap_images, "save_png", interrupted)
+    assert cli.main(args) == 130
+    assert out.read_text() == "previous result"
+    assert sorted(os.listdir(maps)) == ["mine.txt", "room0"]          # no staging left
+    after = {p: (maps / "room0" / p).read_bytes() for p in os.listdir(maps / "room0")}
+    assert after == before

@@ -4,6 +4,7 @@ A failed or interrupted write never leaves a half-written or truncated user file
 """
 import contextlib
 import os
+import re
 import tempfile
 
 
@@ -19,7 +20,8 @@ def atomic_path(path, suffix=None):
     folder = os.path.dirname(os.path.abspath(path))
     os.makedirs(folder, exist_ok=True)
     ext = suffix if suffix is not None else os.path.splitext(path)[1]
-    fd, tmp = tempfile.mkstemp(prefix=".invrad-", suffix=ext, dir=folder)
+    remove_stale(folder)
+    fd, tmp = tempfile.mkstemp(prefix=_prefix(), suffix=ext, dir=folder)
     os.close(fd)
     try:
         yield tmp
@@ -30,6 +32,50 @@ def atomic_path(path, suffix=None):
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+_STALE = re.compile(r"^\.invrad-(?:old-)?(\d+)-")
+
+
+def _prefix(kind=""):
+    """Temporary names carry the writer's process id: a later run can tell a leftover of a
+    killed run (SIGKILL, power loss) from the output of one still running."""
+    return f".invrad-{kind}{os.getpid()}-"
+
+
+def _alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True                  # someone else's process: leave its files alone
+    return True
+
+
+def remove_stale(folder):
+    """Remove the temporary files and folders that killed invrad runs left in ``folder``;
+    returns their names."""
+    removed = []
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return removed
+    for name in names:
+        m = _STALE.match(name)
+        if not m or int(m.group(1)) == os.getpid() or _alive(int(m.group(1))):
+            continue
+        path = os.path.join(folder, name)
+        try:
+            if os.path.isdir(path) and not os.path.islink(path):
+                import shutil
+                shutil.rmtree(path)
+            else:
+                os.unlink(path)
+            removed.append(name)
+        except OSError:
+            pass
+    return removed
 
 
 def _umask():
@@ -63,13 +109,14 @@ def atomic_dir(path):
     if os.path.exists(path) and not os.path.isdir(path):
         raise FileExistsError(f"{path} is a file, not a folder")
     os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=".invrad-", dir=parent)
+    remove_stale(parent)
+    tmp = tempfile.mkdtemp(prefix=_prefix(), dir=parent)
     try:
         yield tmp
         os.chmod(tmp, 0o777 & ~_umask())
         old = None
         if os.path.isdir(path):
-            old = tempfile.mkdtemp(prefix=".invrad-old-", dir=parent)
+            old = tempfile.mkdtemp(prefix=_prefix("old-"), dir=parent)
             os.rmdir(old)
             os.replace(path, old)
         os.replace(tmp, path)

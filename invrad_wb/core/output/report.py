@@ -457,7 +457,9 @@ class _Staging:
     def __init__(self, out_dir):
         self.out_dir = os.path.abspath(out_dir)
         os.makedirs(self.out_dir, exist_ok=True)
-        self.dir = tempfile.mkdtemp(prefix=".invrad-report-", dir=self.out_dir)
+        from invrad_wb.core.io.atomic import _prefix, remove_stale
+        remove_stale(self.out_dir)          # what a killed run left here
+        self.dir = tempfile.mkdtemp(prefix=_prefix(), dir=self.out_dir)
         self.names = []
 
     def path(self, name):

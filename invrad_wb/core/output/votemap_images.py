@@ -59,8 +59,38 @@ def _contact_sheet(tiles, max_width=1600, gap=4):
 
 
 def save_vote_maps(result, folder):
-    """Write the vote maps of a :class:`LocateResult`; returns the list of files written."""
+    """Write the vote maps of a :class:`LocateResult`; returns the list of files written.
+
+    Every ``room<N>`` folder is written into a private staging folder first and moved into
+    ``folder`` only when all are complete: an interrupted run (Ctrl-C, a full disk) leaves
+    the previous maps, never a mix. Other files in ``folder`` are left alone.
+    """
+    import shutil
+    import tempfile
+    from invrad_wb.core.io.atomic import _prefix, remove_stale
+    folder = os.path.abspath(folder)
     os.makedirs(folder, exist_ok=True)
+    remove_stale(folder)
+    stage = tempfile.mkdtemp(prefix=_prefix(), dir=folder)
+    try:
+        written = _save_rooms(result, stage)
+        names = sorted({os.path.relpath(w, stage).split(os.sep)[0] for w in written})
+        for name in names:
+            dst = os.path.join(folder, name)
+            if os.path.isdir(dst):
+                old = tempfile.mkdtemp(prefix=_prefix("old-"), dir=folder)
+                os.rmdir(old)
+                os.replace(dst, old)
+                os.replace(os.path.join(stage, name), dst)
+                shutil.rmtree(old, ignore_errors=True)
+            else:
+                os.replace(os.path.join(stage, name), dst)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    return [os.path.join(folder, os.path.relpath(w, stage)) for w in written]
+
+
+def _save_rooms(result, folder):
     written = []
     for run in result.rooms:
         canvas = run.canvas
