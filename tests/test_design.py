@@ -274,3 +274,63 @@ def test_design_report_is_a_document_with_the_figures(tmp_path):
     html2 = res.write_report(tmp_path / "rep", title="again")
     assert "again" in open(html2, encoding="utf-8").read()
     assert not [n for n in os.listdir(tmp_path) if n.startswith(".invrad")]
+
+
+# ----------------------------------------------------------------------------- spots
+def _with_spot(base, centre, radius, peak, wall_x):
+    """A cosine spot painted on the wall x = wall_x (targets NaN elsewhere)."""
+    v, n = base.vertices, base.vertex_normals
+    on = (np.abs(v[:, 0] - wall_x) < 1e-9) & (np.abs(n[:, 0]) > 0.5)
+    d = np.linalg.norm(v - np.asarray(centre), axis=1)
+    lux = np.full(len(v), np.nan)
+    m = on & (d < radius)
+    lux[m] = peak * np.cos(0.5 * np.pi * d[m] / radius)
+    return Scene(v, base.faces, vertex_lux=lux, face_room=base.face_room,
+                 face_reflectance=base.face_reflectance, check_winding=False), m
+
+
+def test_a_painted_spot_gets_an_accent_and_is_met_by_an_independent_render():
+    from invrad_wb.core.design.accent import SPOT_CORE
+    from invrad_wb.core.forward.render import render
+    base = g.with_reflectances(g.box_room(size=(6.0, 4.0, 3.0), cell=0.15))
+    sc, painted = _with_spot(base, (6.0, 2.0, 1.6), 0.6, 600.0, 6.0)
+    cat = [dict(CAT[0], dimming=[0.1, 1.0])] + CAT[1:]
+    plain = design_room(base, spec(cat=cat), 0)
+    rd = design_room(sc, spec(cat=cat), 0)
+    assert "spots" not in plain.verdicts
+    assert rd.compliant and rd.verdicts["spots"], rd.notes
+    accents = [l for l in rd.luminaires if l.extra.get("role") == "accent"]
+    assert len(accents) == 1 and len(rd.luminaires) == len(plain.luminaires) + 1
+    assert rd.watts == pytest.approx(plain.watts + rd.accent_watts)
+    # independently: the whole scene rendered (direct + radiosity) with the design
+    t = sc.vertex_targets()
+    core = painted & (t >= SPOT_CORE * 600.0)
+    lux = 0.8 * render(sc, rd.luminaires, interreflection=True)
+    assert abs(lux[core].mean() - t[core].mean()) <= 0.10 * t[core].mean()
+    without = 0.8 * render(sc, plain.luminaires, interreflection=True)
+    assert without[core].mean() < 0.9 * t[core].mean()      # the accent was needed
+    # an accent is not a second fixture beside a general one
+    gen = np.array([l.position for l in rd.luminaires if l.extra.get("role") != "accent"])
+    assert np.linalg.norm(gen - accents[0].position, axis=1).min() >= 0.4 - 1e-9
+    spot = [s for s in rd.to_dict()["spots"] if s["kind"] == "spot"][0]
+    assert spot["pass"] and spot["accent"] in {e["name"] for e in cat}
+
+
+def test_a_spot_darker_than_the_general_light_is_reported_not_met():
+    base = g.with_reflectances(g.box_room(size=(6.0, 4.0, 3.0), cell=0.15))
+    sc, _ = _with_spot(base, (6.0, 2.0, 1.6), 0.6, 60.0, 6.0)
+    rd = design_room(sc, spec(), 0)
+    assert not rd.compliant and rd.verdicts["spots"] is False
+    assert rd.verdicts["Em"] and rd.verdicts["U0"]
+    assert any("general lighting alone gives" in n for n in rd.notes), rd.notes
+    assert not [l for l in rd.luminaires if l.extra.get("role") == "accent"]
+
+
+def test_targets_everywhere_are_a_goal_not_a_spot():
+    from invrad_wb.core.io.sceneio import read_scene
+    sc = read_scene(os.path.join(ROOT, "examples", "office.ply"))
+    rd = design_room(sc, spec(), 0)
+    assert "spots" not in rd.verdicts
+    # six planes with physically exact light: six goals, no spot
+    assert [s.goal.kind for s in rd.spots] == ["surface"] * 6
+    assert any("surface goal" in n for n in rd.notes)

@@ -15,7 +15,8 @@ import numpy as np
 from invrad_wb.errors import Cancelled, SettingsError
 from invrad_wb.core.design.evaluate import RoomModel
 from invrad_wb.core.design.room import DesignRoom
-from invrad_wb.core.design.search import RoomSearch, run_search
+from invrad_wb.core.design.accent import SPOT_TOLERANCE, find_goals, light_spots
+from invrad_wb.core.design.search import Metrics, RoomSearch, run_search
 
 #: shade points per room at most (deterministic subsample beyond)
 MAX_SHADE_POINTS = 2000
@@ -40,10 +41,12 @@ class RoomDesign:
     floor_z: float = 0.0
     ugr: float = None            # CIE 117, worst standard observer (None: not computable)
     ugr_limit: float = None
+    spots: list = field(default_factory=list)      # accent.SpotResult, spots and goals
+    accent_watts: float = 0.0
 
     @property
     def watts(self):
-        return 0.0 if self.candidate is None else self.candidate.watts
+        return 0.0 if self.candidate is None else self.candidate.watts + self.accent_watts
 
     @property
     def verdicts(self):
@@ -52,7 +55,11 @@ class RoomDesign:
             return {}
         r, m = self.requirement, self.metrics
         out = {"Em": m.em >= r.lux - 1e-9, "U0": m.u0 >= r.u0 - 1e-9,
-               "shade": bool(self.candidate.ok or m.shade_max <= self._shade_limit)}
+               "shade": bool((self.candidate.ok and not self.accent_watts)
+                             or m.shade_max <= self._shade_limit)}
+        spots = [s for s in self.spots if s.goal.kind == "spot"]
+        if spots:
+            out["spots"] = all(s.ok for s in spots)
         if self.ugr_limit is not None and self.ugr is not None:
             out["UGR"] = self.ugr <= self.ugr_limit + 1e-9
         return out
@@ -94,6 +101,8 @@ class RoomDesign:
                       "grid_points": int(self.metrics.lux is not None and
                                          len(self.grid_points))})
             d["schedule"] = self.schedule()
+            d["accent_watts"] = round(self.accent_watts, 2)
+            d["spots"] = [s.to_dict() for s in self.spots]
         return d
 
 
@@ -162,16 +171,6 @@ def _shade_points(scene, room):
     return scene.vertices[idx], scene.vertex_normals[idx]
 
 
-def _surface_goals(scene, room):
-    """Number of the room's vertices with a positive target on a real surface."""
-    if not scene.has_targets:
-        return 0
-    t = scene.vertex_targets()
-    sel = (scene.face_room == room) & ~scene.face_virtual
-    idx = np.unique(scene.faces[sel])
-    return int(np.count_nonzero(t[idx] > 0))
-
-
 def _room_ugr(model, droom, luminaires):
     """Worst UGR over the CIE 117 standard observers (None without luminous areas)."""
     from invrad_wb.core.output.glare import observers, ugr
@@ -231,11 +230,6 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
         rd.notes.append("no lighting requirement for this room: nothing designed")
         return rd
     req = rd.requirement = rs.work_plane
-    n_goal = _surface_goals(scene, room)
-    if n_goal:
-        rd.notes.append(f"{n_goal} target point(s) with lux > 0 on the room's surfaces"
-                        " (spots, uniform faces) are not design requirements yet: the"
-                        " design meets the work plane; `locate` places luminaires for them")
     points, _ = droom.grid(req.height_m, req.margin_m)
     model = RoomModel(scene, droom, points, spec.maintenance_factor, backend,
                       extra=_shade_points(scene, room))
@@ -259,11 +253,50 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
     rd.luminaires = search.luminaires(cand)
     rd.grid_points = points
     rd._shade_limit = rs.shade_limit_lux
+    _light_goals(scene, rd, model, droom, rs, entries, photometry, req)
     rd.ugr_limit = rs.ugr_max
     rd.ugr = _room_ugr(model, droom, rd.luminaires)
     _explain(rd, search, entries)
     rd.seconds = time.perf_counter() - t0
     return rd
+
+
+def _light_goals(scene, rd, model, droom, rs, entries, photometry, req):
+    """Painted spots as requirements (accent luminaires where the general lighting leaves
+    them too dark), other surface targets reported as goals; the exact figures of the
+    whole installation replace those of the work-plane layout."""
+    goals = find_goals(scene, rd.room)
+    if not goals:
+        return
+    shade = _shade_points(scene, rd.room)
+    accents, rd.spots = light_spots(model, droom, rs, entries, photometry, rd.luminaires,
+                                    goals, droom.floor_z + req.height_m,
+                                    shade=shade if len(shade[0]) else None,
+                                    shade_limit=rs.shade_limit_lux)
+    if accents:
+        rd.luminaires = rd.luminaires + accents
+        rd.accent_watts = sum(s.accent_watts for s in rd.spots)
+        lux, direct = model.exact(rd.luminaires)
+        rd.metrics = Metrics.of(lux, direct, model.n_wp)
+    for sp in rd.spots:
+        g = sp.goal
+        if g.kind == "spot":
+            how = ("" if sp.accent is None else
+                   f" with an accent {sp.accent.extra.get('type')} at"
+                   f" {100 * sp.accent_watts / max(_entry_watts(entries, sp.accent), 1e-9):.0f} %")
+            rd.notes.append(f"{g.label()}: {sp.achieved_mean:.0f} lx for"
+                            f" {g.target_mean:.0f} lx (+/- {SPOT_TOLERANCE:.0%}):"
+                            f" {'met' if sp.ok else 'NOT met'}{how}")
+            if sp.note and not sp.ok:
+                rd.notes.append(sp.note)
+        else:
+            rd.notes.append(f"surface goal ({g.n_vertices} target points, {g.area_m2:.1f} m2):"
+                            f" {sp.achieved_mean:.0f} lx for {g.target_mean:.0f} lx on"
+                            " average (a goal, not a requirement: painted spots are)")
+
+
+def _entry_watts(entries, lum):
+    return next((e.watts for e in entries if e.name == lum.extra.get("type")), 0.0)
 
 
 def _reflectances(scene, room):

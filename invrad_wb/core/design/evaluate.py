@@ -145,6 +145,20 @@ class RoomModel:
                                     occlusion=occl, backend=self.backend)
         return self.mf * (direct + indirect), self.mf * direct
 
+    def exact_at(self, points, normals, luminaires):
+        """Maintained illuminance (k,) lux of ``luminaires`` at any receivers in the room
+        (spots on its surfaces): direct light with shadows plus interreflection."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        if not luminaires:
+            return np.zeros(len(points))
+        # receivers on a surface: lifted off it so that it does not shadow them
+        normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+        lifted = points + 1e-4 * normals
+        occl = self.bvh is not None
+        direct = direct_illuminance(lifted, normals, luminaires, bvh=self.bvh,
+                                    occlusion=occl, backend=self.backend)
+        return self.mf * (direct + self.indirect_at(lifted, normals, luminaires))
+
     def indirect_at(self, points, normals, luminaires):
         """Interreflected illuminance (lux, new installation) at any receivers in the
         room, e.g. an observer's eye for the background luminance of UGR."""

@@ -17,6 +17,7 @@ import os
 import numpy as np
 
 from invrad_wb.core.io.atomic import atomic_dir
+from invrad_wb.core.design.accent import SPOT_TOLERANCE
 
 _TEMPLATE = "design_report.html.j2"
 _TEMPLATES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "templates")
@@ -209,7 +210,14 @@ def room_rows(result):
                        ugr="-" if r.ugr is None else f"{r.ugr:.1f}",
                        ugr_limit="-" if r.ugr_limit is None else f"{r.ugr_limit:g}",
                        ugr_ok=v.get("UGR", True),
-                       height=f"{q.height_m:g}", margin=f"{q.margin_m:g}")
+                       height=f"{q.height_m:g}", margin=f"{q.margin_m:g}",
+                       spots=[{"centre": ", ".join(f"{x:.2f}" for x in s.goal.centre),
+                               "tol": f"{100 * SPOT_TOLERANCE:.0f} %",
+                               "target": f"{s.goal.target_mean:.0f}",
+                               "achieved": f"{s.achieved_mean:.0f}", "ok": s.ok,
+                               "accent": None if s.accent is None
+                               else s.accent.extra.get("type")}
+                              for s in r.spots if s.goal.kind == "spot"])
         rows.append(row)
     return rows
 
