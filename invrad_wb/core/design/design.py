@@ -292,7 +292,7 @@ def _light_goals(scene, rd, model, droom, rs, entries, photometry, req):
         else:
             rd.notes.append(f"surface goal ({g.n_vertices} target points, {g.area_m2:.1f} m2):"
                             f" {sp.achieved_mean:.0f} lx for {g.target_mean:.0f} lx on"
-                            " average (a goal, not a requirement: painted spots are)")
+                            " average (a goal to approach, not judged)")
 
 
 def _entry_watts(entries, lum):
