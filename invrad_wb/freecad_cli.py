@@ -26,7 +26,23 @@ import subprocess
 import sys
 import tempfile
 
-from invrad_wb.errors import Cancelled, InvradError, SettingsError
+
+def honour_pythonpath():
+    """Put $PYTHONPATH's folders on sys.path (in front, in order) where they are missing.
+
+    FreeCAD 1.0's freecadcmd runs an isolated interpreter that ignores PYTHONPATH (0.20
+    honoured it): the child run and the FreeCAD tests find invrad and its venv this way on
+    both. Runs before the package's own imports when freecadcmd executes this file.
+    """
+    paths = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+    for p in reversed(paths):
+        if p not in sys.path:
+            sys.path.insert(0, p)
+
+
+honour_pythonpath()
+
+from invrad_wb.errors import Cancelled, InvradError, SettingsError  # noqa: E402
 
 ENV_JOB = "INVRAD_FREECAD_JOB"
 #: Printed by the child before its own output; what comes before is FreeCAD's banner.

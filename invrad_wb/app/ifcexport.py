@@ -257,8 +257,18 @@ def _merge(doc, base_ifc, out_path):
 
 
 # --------------------------------------------------------------------------- FreeCAD
+def _exporter():
+    """FreeCAD's IFC exporter module: ``exportIFC`` (Arch, 0.20) or
+    ``importers.exportIFC`` (the BIM workbench, 1.x)."""
+    try:
+        import exportIFC
+    except ImportError:
+        from importers import exportIFC
+    return exportIFC
+
+
 def _freecad_export(doc, out_path):
-    import exportIFC
+    exportIFC = _exporter()
     import ifcopenshell
     from invrad_wb.app.document import transaction
     objs = [o for o in doc.Objects if not _is_internal(o)]

@@ -46,7 +46,9 @@ def run_inside():
         sys.stdout = out
     status = 1
     try:
-        for p in (ROOT, HERE):
+        # FreeCAD 1.0's freecadcmd ignores PYTHONPATH: its folders are added here, in front
+        paths = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+        for p in reversed([ROOT, HERE] + paths):
             if p not in sys.path:
                 sys.path.insert(0, p)
         import FreeCAD

@@ -10,7 +10,9 @@ import FreeCAD
 from fctest import (FZK, ROOT, FreeCADTestCase, needs_fzk, needs_locate)
 from invrad_wb.app import fixtures
 
-PYTHON = os.path.join(ROOT, ".venv", "bin", "python")
+# the interpreter with invrad's dependencies: $INVRAD_PYTHON (the FreeCAD 1.0 root's venv,
+# .ci/test-freecad1.sh), else the checkout's venv, else the system's
+PYTHON = os.environ.get("INVRAD_PYTHON") or os.path.join(ROOT, ".venv", "bin", "python")
 if not os.path.exists(PYTHON):
     PYTHON = "/usr/bin/python3"
 
