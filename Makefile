@@ -49,6 +49,7 @@ bench: setup
 	$(PY) bench/bench_locate.py
 	$(PY) bench/bench_random.py
 	$(PY) bench/bench_design.py
+	$(PY) bench/bench_memory.py
 
 examples: setup
 	$(PY) examples/make_examples.py

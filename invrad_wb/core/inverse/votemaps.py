@@ -318,10 +318,8 @@ def _grid_shape(size_u, size_v, pixel):
             max(1, int(np.ceil(size_v / pixel - 1e-9))))
 
 
-def require_canvas_memory(scene, room, plane_ids, pixel, dummy_maps):
-    """Refuse (:class:`~invrad_wb.core.model.memory.MemoryLimitError`) a room's vote maps
-    whose pixels would not fit in the memory budget, before any is made."""
-    from invrad_wb.core.model.memory import require
+def canvas_memory(scene, room, plane_ids, pixel, dummy_maps):
+    """(estimated peak bytes, pixels) of a room's vote maps (see the constants above)."""
     sizes = [int(np.prod(_grid_shape(*scene.planes[pi].size, pixel))) for pi in plane_ids]
     sel = (scene.face_room == room) & ~scene.face_virtual
     if sel.any():
@@ -331,7 +329,15 @@ def require_canvas_memory(scene, room, plane_ids, pixel, dummy_maps):
         sizes += [footprint] * (int(dummy_maps) + 1)     # + the footprint grid
     total = float(np.sum(sizes, dtype=np.float64)) if sizes else 0.0
     peak = float(max(sizes)) if sizes else 0.0
-    require(total * CANVAS_BYTES_PER_PIXEL + peak * MAP_BUILD_BYTES_PER_PIXEL,
+    return total * CANVAS_BYTES_PER_PIXEL + peak * MAP_BUILD_BYTES_PER_PIXEL, total
+
+
+def require_canvas_memory(scene, room, plane_ids, pixel, dummy_maps):
+    """Refuse (:class:`~invrad_wb.core.model.memory.MemoryLimitError`) a room's vote maps
+    whose pixels would not fit in the memory budget, before any is made."""
+    from invrad_wb.core.model.memory import require
+    nbytes, total = canvas_memory(scene, room, plane_ids, pixel, dummy_maps)
+    require(nbytes,
             f"room {room}'s vote maps at {pixel:g} m per pixel ({total:.3g} pixels on"
             f" {len(plane_ids)} surface(s) and {int(dummy_maps)} dummy layer(s))",
             "use a coarser --resolution (vote-map metres per pixel) or fewer dummy layers")
