@@ -158,7 +158,23 @@ class Smoke:
         FreeCADGui.updateGui()
         FreeCADGui.activeDocument().activeView().saveImage(path, width, height, "White")
         self.shots.append(os.path.relpath(path, self.out))
-        self.check(f"screenshot {name}", os.path.getsize(path) > 10000, path)
+        self.check(f"screenshot {name}", self.drawn(path) > 0.05, path)
+
+    @staticmethod
+    def drawn(path, step=8):
+        """Fraction of (sampled) pixels that are not the white background: a blank or
+        failed view gives 0 (the file's size said little: FreeCAD 1.0's flat shading
+        compresses a full plan into 9 kB)."""
+        from PySide import QtGui
+        img = QtGui.QImage(path)
+        if img.isNull():
+            return 0.0
+        n = hits = 0
+        for y in range(0, img.height(), step):
+            for x in range(0, img.width(), step):
+                n += 1
+                hits += (img.pixel(x, y) & 0xFFFFFF) != 0xFFFFFF
+        return hits / max(n, 1)
 
     @staticmethod
     def report_view():
@@ -228,6 +244,12 @@ class Smoke:
         os._exit(0)
 
     # ----------------------------------------------------------------- helpers
+    @staticmethod
+    def said(title, before):
+        """A wait condition: a message of the command ``title`` after LOG[before]."""
+        from invrad_wb.gui import messages
+        return lambda: any(m[1] == title for m in messages.LOG[before:])
+
     @staticmethod
     def idle():
         from invrad_wb.gui import progress
@@ -464,9 +486,12 @@ class Smoke:
         self.check("repeak panel", isinstance(panel, taskpanel.RepeakPanel))
         panel.widget("threshold").setValue(80.0)
         n0 = doc.UndoCount
+        before = len(messages.LOG)
         panel.accept()
+        # the panel starts the command from the event loop: wait for its message (FreeCAD
+        # 1.0 ran the checks before the deferred command had started)
+        yield self.said("Recalculate peaks", before)
         yield self.idle
-        yield None
         self.check("repeak replaced the fixtures in one undo step",
                    doc.UndoCount == n0 + 1 and len(fixtures.room_fixtures(space))
                    == len(runner.stored(doc).result.luminaires),
@@ -479,7 +504,9 @@ class Smoke:
         report = os.path.join(self.out, "office_report")
         runner_params = __import__("invrad_wb.gui.params", fromlist=["x"])
         runner_params.save_run({"report_dir": self.out})
+        before = len(messages.LOG)
         FreeCADGui.runCommand("InvRad_Verify")
+        yield self.said("Verify and report", before)
         yield self.idle
         st = runner.stored(doc)
         sheet = doc.getObject("InvRadReport")
@@ -680,7 +707,9 @@ class Smoke:
         self.shot("fzk_located_top")
         self.view_iso()
         self.shot("fzk_located_iso")
+        before = len(messages.LOG)
         FreeCADGui.runCommand("InvRad_Verify")
+        yield self.said("Verify and report", before)
         yield self.idle
         self.check("FZK-Haus: verify", display.mode(doc) == "achieved",
                    messages.LOG[-1:])
