@@ -390,6 +390,9 @@ def test_report_html_csv_json_and_images(tmp_path):
     assert [float(r["x_m"]) for r in lum] == [1.5, 4.5]
     assert [float(r["flux_lm"]) for r in lum] == [4000.0, 4000.0]
     assert float(lum[1]["score"]) == 0.4 and lum[0]["room_name"] == evil
+    # the page: one luminaire table for one room, facing in words, no internal score
+    assert page.count("<table class=\"lums\">") == 1 and "All luminaires" not in page
+    assert "<td>down</td>" in page and "score" not in page and "-0.00" not in page
     data = json.load(open(paths.metrics_json, encoding="utf-8"))
     assert data["rooms"][0]["metrics"]["em"] == m["em"]
     assert data["scale"]["lux_max"] == paths.scale["lux_max"] >= 400
@@ -482,3 +485,10 @@ def test_bad_input_is_refused(tmp_path):
         build_report(s, E[:-1], E, [], str(tmp_path / "a"))
     with pytest.raises(ValueError, match="lux_range"):
         build_report(s, E, E, [], str(tmp_path / "b"), lux_range=(10, 5))
+
+
+def test_facing_is_said_in_words_and_never_minus_zero():
+    assert R.facing_text([0.0, -0.0, -1.0]) == "down"
+    assert R.facing_text([1e-9, 0.0, 2.0]) == "up"
+    assert R.facing_text([-1.0, 0.0, 0.0]) == "-x"
+    assert R.facing_text([-0.001, 0.6, -0.8]) == "+0.00, +0.60, -0.80"

@@ -321,7 +321,8 @@ def _find_luminaires(building, settings, flux, progress, locate=None):
     if locate is None:
         from invrad_wb.core.inverse.locate import locate
     return locate(building.scene, flux_lm=flux, settings=settings.locate, progress=progress,
-                  backend=settings.backend)
+                  backend=settings.backend,
+                  room_names={p.room_id: p.space.Label for p in building.rooms})
 
 
 def by_room(building, luminaires):

@@ -172,7 +172,7 @@ def fake_locate(luminaires_by_room, fail=None):
     """A locate stand-in returning known luminaires: ``{room id: [Luminaire, ...]}``."""
     calls = []
 
-    def locate(scene, flux_lm, settings=None, progress=None, backend="auto"):
+    def locate(scene, flux_lm, settings=None, progress=None, backend="auto", room_names=None):
         calls.append(scene)
         if progress is not None:
             progress(0.5, "fake locate")

@@ -554,6 +554,8 @@ class Smoke:
             if progress.DIALOG is not None and progress.CURRENT.fraction > 0.15:
                 if not self.quick:
                     self.grab(progress.DIALOG, "progress_dialog")
+                self.check("the progress names the room", progress.CURRENT.message
+                           .startswith("Office:"), progress.CURRENT.message)
                 progress.DIALOG.cancel()
                 return True
             return False

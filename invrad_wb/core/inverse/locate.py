@@ -747,7 +747,7 @@ def _collect(rooms):
 
 
 def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=None,
-           photometry=None, **overrides):
+           photometry=None, room_names=None, **overrides):
     """Find luminaire positions that produce a scene's target illuminance.
 
     Parameters
@@ -769,6 +769,8 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
         The luminaires' intensity distribution: the refinement and its interreflection
         model use it (the votes stay lambertian: their peaks are the refinement's starting
         points). None: lambertian.
+    room_names : dict room id -> name, optional
+        Names for the progress messages (a FreeCAD Space's label) instead of "room <id>".
     **overrides :
         Individual settings, e.g. ``pixel_m=0.05``.
 
@@ -798,7 +800,7 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
         step = 1.0 / len(room_ids)
         runs.append(_locate_room(scene, int(room), s, flux, backend, timings,
                                  lambda f, msg, b=base, st=step: report(b + f * st, msg),
-                                 photometry))
+                                 photometry, label=(room_names or {}).get(int(room))))
     report(1.0, "done")
     timings["total"] = time.time() - t_start
     result = LocateResult(luminaires=_collect(runs), settings=asdict(s),
@@ -829,13 +831,16 @@ def check_flux(flux_lm):
     return flux
 
 
-def _locate_room(scene, room, s, flux, backend, timings, report, photometry=None):
+def _locate_room(scene, room, s, flux, backend, timings, report, photometry=None,
+                 label=None):
     """Steps 1-5 of the module docstring for one room; returns its :class:`RoomRun`.
 
-    ``timings`` (seconds per stage) is added to; ``report(fraction of this room, message)``
+    ``label`` names the room in progress messages (default "room <id>"). ``timings``
+    (seconds per stage) is added to; ``report(fraction of this room, message)``
     reports progress (and raises :class:`Cancelled`).
     """
-    report(0.0, f"room {room}: voting points")
+    label = label or f"room {room}"
+    report(0.0, f"{label}: voting points")
     sub = scene.room_subset(room) if len(scene.rooms) > 1 else scene
     t = time.time()
     density = s.votes_per_m2 or default_density(sub)
@@ -852,7 +857,7 @@ def _locate_room(scene, room, s, flux, backend, timings, report, photometry=None
     # interreflection
     has_rho = bool(np.any(sub.face_reflectance[~sub.face_virtual] > 0))
     ambient = _ambient_estimate(sub, pts) if (s.indirect != "none" and has_rho) else 0.0
-    report(0.1, f"room {room}: vote maps")
+    report(0.1, f"{label}: vote maps")
     t = time.time()
     planes = None
     if not s.all_planes:
@@ -863,7 +868,7 @@ def _locate_room(scene, room, s, flux, backend, timings, report, photometry=None
                           planes=planes)
     _exclude_furniture_zone(sub, canvas)
     timings["maps"] += time.time() - t
-    report(0.2, f"room {room}: votes")
+    report(0.2, f"{label}: votes")
     free = flux is None
     ladder = {}
     if free:
@@ -883,10 +888,10 @@ def _locate_room(scene, room, s, flux, backend, timings, report, photometry=None
                   problem=prob, occluders=occ, ambient_lux=ambient,
                   indirect_model=indirect_model, vote_fn=vote_fn, flux=flux,
                   free_flux=free, ladder_votes=ladder)
-    report(0.5, f"room {room}: peaks and refinement")
+    report(0.5, f"{label}: peaks and refinement")
     t = time.time()
     _postprocess(run, s, flux,
-                 progress=lambda f: report(0.5 + 0.5 * f, f"room {room}: refinement"))
+                 progress=lambda f: report(0.5 + 0.5 * f, f"{label}: refinement"))
     timings["postprocess"] += time.time() - t
     return run
 
