@@ -49,7 +49,15 @@ def test_example_locate_verify_round_trip(tmp_path):
     assert d.min(axis=0).max() < 0.1
     assert set(data) >= {"luminaires", "settings", "timings"}
     assert data["settings"]["vote_model"] == "exact"
-    assert (maps / "room0" / "contact_sheet.png").exists()
+    # the contact sheet is a page for a person: every map at a readable size, the
+    # luminaires found crossed in red
+    from invrad_wb.core.output.images import read_image
+    sheet = read_image(maps / "room0" / "contact_sheet.png")
+    assert sheet.shape[0] > 600 and sheet.shape[1] > 1000
+    px = sheet[..., :3].astype(float)
+    px = px * (255.0 if px.max() <= 1.0 else 1.0)
+    red = (px[..., 0] > 200) & (px[..., 1] < 80) & (px[..., 2] < 80)
+    assert red.sum() > 20
     assert (maps / "room0" / "maps.json").exists()
     rep = tmp_path / "report"
     run("verify", str(scene), "--luminaires", str(result), "--report", str(rep), check=True)
