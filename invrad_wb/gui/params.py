@@ -41,8 +41,9 @@ CHOICES = {
     "vote_model": [("exact", "Exact contours"), ("ellipse", "Ellipses (thesis)")],
     "weighting": [("illumination", "Illumination"), ("distance", "Distance"),
                   ("both", "Both"), ("none", "None")],
-    "occlusion": [("auto", "Auto (non-convex)"), (True, "On"), (False, "Off")],
-    "optimiser": [("lm", "Levenberg-Marquardt"), ("es", "(1+1)-ES")],
+    # short labels: the task panel is narrow (the tooltips say more)
+    "occlusion": [("auto", "Auto"), (True, "On"), (False, "Off")],
+    "optimiser": [("lm", "Least squares"), ("es", "(1+1)-ES")],
     "indirect": [("radiosity", "Radiosity"), ("ambient", "Ambient term"),
                  ("none", "None")],
     "backend": [("auto", "Auto"), ("opencl", "OpenCL"), ("numpy", "numpy")],
