@@ -354,14 +354,20 @@ def fmt_lux(v):
     return f"{v:.2f}"
 
 
-def fmt_pct(v, signed=False):
+def signed(v, digits):
+    """``+1.5`` style text of ``v`` with ``digits`` decimals; a value that rounds to zero
+    prints as ``+0`` (never ``-0``)."""
+    return f"{round(float(v), digits) + 0.0:+.{digits}f}"
+
+
+def fmt_pct(v, signed_=False):
     if v is None or not np.isfinite(v):
         return "–"
-    return f"{v:+.1f} %" if signed else f"{v:.1f} %"
+    return f"{signed(v, 1)} %" if signed_ else f"{v:.1f} %"
 
 
 def _signed_lux(v):
-    return "–" if v is None or not np.isfinite(v) else f"{v:+.0f} lx"
+    return "–" if v is None or not np.isfinite(v) else f"{signed(v, 0)} lx"
 
 
 def fmt_ratio(v):
@@ -792,9 +798,9 @@ def _metric_table(m):
     def diff(a, t, pct=True):
         if not (np.isfinite(a) and np.isfinite(t)):
             return "–"
-        s = f"{a - t:+.0f} lx" if abs(a - t) >= 10 else f"{a - t:+.2f} lx"
+        s = f"{signed(a - t, 0)} lx" if abs(a - t) >= 10 else f"{signed(a - t, 2)} lx"
         if pct and t > 0:
-            s += f" ({100 * (a - t) / t:+.1f} %)"
+            s += f" ({signed(100 * (a - t) / t, 1)} %)"
         return s
 
     rows = [
@@ -806,7 +812,7 @@ def _metric_table(m):
             diff(m["emax"], m["target_emax"])),
         row("U0 = Emin / Em", fmt_ratio(m["target_u0"]), fmt_ratio(m["u0"]),
             "–" if not np.isfinite(m["u0"] - m["target_u0"])
-            else f"{m['u0'] - m['target_u0']:+.2f}"),
+            else signed(m['u0'] - m['target_u0'], 2)),
     ]
     return ("<table class=\"metrics\"><tr><th></th><th>target</th><th>achieved</th>"
             "<th>difference</th></tr>" + "".join(rows) + "</table>")
@@ -822,14 +828,14 @@ def _facts(m):
                      f" ±{m['tolerance_pct']:.0f} % of its target")
         sign = "too bright" if m["max_dev_lux"] > 0 else "too dark"
         if m["max_dev_where"]:
-            items.append(f"Largest deviation <b>{m['max_dev_lux']:+.0f} lx"
+            items.append(f"Largest deviation <b>{signed(m['max_dev_lux'], 0)} lx"
                          f" ({fmt_pct(m['max_dev_pct'], True)})</b>, {sign}, on the"
                          f" {_e(m['max_dev_where'])}")
         else:
             items.append("The achieved illuminance equals the target at every point")
         if m["max_rel_dev_where"] and m["max_rel_dev_where"] != m["max_dev_where"]:
             items.append(f"Largest relative deviation {fmt_pct(m['max_rel_dev_pct'], True)}"
-                         f" ({m['max_rel_dev_lux']:+.0f} lx) on the"
+                         f" ({signed(m['max_rel_dev_lux'], 0)} lx) on the"
                          f" {_e(m['max_rel_dev_where'])}")
         items.append(f"Darkest target point {fmt_lux(m['emin'])} lx on the"
                      f" {_e(m['emin_where'])}")
@@ -853,7 +859,7 @@ def _parts_table(parts):
         m = p["metrics"]
         cls = f' class="{_e(p["kind"]).replace(" ", "-")}"'
         dev = ("–" if not np.isfinite(m["max_dev_lux"])
-               else f"{m['max_dev_lux']:+.0f} lx ({fmt_pct(m['max_dev_pct'], True)})")
+               else f"{signed(m['max_dev_lux'], 0)} lx ({fmt_pct(m['max_dev_pct'], True)})")
         rows.append(f"<tr{cls}><td>{_e(p['part'])}</td><td>{m['area_m2']:.2f}</td>"
                     f"<td>{fmt_lux(m['target_em'])}</td><td>{fmt_lux(m['em'])}</td>"
                     f"<td>{fmt_ratio(m['target_u0'])}</td><td>{fmt_ratio(m['u0'])}</td>"
