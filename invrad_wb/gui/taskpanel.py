@@ -133,6 +133,44 @@ class LocatePanel:
             "every room with lighting targets"
         self.widget("rooms_label").setText(names if run else "(settings only)")
         self.widget("reset_defaults").clicked.connect(self.reset_defaults)
+        self._advanced_toggle()
+
+    #: Group boxes of the method's own settings, hidden until asked for (the panel was
+    #: about 1170 px tall with them).
+    ADVANCED = ("group_votes", "group_dummy", "group_peaks", "group_refine")
+
+    def _advanced_toggle(self):
+        """A check box above the method's settings that shows or hides them; they start
+        shown when any of them differs from its default (nothing is changed unseen)."""
+        from PySide import QtGui
+        groups = [self.form.findChild(QtGui.QGroupBox, n) for n in self.ADVANCED]
+        groups = [g for g in groups if g is not None]
+        if not groups:
+            return
+        box = QtGui.QCheckBox("Advanced: votes, dummy planes, peaks, refinement")
+        box.setObjectName("show_advanced")
+        box.setToolTip("The method's own settings; the defaults suit every room")
+        lay = self.form.layout()
+        lay.insertWidget(lay.indexOf(groups[0]), box)
+        box.toggled.connect(lambda on: [g.setVisible(on) for g in groups])
+        box.setChecked(self.advanced_changed())
+        for g in groups:
+            g.setVisible(box.isChecked())
+
+    def advanced_changed(self):
+        """True when a setting in the advanced groups differs from its default."""
+        from PySide import QtGui
+        _, loc = self.values()
+        defaults = {k: d for k, (_, d) in self.fields.items()}
+        for n in self.ADVANCED:
+            g = self.form.findChild(QtGui.QGroupBox, n)
+            if g is None:
+                continue
+            for w in g.findChildren(QtGui.QWidget):
+                k = w.objectName()
+                if k in loc and loc[k] != defaults.get(k):
+                    return True
+        return False
 
     def widget(self, name):
         w = _widget(self.form, name)

@@ -442,9 +442,20 @@ class Smoke:
         panel = taskpanel.ACTIVE
         self.check("locate panel has every setting",
                    isinstance(panel, taskpanel.LocatePanel))
+        adv = panel.widget("show_advanced")
+        short = panel.form.sizeHint().height()
+        self.check("the method's settings start hidden, the panel is short",
+                   not adv.isChecked() and not panel.widget("threshold").isVisibleTo(
+                       panel.form) and short < 700, short)
         if not self.quick:
-            self.grab(panel.form, "panel_locate_settings")
+            self.grab(panel.form, "panel_locate")
             self.grab(FreeCADGui.getMainWindow(), "main_window")
+        adv.setChecked(True)
+        self.check("'Advanced' shows them", panel.widget("threshold").isVisibleTo(panel.form))
+        if not self.quick:
+            QtGui.QApplication.processEvents()
+            self.grab(panel.form, "panel_locate_settings")
+        adv.setChecked(False)
         panel.widget("flux_lm").setValue(2500.0)
         panel.widget("resolution_m").setValue(0.3)
         n0 = doc.UndoCount
