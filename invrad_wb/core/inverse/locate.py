@@ -589,12 +589,17 @@ class _RoomFit:
         extra.sort(key=lambda p: -p.score)
         more = [_light_from_peak(p, run.canvas) for p in extra]
         # a fresh selection over all candidates (the first may be a local optimum that
-        # adding luminaires cannot leave); the better of the two answers is kept
-        alt, c_alt, t2 = self._greedy(more + cands, patience=2 * s.overlap_levels + 10)
+        # adding luminaires cannot leave)
+        return self._reselect(lights, cost, more, cands, "overlap_votes",
+                              patience=2 * s.overlap_levels + 10)
+
+    def _reselect(self, lights, cost, more, cands, what, **greedy):
+        """A selection over ``more + cands`` (``greedy``: its options), tidied and settled;
+        the better of it and (``lights``, ``cost``), traced under ``what``."""
+        alt, c_alt, t2 = self._greedy(more + cands, **greedy)
         alt, c_alt = self.tidy(alt, c_alt)
         alt, c_alt = self.settle(alt, c_alt, more + cands)
-        self.trace += [{"overlap_votes": len(more), "cost_before": cost,
-                        "cost_after": c_alt}] + t2
+        self.trace += [{what: len(more), "cost_before": cost, "cost_after": c_alt}] + t2
         if c_alt < cost:
             return alt, c_alt
         return lights, cost
@@ -612,14 +617,7 @@ class _RoomFit:
         ladder = {f: run.vote_fn(f / run.flux, lux=lux) for f in run.ladder_votes}
         more = [_light_from_peak(p, run.canvas, run.flux)
                 for p in _ladder_peaks(run, s, ladder)]
-        alt, c_alt, t2 = self._greedy(more + cands, initial=lights)
-        alt, c_alt = self.tidy(alt, c_alt)
-        alt, c_alt = self.settle(alt, c_alt, more + cands)
-        self.trace += [{"residual_votes": len(more), "cost_before": cost,
-                        "cost_after": c_alt}] + t2
-        if c_alt < cost:
-            return alt, c_alt
-        return lights, cost
+        return self._reselect(lights, cost, more, cands, "residual_votes", initial=lights)
 
     def grid(self, lights, cost, cands, flux):
         """Regular ceiling arrangements of n luminaires of ``flux`` lm as seeds; the best
