@@ -21,7 +21,7 @@ def atomic_path(path, suffix=None):
     os.makedirs(folder, exist_ok=True)
     ext = suffix if suffix is not None else os.path.splitext(path)[1]
     remove_stale(folder)
-    fd, tmp = tempfile.mkstemp(prefix=_prefix(), suffix=ext, dir=folder)
+    fd, tmp = tempfile.mkstemp(prefix=temp_prefix(), suffix=ext, dir=folder)
     os.close(fd)
     try:
         yield tmp
@@ -37,7 +37,7 @@ def atomic_path(path, suffix=None):
 _STALE = re.compile(r"^\.invrad-(?:old-)?(\d+)-")
 
 
-def _prefix(kind=""):
+def temp_prefix(kind=""):
     """Temporary names carry the writer's process id: a later run can tell a leftover of a
     killed run (SIGKILL, power loss) from the output of one still running."""
     return f".invrad-{kind}{os.getpid()}-"
@@ -110,20 +110,26 @@ def atomic_dir(path):
         raise FileExistsError(f"{path} is a file, not a folder")
     os.makedirs(parent, exist_ok=True)
     remove_stale(parent)
-    tmp = tempfile.mkdtemp(prefix=_prefix(), dir=parent)
+    tmp = tempfile.mkdtemp(prefix=temp_prefix(), dir=parent)
     try:
         yield tmp
         os.chmod(tmp, 0o777 & ~_umask())
-        old = None
-        if os.path.isdir(path):
-            old = tempfile.mkdtemp(prefix=_prefix("old-"), dir=parent)
-            os.rmdir(old)
-            os.replace(path, old)
-        os.replace(tmp, path)
-        if old is not None:
-            import shutil
-            shutil.rmtree(old, ignore_errors=True)
+        replace_dir(tmp, path)
     except BaseException:
         import shutil
         shutil.rmtree(tmp, ignore_errors=True)
         raise
+
+
+def replace_dir(src, dst):
+    """Put the folder ``src`` in the place of ``dst`` (an existing folder there is moved
+    aside first and removed after: two renames, no moment without one of them)."""
+    old = None
+    if os.path.isdir(dst):
+        old = tempfile.mkdtemp(prefix=temp_prefix("old-"), dir=os.path.dirname(dst))
+        os.rmdir(old)
+        os.replace(dst, old)
+    os.replace(src, dst)
+    if old is not None:
+        import shutil
+        shutil.rmtree(old, ignore_errors=True)

@@ -463,9 +463,9 @@ class _Staging:
     def __init__(self, out_dir):
         self.out_dir = os.path.abspath(out_dir)
         os.makedirs(self.out_dir, exist_ok=True)
-        from invrad_wb.core.io.atomic import _prefix, remove_stale
+        from invrad_wb.core.io.atomic import remove_stale, temp_prefix
         remove_stale(self.out_dir)          # what a killed run left here
-        self.dir = tempfile.mkdtemp(prefix=_prefix(), dir=self.out_dir)
+        self.dir = tempfile.mkdtemp(prefix=temp_prefix(), dir=self.out_dir)
         self.names = []
 
     def path(self, name):

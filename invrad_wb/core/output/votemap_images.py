@@ -98,24 +98,15 @@ def save_vote_maps(result, folder):
     """
     import shutil
     import tempfile
-    from invrad_wb.core.io.atomic import _prefix, remove_stale
+    from invrad_wb.core.io.atomic import replace_dir, remove_stale, temp_prefix
     folder = os.path.abspath(folder)
     os.makedirs(folder, exist_ok=True)
     remove_stale(folder)
-    stage = tempfile.mkdtemp(prefix=_prefix(), dir=folder)
+    stage = tempfile.mkdtemp(prefix=temp_prefix(), dir=folder)
     try:
         written = _save_rooms(result, stage)
-        names = sorted({os.path.relpath(w, stage).split(os.sep)[0] for w in written})
-        for name in names:
-            dst = os.path.join(folder, name)
-            if os.path.isdir(dst):
-                old = tempfile.mkdtemp(prefix=_prefix("old-"), dir=folder)
-                os.rmdir(old)
-                os.replace(dst, old)
-                os.replace(os.path.join(stage, name), dst)
-                shutil.rmtree(old, ignore_errors=True)
-            else:
-                os.replace(os.path.join(stage, name), dst)
+        for name in sorted({os.path.relpath(w, stage).split(os.sep)[0] for w in written}):
+            replace_dir(os.path.join(stage, name), os.path.join(folder, name))
     finally:
         shutil.rmtree(stage, ignore_errors=True)
     return [os.path.join(folder, os.path.relpath(w, stage)) for w in written]
