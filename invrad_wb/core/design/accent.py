@@ -204,57 +204,68 @@ def light_spots(model, droom, rs, entries, photometry, general, goals, wp_top_z,
     results : list of SpotResult, one per goal (surface goals included, for the report)
     """
     mf = model.mf
-    accents, results = [], []
+    accents = []
     radius = max(e.radius_m for e in entries)
     positions, normals = _candidates(droom, rs, radius, wp_top_z)
-    shade_base = None
-    if shade is not None and len(shade[0]):
-        shade_base = model.exact_at(shade[0], shade[1], general)
-    for goal in goals:
-        base = model.exact_at(goal.points, goal.normals, general + accents)
-        res = SpotResult(goal, float(np.mean(base)), float(np.mean(base)))
-        results.append(res)
-        if goal.kind != "spot" or res.ok:
+    # every receiver (the goals' points, then the shade points) in one array: one exact
+    # solve for the general lighting, one per accent (light adds up, radiosity is linear)
+    n_shade = len(shade[0]) if shade is not None else 0
+    pts = np.concatenate([g.points for g in goals] + ([shade[0]] if n_shade else []))
+    nrm = np.concatenate([g.normals for g in goals] + ([shade[1]] if n_shade else []))
+    ends = np.cumsum([0] + [len(g.points) for g in goals])
+    lux = model.exact_at(pts, nrm, general)
+    general_lux = lux.copy()
+    notes, accent_of = {}, {}
+    for i, goal in enumerate(goals):
+        base = lux[ends[i]:ends[i + 1]]
+        if goal.kind != "spot" or within(float(np.mean(base)), goal.target_mean):
             continue
-        if res.base_mean > goal.target_mean:
-            res.note = (f"{goal.label()}: the general lighting alone gives"
-                        f" {res.base_mean:.0f} lx for {goal.target_mean:.0f} lx")
+        if np.mean(base) > goal.target_mean:
+            notes[i] = (f"{goal.label()}: the general lighting alone gives"
+                        f" {np.mean(base):.0f} lx for {goal.target_mean:.0f} lx")
             continue
         others = np.array([lum.position for lum in general + accents]).reshape(-1, 3)
         free = np.ones(len(positions), bool)
-        if len(others):
+        if len(others) and len(positions):
             gap = np.linalg.norm(positions[:, None] - others[None], axis=2).min(axis=1)
             free = gap >= ACCENT_MIN_GAP_M
+        shade_base = lux[ends[-1]:] if n_shade else None
         best = (_best_accent(goal, base, entries, photometry, positions[free], normals[free],
                              mf, shade, shade_base, shade_limit)
                 if free.any() else None)
-        if best is not None:
-            best = (best[0], int(np.flatnonzero(free)[best[1]])) + best[2:]
         if best is None:
-            res.note = (f"{goal.label()}: no catalogue luminaire at an allowed position"
-                        f" brings it from {res.base_mean:.0f} to {goal.target_mean:.0f} lx"
+            notes[i] = (f"{goal.label()}: no catalogue luminaire at an allowed position"
+                        f" brings it from {np.mean(base):.0f} to {goal.target_mean:.0f} lx"
                         f" (+/- {SPOT_TOLERANCE:.0%})")
             continue
-        k, p, flux, watts = best
+        k, p, flux, _ = best
+        p = int(np.flatnonzero(free)[p])
         e = entries[k]
-        lum = _accent(positions[p], normals[p], flux, entries, k, droom.room, photometry)
-        achieved = model.exact_at(goal.points, goal.normals, [lum]) + base
-        if not within(float(np.mean(achieved)), goal.target_mean):
+        own = model.exact_at(pts, nrm, [_accent(positions[p], normals[p], flux, entries, k,
+                                               droom.room, photometry)])
+        gain = float(np.mean(own[ends[i]:ends[i + 1]])) / flux       # exact lx per lm
+        if not within(float(np.mean(base)) + gain * flux, goal.target_mean):
             # one exact correction of the flux (the fast estimate has no shadows and no
-            # interreflection of its own light)
-            gain = float(np.mean(achieved - base)) / flux
+            # interreflection of its own light); its light scales with it
             want = (goal.target_mean - float(np.mean(base))) / max(gain, 1e-30)
-            flux = float(np.clip(want, e.dimming[0] * e.flux_lm, e.flux_lm))
-            lum = _accent(positions[p], normals[p], flux, entries, k, droom.room, photometry)
-            achieved = model.exact_at(goal.points, goal.normals, [lum]) + base
-        res.accent, res.accent_watts = lum, e.watts * flux / e.flux_lm
-        res.achieved_mean = float(np.mean(achieved))
-        accents.append(lum)
-        if shade_base is not None:
-            shade_base = shade_base + model.exact_at(shade[0], shade[1], [lum])
-        if not res.ok:
+            new = float(np.clip(want, e.dimming[0] * e.flux_lm, e.flux_lm))
+            own, flux = own * (new / flux), new
+        accents.append(_accent(positions[p], normals[p], flux, entries, k, droom.room,
+                               photometry))
+        accent_of[i] = (accents[-1], e.watts * flux / e.flux_lm)
+        lux = lux + own
+    # the figures of every goal with all the accents (a later accent may light an
+    # earlier spot too)
+    results = []
+    for i, goal in enumerate(goals):
+        lum, watts = accent_of.get(i, (None, 0.0))
+        res = SpotResult(goal, float(np.mean(lux[ends[i]:ends[i + 1]])),
+                         float(np.mean(general_lux[ends[i]:ends[i + 1]])), lum, watts,
+                         notes.get(i, ""))
+        if goal.kind == "spot" and lum is not None and not res.ok:
             res.note = (f"{goal.label()}: the best accent gives {res.achieved_mean:.0f} lx"
                         f" for {goal.target_mean:.0f} lx")
+        results.append(res)
     return accents, results
 
 
