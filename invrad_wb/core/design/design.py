@@ -13,6 +13,7 @@ import time
 import numpy as np
 
 from invrad_wb.errors import Cancelled, SettingsError
+from invrad_wb.core.accel.workers import map_rooms
 from invrad_wb.core.design.evaluate import RoomModel
 from invrad_wb.core.design.room import DesignRoom
 from invrad_wb.core.design.accent import SPOT_TOLERANCE, find_goals, light_spots
@@ -313,7 +314,8 @@ def _reflectances(scene, room):
     return out
 
 
-def design(scene, spec, room_names=None, backend="auto", progress=None, **kwargs):
+def design(scene, spec, room_names=None, backend="auto", progress=None, workers=1, dask=None,
+           **kwargs):
     """Design every room of ``scene`` that has a requirement in ``spec``.
 
     Parameters
@@ -323,6 +325,8 @@ def design(scene, spec, room_names=None, backend="auto", progress=None, **kwargs
     room_names : dict room id -> name, or sequence by id, optional (spec keys may use them)
     backend : {'auto', 'opencl', 'numpy'}
     progress : callable(fraction, message) -> bool, optional; returning False cancels
+    workers : int or 'auto'; rooms on this many local processes (same result as 1)
+    dask : None, 'local' or a Dask scheduler address: rooms on a Dask cluster
     kwargs : passed to :func:`design_room` (mixed, dimming, fractions, photometry)
 
     Returns
@@ -332,10 +336,26 @@ def design(scene, spec, room_names=None, backend="auto", progress=None, **kwargs
     names = _room_names(scene, room_names)
     check_rooms(spec, names)
     t0 = time.perf_counter()
-    rooms = []
-    for i, (room, name) in enumerate(names.items()):
-        if progress is not None and progress(i / len(names),
-                                             f"{name or f'room {room}'}: design") is False:
-            raise Cancelled("design cancelled")
-        rooms.append(design_room(scene, spec, room, name, backend=backend, **kwargs))
+    single = len(scene.rooms) <= 1
+    labels = [name or f"room {room}" for room, name in names.items()]
+    # each room's own faces only: a worker gets (and keeps) no more than its room
+    tasks = [lambda room=room, name=name: (scene if single else scene.room_subset(room),
+                                           spec, room, name, backend, kwargs)
+             for room, name in names.items()]
+
+    def report(i, n):
+        def tell(frac, msg):
+            if progress is not None and progress((i + frac) / n, msg) is False:
+                raise Cancelled("design cancelled")
+        return tell
+
+    rooms = map_rooms(_design_task, tasks, labels, workers=workers, dask=dask,
+                      progress=progress, report=report)
     return DesignResult(rooms, spec, {"total": time.perf_counter() - t0})
+
+
+def _design_task(scene, spec, room, name, backend, kwargs, report=None):
+    """One room on any worker (:func:`~invrad_wb.core.accel.workers.map_rooms`)."""
+    if report is not None:
+        report(0.0, f"{name or f'room {room}'}: design")
+    return design_room(scene, spec, room, name, backend=backend, **kwargs)

@@ -102,6 +102,10 @@ class BVH:
         return len(self.lo)
 
     # ------------------------------------------------------------------ OpenCL upload
+    def __getstate__(self):
+        # device buffers belong to this process's OpenCL context (a worker builds its own)
+        return {**self.__dict__, "_cl_buffers": None}
+
     def cl_buffers(self, env):
         """Device buffers (node lo, node hi, node info, leaf triangles), uploaded once."""
         if self._cl_buffers is not None and self._cl_buffers[0] is env.ctx:

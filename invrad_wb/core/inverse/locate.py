@@ -27,6 +27,7 @@ import numpy as np
 from invrad_wb.errors import Cancelled, SceneError, SettingsError
 from invrad_wb.core.geometry.bvh import BVH
 from invrad_wb.core.accel.device import check_backend
+from invrad_wb.core.accel.workers import map_rooms
 from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.core.inverse.peaks import find_peaks
 from invrad_wb.core.inverse.refine import (LOG_SCALE_LIMIT, Light, RefineProblem, greedy_select,
@@ -189,6 +190,30 @@ class RoomRun:
     lights: list = field(default_factory=list)
     trace: list = field(default_factory=list)
     cost: float = float("nan")
+    #: what rebuilds ``problem``, ``indirect_model`` and ``vote_fn`` (settings, backend,
+    #: photometry, has_rho): they hold closures and device objects and are not pickled
+    #: (a room run on a worker process comes back without them, see :meth:`restore`)
+    remake: tuple = None
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        if self.remake is not None:
+            state.update(problem=None, indirect_model=None, vote_fn=None)
+        return state
+
+    def restore(self):
+        """Rebuild the refinement problem and vote function after unpickling."""
+        if self.problem is not None or self.remake is None:
+            return self
+        s, backend, photometry, has_rho = self.remake
+        t = {k: 0.0 for k in ("votes", "radiosity")}
+        self.vote_fn = _vote_function(self.canvas, self.points, self.ambient_lux,
+                                      self.occluders, s, self.flux, backend, t)
+        self.problem, self.indirect_model = _refine_problem(
+            self.scene, self.points, self.canvas, self.occluders, s, self.flux, backend,
+            has_rho, t, photometry)
+        self.problem.free_flux = self.free_flux
+        return self
 
 
 @dataclass
@@ -226,6 +251,11 @@ class LocateResult:
         s.check()
         t0 = time.time()
         for run in self.rooms:
+            if run.remake is not None:
+                # a fresh problem: the result does not depend on earlier post-processing
+                # (nor on whether the room ran in this process or on a worker)
+                run.problem = None
+                run.restore()
             _postprocess(run, s, run.flux, progress, allow_votes=False)
         self.settings = asdict(s)
         self.timings["repeak"] = time.time() - t0
@@ -745,7 +775,7 @@ def _collect(rooms):
 
 
 def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=None,
-           photometry=None, room_names=None, **overrides):
+           photometry=None, room_names=None, workers=1, dask=None, **overrides):
     """Find luminaire positions that produce a scene's target illuminance.
 
     Parameters
@@ -769,6 +799,11 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
         points). None: lambertian.
     room_names : dict room id -> name, optional
         Names for the progress messages (a FreeCAD Space's label) instead of "room <id>".
+    workers : int or 'auto'
+        Rooms run on this many local worker processes (1: in this process); the result
+        is the same (:func:`~invrad_wb.core.accel.workers.map_rooms`).
+    dask : None, 'local' or a Dask scheduler address
+        Rooms run on a Dask cluster instead.
     **overrides :
         Individual settings, e.g. ``pixel_m=0.05``.
 
@@ -793,12 +828,22 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
         if progress is not None and progress(frac, msg) is False:
             raise Cancelled(f"cancelled: {msg}")
 
-    for ri, room in enumerate(room_ids):
-        base = ri / len(room_ids)
-        step = 1.0 / len(room_ids)
-        runs.append(_locate_room(scene, int(room), s, flux, backend, timings,
-                                 lambda f, msg, b=base, st=step: report(b + f * st, msg),
-                                 photometry, label=(room_names or {}).get(int(room))))
+    names = room_names or {}
+    labels = [names.get(int(r)) or f"room {int(r)}" for r in room_ids]
+    single = len(scene.rooms) <= 1
+
+    def task(room, label):
+        return (scene if single else scene.room_subset(room), room, s, flux, backend,
+                photometry, label)
+
+    tasks = [lambda r=int(r), lb=lb: task(r, lb) for r, lb in zip(room_ids, labels)]
+    done = map_rooms(_room_task, tasks, labels, workers=workers, dask=dask,
+                     progress=progress,
+                     report=lambda i, n: (lambda f, msg: report((i + f) / n, msg)))
+    for run, t in done:
+        runs.append(run)
+        for k, v in t.items():
+            timings[k] += v
     report(1.0, "done")
     timings["total"] = time.time() - t_start
     result = LocateResult(luminaires=_collect(runs), settings=asdict(s),
@@ -829,8 +874,17 @@ def check_flux(flux_lm):
     return flux
 
 
+def _room_task(sub, room, s, flux, backend, photometry, label, report=None):
+    """One room on any worker: ``(RoomRun, seconds per stage)``."""
+    timings = {k: 0.0 for k in ("sampling", "maps", "votes", "postprocess", "radiosity")}
+    run = _locate_room(sub, room, s, flux, backend, timings,
+                       report or (lambda f, msg: None), photometry, label=label,
+                       subset=False)
+    return run, timings
+
+
 def _locate_room(scene, room, s, flux, backend, timings, report, photometry=None,
-                 label=None):
+                 label=None, subset=True):
     """Steps 1-5 of the module docstring for one room; returns its :class:`RoomRun`.
 
     ``label`` names the room in progress messages (default "room <id>"). ``timings``
@@ -839,7 +893,7 @@ def _locate_room(scene, room, s, flux, backend, timings, report, photometry=None
     """
     label = label or f"room {room}"
     report(0.0, f"{label}: voting points")
-    sub = scene.room_subset(room) if len(scene.rooms) > 1 else scene
+    sub = scene.room_subset(room) if subset and len(scene.rooms) > 1 else scene
     t = time.time()
     density = s.votes_per_m2 or default_density(sub)
     pts = voting_points(sub, density=density, seed=s.seed)
@@ -885,7 +939,8 @@ def _locate_room(scene, room, s, flux, backend, timings, report, photometry=None
     run = RoomRun(room=room, scene=sub, points=pts, canvas=canvas, votes=votes,
                   problem=prob, occluders=occ, ambient_lux=ambient,
                   indirect_model=indirect_model, vote_fn=vote_fn, flux=flux,
-                  free_flux=free, ladder_votes=ladder)
+                  free_flux=free, ladder_votes=ladder,
+                  remake=(s, backend, photometry, has_rho))
     report(0.5, f"{label}: peaks and refinement")
     t = time.time()
     _postprocess(run, s, flux,

@@ -563,6 +563,12 @@ class Scene:
         return out
 
     # ------------------------------------------------------------------ subsets
+    #: per-process caches (radiosity models hold OpenCL objects): not pickled, rebuilt
+    _PROCESS_CACHES = ("_radiosity",)
+
+    def __getstate__(self):
+        return {k: v for k, v in self.__dict__.items() if k not in self._PROCESS_CACHES}
+
     def room_subset(self, room):
         """The faces of one room as a new Scene; ``face_source`` maps back to this scene."""
         sel = np.flatnonzero(self.face_room == room)

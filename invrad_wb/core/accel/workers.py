@@ -1,0 +1,212 @@
+"""Where independent rooms run: in this process, on local worker processes, or on Dask.
+
+Rooms do not share light (each room's faces carry their own room id), so a building is a
+list of independent tasks. :func:`map_rooms` runs ``fn(*task)`` for each task and returns
+the results in task order, whatever the number of workers, so a parallel run gives the
+same answer as a serial one.
+
+* ``workers=1`` (default): in this process, one room after another; ``fn`` gets the
+  caller's fine-grained progress (``report=``).
+* ``workers=N`` or ``"auto"`` (all usable cores): a pool of ``N`` local worker processes,
+  started with ``spawn`` (a fork would copy an OpenCL context and its threads). At most
+  ``N`` rooms are in flight, and tasks are built only when a worker is free, so memory is
+  bounded by the largest rooms, not the building.
+* ``dask="tcp://host:8786"``: the rooms go to that Dask scheduler's workers
+  (``dask.distributed``); ``dask="local"``: a local Dask cluster of ``N`` worker processes.
+
+Progress is reported per finished room (``progress(fraction, "3/7 rooms: Office")``);
+when it returns False the pending and running rooms are stopped (the pool is terminated,
+the Dask futures cancelled) and :class:`~invrad_wb.errors.Cancelled` is raised, before
+anything is returned to be written.
+
+Worker processes run this package's Python: ``sys.executable`` when it is a Python
+interpreter, else ``INVRAD_PYTHON`` (inside FreeCAD, whose executable is not one); when
+there is neither, rooms run in this process.
+"""
+import os
+import sys
+import time
+
+from invrad_wb.errors import Cancelled, SettingsError
+
+#: seconds between two looks at finished rooms (and at the progress callback: cancel)
+POLL_S = 0.05
+
+
+def usable_cores():
+    """CPUs this process may run on."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
+def check_workers(workers):
+    """``workers`` as a positive int (``"auto"`` or None: all usable cores)."""
+    if workers is None or (isinstance(workers, str) and workers.strip().lower() == "auto"):
+        return usable_cores()
+    bad = SettingsError(f"workers must be a positive whole number or 'auto', got {workers!r}")
+    if isinstance(workers, bool):
+        raise bad
+    try:
+        n = int(str(workers).strip()) if isinstance(workers, str) else int(workers)
+    except (TypeError, ValueError):
+        raise bad from None
+    if n < 1 or (not isinstance(workers, str) and n != workers):
+        raise bad
+    return n
+
+
+def worker_python():
+    """The Python interpreter for worker processes, or None when there is none."""
+    exe = os.environ.get("INVRAD_PYTHON") or sys.executable or ""
+    name = os.path.basename(exe).lower()
+    if name.startswith("python") and os.path.isfile(exe):
+        return exe
+    return None
+
+
+def _call(fn, task):
+    return fn(*task)
+
+
+def map_rooms(fn, tasks, labels=None, workers=1, dask=None, progress=None, report=None):
+    """``[fn(*task) for task in tasks]``, on ``workers`` processes or a Dask cluster.
+
+    Parameters
+    ----------
+    fn : picklable callable (a module-level function)
+    tasks : sequence of argument tuples, or of zero-argument callables building them (called
+        only when a worker takes the room, so at most ``workers`` are alive at a time)
+    labels : sequence of str, optional
+        Names for progress messages (a room's name).
+    workers : int or 'auto'
+    dask : None, 'local' or a scheduler address ('tcp://host:8786')
+    progress : callable(fraction, message) -> bool, optional
+        Called as rooms finish (in process: also within rooms, through ``report``);
+        returning False cancels.
+    report : callable(task index, n) -> callable(fraction, message), optional
+        In-process runs only: ``fn`` is then called with ``report=report(i, n)`` for its
+        fine-grained progress.
+
+    Returns
+    -------
+    list of results, in task order.
+    """
+    tasks = list(tasks)
+    n = len(tasks)
+    labels = list(labels) if labels is not None else [f"room {i + 1}" for i in range(n)]
+    nw = check_workers(workers)
+    if dask:
+        return _map_dask(fn, tasks, labels, nw, dask, progress)
+    if nw > 1 and n > 1 and worker_python() is not None:
+        return _map_pool(fn, tasks, labels, min(nw, n), progress)
+    out = []
+    for i, task in enumerate(tasks):
+        args = task() if callable(task) else task
+        if report is not None:
+            out.append(fn(*args, report=report(i, n)))
+        else:
+            _tell(progress, i / n, f"{i}/{n} rooms: {labels[i]}")
+            out.append(fn(*args))
+    return out
+
+
+def _tell(progress, frac, msg):
+    if progress is not None and progress(frac, msg) is False:
+        raise Cancelled(f"cancelled: {msg}")
+
+
+def _map_pool(fn, tasks, labels, nw, progress):
+    import multiprocessing as mp
+    ctx = mp.get_context("spawn")
+    ctx.set_executable(worker_python())
+    n = len(tasks)
+    out = [None] * n
+    # BLAS keeps its thread count: a different one changes float rounding, and the
+    # result must not depend on the number of workers
+    pool = ctx.Pool(nw)
+    try:
+        pending, nxt, done = {}, 0, 0
+        while done < n:
+            while nxt < n and len(pending) < nw:
+                task = tasks[nxt]
+                args = task() if callable(task) else task
+                pending[nxt] = pool.apply_async(_call, (fn, args))
+                tasks[nxt] = None                   # the parent keeps no copy
+                nxt += 1
+            finished = [i for i, r in pending.items() if r.ready()]
+            for i in finished:
+                out[i] = pending.pop(i).get()       # re-raises a worker's exception
+                done += 1
+                _tell(progress, done / n, f"{done}/{n} rooms: {labels[i]} done")
+            if not finished:
+                _tell(progress, done / n, f"{done}/{n} rooms: "
+                      + ", ".join(labels[i] for i in sorted(pending)))
+                time.sleep(POLL_S)
+        pool.close()
+        pool.join()
+    finally:
+        pool.terminate()                            # cancel or error: stop every worker
+    return out
+
+
+def _map_dask(fn, tasks, labels, nw, address, progress):
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError as exc:
+        raise SettingsError(f"--dask needs the 'distributed' package ({exc}); install it"
+                            " with: pip install 'dask[distributed]'") from exc
+    n = len(tasks)
+    cluster = None
+    try:
+        if address == "local":
+            import dask
+            # Dask's nanny sets OMP/MKL/OPENBLAS_NUM_THREADS=1 in its workers; keep this
+            # process's BLAS threads instead, or float rounding differs from a run here
+            environ = {k: v for k, v in
+                       dask.config.get("distributed.nanny.pre-spawn-environ", {}).items()
+                       if not k.endswith("_NUM_THREADS")}
+            environ.update({k: v for k, v in os.environ.items() if k.endswith("_NUM_THREADS")})
+            with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+                cluster = LocalCluster(n_workers=nw, threads_per_worker=1, processes=True,
+                                       dashboard_address=None, host="127.0.0.1")
+            client = Client(cluster)
+        else:
+            try:
+                client = Client(address, timeout=10)
+            except OSError as exc:
+                raise SettingsError(f"cannot reach the Dask scheduler {address!r}: {exc}") \
+                    from exc
+    except BaseException:
+        if cluster is not None:
+            cluster.close()
+        raise
+    out = [None] * n
+    try:
+        futures = {}
+        for i, task in enumerate(tasks):
+            args = task() if callable(task) else task
+            futures[client.submit(_call, fn, args, pure=False, key=f"invrad-room-{i}-"
+                                  f"{os.getpid()}-{time.time_ns()}")] = i
+            tasks[i] = None
+        done = 0
+        try:
+            while futures:
+                finished = [f for f in futures if f.done()]
+                for f in finished:
+                    i = futures.pop(f)
+                    out[i] = f.result()             # re-raises a worker's exception
+                    done += 1
+                    _tell(progress, done / n, f"{done}/{n} rooms: {labels[i]} done")
+                if not finished:
+                    _tell(progress, done / n, f"{done}/{n} rooms on Dask")
+                    time.sleep(POLL_S)
+        except BaseException:
+            client.cancel(list(futures))
+            raise
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    return out
