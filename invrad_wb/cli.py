@@ -26,14 +26,22 @@ import numpy as np
 
 from invrad_wb.errors import InvradError
 from invrad_wb.outputs import check_file, check_folder
+from invrad_wb.progress import CliProgress, add_parallel_args, workers_arg
 
 #: finest mesh of a generated example (metres): finer meshes grow past a laptop's memory
 MIN_EXAMPLE_CELL_M = 0.02
 
 
-def _scene_args(p):
-    p.add_argument("scene", help="scene file: PLY with x y z lux (+ room reflectance), or any"
-                                 " mesh trimesh reads together with --lux or --texture")
+def _scene_args(p, many=False):
+    if many:
+        p.add_argument("scene", nargs="+",
+                       help="scene file: PLY with x y z lux (+ room reflectance), or any mesh"
+                            " trimesh reads together with --lux or --texture; several files or"
+                            " folders of PLY files: one process for all, -o is then a folder"
+                            " of SCENE.json results")
+    else:
+        p.add_argument("scene", help="scene file: PLY with x y z lux (+ room reflectance), or"
+                                     " any mesh trimesh reads together with --lux or --texture")
     p.add_argument("--lux", help="sidecar with target lux per vertex or face (.json/.csv)")
     p.add_argument("--texture", help="illuminance texture (EXR/HDR/PNG) for a UV-mapped mesh")
     p.add_argument("--texture-max-lux", type=float,
@@ -130,33 +138,97 @@ def _settings_from_args(args):
     return s.check()
 
 
+#: scene files a folder given to ``locate`` contributes (PLY only: other meshes need --lux)
+BATCH_SUFFIXES = (".ply",)
+
+
+def _batch_scenes(paths):
+    """The scene files of ``locate``'s arguments: files as given, folders' PLY files sorted."""
+    out = []
+    for p in paths:
+        if os.path.isdir(p):
+            found = sorted(os.path.join(p, f) for f in os.listdir(p)
+                           if f.lower().endswith(BATCH_SUFFIXES)
+                           and os.path.isfile(os.path.join(p, f)))
+            if not found:
+                raise InvradError(f"{p}: the folder holds no scene file (*.ply)")
+            out.extend(found)
+        elif not os.path.exists(p):
+            raise InvradError(f"{p}: no such scene file or folder")
+        else:
+            out.append(p)
+    stems = {}
+    for p in out:
+        stem = os.path.splitext(os.path.basename(p))[0]
+        if stem in stems:
+            raise InvradError(f"{p}: same name as {stems[stem]}: their results would both"
+                              f" be {stem}.json; rename one")
+        stems[stem] = p
+    return out
+
+
 def _cmd_locate(args):
-    from invrad_wb.core.io.atomic import atomic_write_text
-    from invrad_wb.core.inverse.locate import locate
-    check_file(args.output, "-o", inputs=[args.scene])
-    if args.vote_maps:
-        check_folder(args.vote_maps, "--vote-maps")
+    scenes = args.scene
+    batch = len(scenes) > 1 or os.path.isdir(scenes[0])
     settings = _settings_from_args(args)
     phot = _photometry(args)
+    workers = workers_arg(args.workers)
     if args.flux is None and phot is not None and phot.flux_lm:
         args.flux = phot.flux_lm
         print(f"flux of one luminaire: {args.flux:.0f} lm, from {args.photometry}")
     elif args.flux is None:
         print("no --flux: the number, positions and flux of each luminaire are fitted")
-    scene = _read(args)
+    if not batch:
+        check_file(args.output, "-o", inputs=scenes)
+        if args.vote_maps:
+            check_folder(args.vote_maps, "--vote-maps")
+        return _locate_one(args, scenes[0], args.output, args.vote_maps, settings, phot,
+                           workers)
+    # many scenes in one process: one OpenCL context, kernels built once
+    if args.lux or args.texture:
+        raise InvradError("--lux/--texture name one scene's sidecar: with several scenes"
+                          " give PLY files that carry their targets")
+    scenes = _batch_scenes(scenes)
+    check_folder(args.output, "-o (a folder for RESULT.json files with several scenes)")
+    if args.vote_maps:
+        check_folder(args.vote_maps, "--vote-maps")
+    os.makedirs(args.output, exist_ok=True)
+    failed, t0 = [], time.time()
+    for i, path in enumerate(scenes):
+        stem = os.path.splitext(os.path.basename(path))[0]
+        print(f"[{i + 1}/{len(scenes)}] {path}")
+        try:
+            out = os.path.join(args.output, stem + ".json")
+            check_file(out, "-o", inputs=[path])
+            rc = _locate_one(args, path, out, args.vote_maps and
+                             os.path.join(args.vote_maps, stem), settings, phot, workers)
+        except InvradError as exc:
+            print(f"invrad: error: {exc}", file=sys.stderr)
+            rc = 2
+        if rc:
+            failed.append((path, rc))
+    print(f"{len(scenes) - len(failed)} of {len(scenes)} scene(s) located in"
+          f" {time.time() - t0:.1f} s -> {args.output}")
+    if failed:
+        print("invrad: no result for: " + ", ".join(p for p, _ in failed), file=sys.stderr)
+        return max(rc for _, rc in failed)
 
-    def progress(frac, msg):
-        if args.verbose:
-            print(f"  {100 * frac:5.1f} %  {msg}", file=sys.stderr)
-        return True
 
-    result = locate(scene, args.flux, settings=settings, backend=args.backend,
-                    progress=progress, photometry=phot)
+def _locate_one(args, scene_path, output, vote_maps, settings, phot, workers):
+    """One scene: locate, write RESULT.json (and vote maps), print the luminaires."""
+    from invrad_wb.core.io.atomic import atomic_write_text
+    from invrad_wb.core.inverse.locate import locate
+    from invrad_wb.core.io.sceneio import read_scene
+    scene = read_scene(scene_path, lux=args.lux, texture=args.texture,
+                       texture_max_lux=args.texture_max_lux, unit=args.unit)
+    with CliProgress(args.verbose, "locate") as progress:
+        result = locate(scene, args.flux, settings=settings, backend=args.backend,
+                        progress=progress, photometry=phot, workers=workers, dask=args.dask)
     _with_photometry(result.luminaires, phot)
     data = result.to_dict()
-    if args.vote_maps:             # first: an interrupted map write leaves RESULT.json as it was
-        files = result.save_vote_maps(args.vote_maps)
-    atomic_write_text(args.output, strict_json(data))
+    if vote_maps:                  # first: an interrupted map write leaves RESULT.json as it was
+        files = result.save_vote_maps(vote_maps)
+    atomic_write_text(output, strict_json(data))
     for l in result.luminaires:
         p = ", ".join(f"{x:.3f}" for x in l.position)
         n = ", ".join(f"{x:.2f}" for x in l.normal)
@@ -164,17 +236,18 @@ def _cmd_locate(args):
               f" score {l.score:.3f} [{l.extra.get('mount', '')}]")
     of = "" if args.flux is None else f" of {args.flux:g} lm"
     print(f"{len(result.luminaires)} luminaire(s){of} in"
-          f" {result.timings['total']:.2f} s ({result.backend}) -> {args.output}")
-    if args.vote_maps:
-        print(f"vote maps: {len(files)} files in {args.vote_maps}")
+          f" {result.timings['total']:.2f} s ({result.backend}) -> {output}")
+    if vote_maps:
+        print(f"vote maps: {len(files)} files in {vote_maps}")
     if not result.luminaires:
         lit = np.nan_to_num(scene.vertex_targets(), nan=0.0) > 0
         if lit.any():
             print(f"invrad: no luminaire{of} explains the targets of"
-                  f" {args.scene} ({int(lit.sum())} lit target points): check the flux, the"
+                  f" {scene_path} ({int(lit.sum())} lit target points): check the flux, the"
                   " units (--unit) and that the targets are reachable from the room's"
                   " surfaces", file=sys.stderr)
             return 3
+    return 0
 
 
 def _cmd_verify(args):
@@ -268,14 +341,17 @@ def build_parser():
     p.set_defaults(func=_cmd_render)
 
     p = sub.add_parser("locate", help="find luminaire positions for the scene's targets")
-    _scene_args(p)
+    _scene_args(p, many=True)
     p.add_argument("--flux", type=float,
                    help="flux of one luminaire, lm (default: the --photometry file's; without"
                         " either, each luminaire's flux is fitted)")
-    p.add_argument("-o", "--output", required=True, help="RESULT.json")
-    p.add_argument("--vote-maps", help="folder for vote-map images")
+    p.add_argument("-o", "--output", required=True,
+                   help="RESULT.json (with several scenes: a folder)")
+    p.add_argument("--vote-maps", help="folder for vote-map images (several scenes: one"
+                                       " subfolder each)")
     p.add_argument("--settings", help="JSON file with locate settings")
-    p.add_argument("-v", "--verbose", action="store_true")
+    p.add_argument("-v", "--verbose", action="store_true", help="one line per step")
+    add_parallel_args(p)
     g = p.add_argument_group("locate settings (defaults need only the flux)")
     g.add_argument("--vote-model", dest="vote_model", choices=("exact", "ellipse"))
     g.add_argument("--resolution", dest="pixel_m", type=float, metavar="M",

@@ -11,6 +11,8 @@ import json
 import os
 import sys
 
+from invrad_wb.progress import CliProgress, add_parallel_args, workers_arg
+
 #: exit status of a design that does not meet every requirement
 EXIT_NOT_COMPLIANT = 3
 
@@ -28,7 +30,8 @@ def add_parser(sub):
                    help="one catalogue entry per room")
     p.add_argument("--no-dimming", dest="dimming", action="store_false",
                    help="ignore the catalogue's dimming ranges")
-    p.add_argument("-v", "--verbose", action="store_true")
+    p.add_argument("-v", "--verbose", action="store_true", help="one line per step")
+    add_parallel_args(p)
     p.set_defaults(func=run)
 
 
@@ -78,15 +81,12 @@ def run(args):
         check_file(args.schedule, "--schedule", inputs=[args.scene, args.spec])
     if args.report:
         check_folder(args.report, "--report")
+    workers = workers_arg(args.workers)
     scene = read_scene(args.scene, unit=args.unit)
-
-    def progress(frac, msg):
-        if args.verbose:
-            print(f"  {100 * frac:5.1f} %  {msg}", file=sys.stderr)
-        return True
-
-    result = design(scene, spec, backend=args.backend, progress=progress,
-                    mixed=args.mixed, dimming=args.dimming)
+    with CliProgress(args.verbose, "design") as progress:
+        result = design(scene, spec, backend=args.backend, progress=progress,
+                        mixed=args.mixed, dimming=args.dimming, workers=workers,
+                        dask=args.dask)
     data = result.to_dict()
     atomic_write_text(args.output, json.dumps(data, indent=2, allow_nan=False) + "\n")
     if args.schedule:

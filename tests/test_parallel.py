@@ -1,0 +1,173 @@
+"""Rooms in parallel (local worker processes, a local Dask cluster): the same answer as one
+room after another, errors and cancelling as in one process, nothing written on cancel."""
+import json
+import multiprocessing
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from invrad_wb.errors import Cancelled, SceneError, SettingsError
+from invrad_wb.core.accel import workers as W
+from invrad_wb.core.design.design import design
+from invrad_wb.core.design.spec import spec_from_dict
+from invrad_wb.core.inverse.locate import locate
+from invrad_wb.core.synthetic import generate as g
+from invrad_wb.core.synthetic.scenarios import known_scene, match
+
+CAT = [{"name": "DL-1000", "flux_lm": 1000, "watts": 8.5},
+       {"name": "DL-2000", "flux_lm": 2000, "watts": 15.5}]
+
+
+@pytest.fixture(scope="module")
+def four_rooms():
+    return known_scene("four_rooms", reflectance=0.5)
+
+
+def _lums(result):
+    return [(tuple(map(float, l.position)), tuple(map(float, l.normal)), float(l.flux_lm),
+             int(l.room), float(l.score)) for l in result.luminaires]
+
+
+def test_locate_on_two_workers_is_identical_to_one_room_after_another(four_rooms):
+    scene, true = four_rooms
+    serial = locate(scene, true[0].flux_lm)
+    seen = []
+    parallel = locate(scene, true[0].flux_lm, workers=2,
+                      progress=lambda f, msg: seen.append((f, msg)) or True)
+    assert _lums(parallel) == _lums(serial)           # bit for bit
+    m = match(parallel.luminaires, true, radius=0.05)
+    assert m["found"] == m["true"] == 4 and m["spurious"] == 0
+    # progress names the finished rooms and rises to 1
+    assert any("4/4 rooms" in m for _, m in seen) and seen[-1][0] == 1.0
+    assert all(b[0] >= a[0] for a, b in zip(seen, seen[1:]))
+    # the runs came back from the workers without device objects; post-processing again
+    # rebuilds them, with the same answer in both
+    assert [r.cost for r in parallel.rooms] == [r.cost for r in serial.rooms]
+    assert _lums(parallel.repeak(threshold=60)) == _lums(serial.repeak(threshold=60))
+    assert not multiprocessing.active_children()
+
+
+def test_design_on_two_workers_is_identical_to_one_room_after_another():
+    sc, _ = g.floor_of_rooms(rooms=((4.0, 3.0), (5.0, 4.0), (3.0, 3.0)), cell=0.4)
+    sp = spec_from_dict({"catalogue": CAT, "rooms": {"*": {"room_type": "office"}}})
+    a = design(sc, sp)
+    b = design(sc, sp, workers=2)
+    sig = [(r.room, [(tuple(l.position), l.flux_lm) for l in r.luminaires], r.metrics.em,
+            r.metrics.u0, r.watts) for r in a.rooms]
+    assert sig == [(r.room, [(tuple(l.position), l.flux_lm) for l in r.luminaires],
+                    r.metrics.em, r.metrics.u0, r.watts) for r in b.rooms]
+    assert a.compliant and b.compliant and len(a.luminaires) >= 3
+
+
+def test_locate_on_a_local_dask_cluster_is_identical(four_rooms):
+    pytest.importorskip("distributed")     # installed by the setup; absent only by hand
+    scene, true = four_rooms
+    serial = locate(scene, true[0].flux_lm, rooms=[0, 1])
+    on_dask = locate(scene, true[0].flux_lm, rooms=[0, 1], workers=2, dask="local")
+    assert _lums(on_dask) == _lums(serial)
+
+
+def _boom(i):
+    if i == 2:
+        raise SceneError("face 7 has no room", "floor.ply")
+    return i * i
+
+
+def test_a_worker_error_reaches_the_caller_with_its_message():
+    assert W.map_rooms(_boom, [(0,), (1,), (3,)], workers=2) == [0, 1, 9]
+    with pytest.raises(SceneError, match="floor.ply: face 7 has no room"):
+        W.map_rooms(_boom, [(0,), (1,), (2,), (3,)], workers=2)
+    assert not multiprocessing.active_children()
+
+
+def test_cancel_stops_every_worker(four_rooms):
+    scene, true = four_rooms
+    calls = []
+
+    def cancel_at_once(frac, msg):
+        calls.append(msg)
+        return False
+    with pytest.raises(Cancelled):
+        locate(scene, true[0].flux_lm, workers=2, progress=cancel_at_once)
+    assert len(calls) == 1
+    assert not multiprocessing.active_children()
+
+
+def test_without_a_python_for_workers_rooms_run_in_process(monkeypatch):
+    # inside FreeCAD sys.executable is FreeCAD itself: no worker can be spawned with it
+    monkeypatch.setattr(sys, "executable", "/usr/bin/FreeCAD")
+    monkeypatch.delenv("INVRAD_PYTHON", raising=False)
+    assert W.worker_python() is None
+    pids = W.map_rooms(_pid, [()] * 3, workers=2)
+    assert set(pids) == {os.getpid()}
+
+
+def _pid():
+    return os.getpid()
+
+
+@pytest.mark.parametrize("value", [0, "0", -2, 1.5, "many", True])
+def test_bad_worker_counts_are_refused(value):
+    with pytest.raises(SettingsError, match="workers must be a positive whole number"):
+        W.check_workers(value)
+
+
+def test_cli_workers_same_json_and_cancel_writes_nothing(tmp_path, four_rooms):
+    from invrad_wb.core.io.sceneio import write_scene
+    scene, true = four_rooms
+    write_scene(tmp_path / "four.ply", scene)
+    run = [sys.executable, "-m", "invrad_wb", "locate", "four.ply", "--flux", "3000"]
+    out = {}
+    for w in ("1", "2"):
+        cp = subprocess.run(run + ["-o", f"r{w}.json", "--workers", w], cwd=tmp_path,
+                            capture_output=True, text=True, timeout=300)
+        assert cp.returncode == 0, cp.stderr
+        out[w] = json.loads((tmp_path / f"r{w}.json").read_text())["luminaires"]
+    assert out["1"] == out["2"] and len(out["1"]) == 4
+    cp = subprocess.run(run + ["-o", "r.json", "--workers", "none"], cwd=tmp_path,
+                        capture_output=True, text=True, timeout=300)
+    assert cp.returncode == 2 and "--workers" in cp.stderr and "'none'" in cp.stderr
+    assert not (tmp_path / "r.json").exists()
+    # interrupted while the workers run (Ctrl-C reaches the whole process group): exit
+    # 130, no result file, no worker left
+    code = ("import sys, signal, threading, os\n"
+            "from invrad_wb.cli import main\n"
+            "threading.Timer(3.0, lambda: os.kill(os.getpid(), signal.SIGINT)).start()\n"
+            "sys.exit(main(sys.argv[1:]))\n")
+    cp = subprocess.run([sys.executable, "-c", code] + run[3:] + ["-o", "c.json",
+                        "--workers", "2", "--votes-per-m2", "3000"], cwd=tmp_path,
+                        capture_output=True, text=True, timeout=300)
+    assert cp.returncode == 130, (cp.returncode, cp.stderr[-2000:])
+    assert not (tmp_path / "c.json").exists()
+    assert not [p for p in os.listdir(tmp_path) if p.startswith(".")]
+
+
+def test_cli_batch_of_a_folder_same_as_one_by_one_and_a_bad_file_named(tmp_path):
+    from invrad_wb.core.io.sceneio import write_scene
+    proj = tmp_path / "project"
+    proj.mkdir()
+    for name in ("one_ceiling", "two_ceiling"):
+        scene, _ = known_scene(name, cell=0.2)
+        write_scene(proj / f"{name}.ply", scene)
+    (proj / "broken.ply").write_text("ply\nformat ascii 1.0\n")
+    (proj / "notes.txt").write_text("not a scene")
+    base = [sys.executable, "-m", "invrad_wb", "locate"]
+    cp = subprocess.run(base + ["project", "--flux", "3000", "-o", "results"], cwd=tmp_path,
+                        capture_output=True, text=True, timeout=300)
+    assert cp.returncode == 2
+    assert "broken.ply" in cp.stderr and "2 of 3 scene(s) located" in cp.stdout
+    assert sorted(os.listdir(tmp_path / "results")) == ["one_ceiling.json", "two_ceiling.json"]
+    for name, n in (("one_ceiling", 1), ("two_ceiling", 2)):
+        cp = subprocess.run(base + [f"project/{name}.ply", "--flux", "3000", "-o", "one.json"],
+                            cwd=tmp_path, capture_output=True, text=True, timeout=300)
+        assert cp.returncode == 0, cp.stderr
+        single = json.loads((tmp_path / "one.json").read_text())["luminaires"]
+        batch = json.loads((tmp_path / "results" / f"{name}.json").read_text())["luminaires"]
+        assert batch == single and len(single) == n
+    # one scene's sidecar cannot serve several scenes
+    cp = subprocess.run(base + ["project", "--flux", "3000", "-o", "r2", "--lux", "x.json"],
+                        cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert cp.returncode == 2 and "--lux" in cp.stderr and not (tmp_path / "r2").exists()
