@@ -199,9 +199,33 @@ def test_ellipse_votes_opencl_matches_numpy_twin():
     a = cast_ellipse_numpy(canvas, pts, W, pts.lux, 2000.0, bvh=occ)
     b = cast_ellipse_opencl(canvas, pts, W, pts.lux, 2000.0, bvh=occ)
     assert a.sum() > 100
-    # identical except samples within float32 rounding of a pixel border
+    # the same votes; a device's float rounding may put a sample that lies on a pixel border
+    # into the neighbouring pixel (seen on a GPU: 0.107 % of pixels), never elsewhere
     assert abs(a.sum() - b.sum()) < 1e-3 * a.sum()
-    assert np.mean(np.abs(a - b) > 1e-3) < 1e-3
+    assert_same_votes_up_to_pixel_borders(canvas, a, b)
+
+
+def assert_same_votes_up_to_pixel_borders(canvas, a, b, tol=1e-3):
+    """Every pixel where two vote maps differ has a neighbour (8-neighbourhood) that
+    differs the other way: a vote moved across a pixel border, not lost or misplaced. At
+    most 1 % of the pixels differ at all."""
+    differing = 0
+    for da in canvas.split(a - b):
+        d = np.pad(np.asarray(da, np.float64), 1)
+        pos, neg = d > tol, d < -tol
+        core = (slice(1, -1), slice(1, -1))
+        near_pos = np.zeros_like(pos[core])
+        near_neg = np.zeros_like(neg[core])
+        for di in (-1, 0, 1):
+            for dj in (-1, 0, 1):
+                if di or dj:
+                    sl = (slice(1 + di, d.shape[0] - 1 + di), slice(1 + dj, d.shape[1] - 1 + dj))
+                    near_pos |= pos[sl]
+                    near_neg |= neg[sl]
+        lone = (pos[core] & ~near_neg) | (neg[core] & ~near_pos)
+        assert not lone.any(), f"{int(lone.sum())} pixel(s) differ with no neighbour to explain it"
+        differing += int(pos.sum() + neg.sum())
+    assert differing <= 0.01 * a.size
 
 
 def test_ellipse_votes_lie_on_the_true_contour():

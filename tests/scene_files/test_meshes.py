@@ -50,7 +50,7 @@ def test_csv_sidecar(tmp_path, per):
     vals = np.arange(n) * 2.5
     vals[1] = np.nan
     side = tmp_path / "lux.csv"
-    side.write_text("# target lux\n" + "\n".join("nan" if np.isnan(x) else repr(x)
+    side.write_text("# target lux\n" + "\n".join("nan" if np.isnan(x) else repr(float(x))
                                                   for x in vals) + "\n\n")
     back = sceneio.read_scene(obj, lux=side)
     got = back.vertex_lux if per == "vertex" else back.face_lux
