@@ -194,12 +194,24 @@ class RoomRun:
     #: photometry, has_rho): they hold closures and device objects and are not pickled
     #: (a room run on a worker process comes back without them, see :meth:`restore`)
     remake: tuple = None
+    #: ``scene`` is this room's own subset (its caches may be dropped), not the caller's
+    own_scene: bool = False
 
     def __getstate__(self):
         state = dict(self.__dict__)
         if self.remake is not None:
             state.update(problem=None, indirect_model=None, vote_fn=None)
         return state
+
+    def detach(self):
+        """Drop what :meth:`restore` can rebuild (the refinement problem, its radiosity
+        model and the vote function; the room scene's radiosity cache when the scene is the
+        room's own), so that a building's results take memory by votes and points only."""
+        if self.remake is not None:
+            self.problem = self.indirect_model = self.vote_fn = None
+            if self.own_scene:
+                self.scene.__dict__.pop("_radiosity", None)
+        return self
 
     def restore(self):
         """Rebuild the refinement problem and vote function after unpickling."""
@@ -251,12 +263,10 @@ class LocateResult:
         s.check()
         t0 = time.time()
         for run in self.rooms:
-            if run.remake is not None:
-                # a fresh problem: the result does not depend on earlier post-processing
-                # (nor on whether the room ran in this process or on a worker)
-                run.problem = None
-                run.restore()
-            _postprocess(run, s, run.flux, progress, allow_votes=False)
+            # a fresh problem: the result does not depend on earlier post-processing (nor
+            # on whether the room ran in this process or on a worker); dropped again after
+            _postprocess(run.detach().restore(), s, run.flux, progress, allow_votes=False)
+            run.detach()
         self.settings = asdict(s)
         self.timings["repeak"] = time.time() - t0
         self.luminaires = _collect(self.rooms)
@@ -834,7 +844,7 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
 
     def task(room, label):
         return (scene if single else scene.room_subset(room), room, s, flux, backend,
-                photometry, label)
+                photometry, label, not single)
 
     tasks = [lambda r=int(r), lb=lb: task(r, lb) for r, lb in zip(room_ids, labels)]
     done = map_rooms(_room_task, tasks, labels, workers=workers, dask=dask,
@@ -874,13 +884,18 @@ def check_flux(flux_lm):
     return flux
 
 
-def _room_task(sub, room, s, flux, backend, photometry, label, report=None):
-    """One room on any worker: ``(RoomRun, seconds per stage)``."""
+def _room_task(sub, room, s, flux, backend, photometry, label, subset_scene=True,
+               report=None):
+    """One room on any worker: ``(RoomRun, seconds per stage)``. ``subset_scene``: ``sub``
+    is the room's own copy (its caches may go), not the caller's scene."""
     timings = {k: 0.0 for k in ("sampling", "maps", "votes", "postprocess", "radiosity")}
     run = _locate_room(sub, room, s, flux, backend, timings,
                        report or (lambda f, msg: None), photometry, label=label,
                        subset=False)
-    return run, timings
+    # memory bounded by the largest room, not the building: a room's refinement problem
+    # and radiosity model (tens of MB) go once it is done (repeak rebuilds them)
+    run.own_scene = subset_scene
+    return run.detach(), timings
 
 
 def _locate_room(scene, room, s, flux, backend, timings, report, photometry=None,
