@@ -50,6 +50,7 @@ bench: setup
 	$(PY) bench/bench_random.py
 	$(PY) bench/bench_design.py
 	$(PY) bench/bench_memory.py
+	$(PY) bench/bench_parallel.py
 
 examples: setup
 	$(PY) examples/make_examples.py
