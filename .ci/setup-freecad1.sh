@@ -8,7 +8,9 @@ set -euo pipefail
 root="${INVRAD_FC1_ROOT:-/var/cache/invrad/trixie-freecad1}"
 stamp="$root/.invrad-freecad1-v1"
 here="$(cd "$(dirname "$0")/.." && pwd)"
-if [ -f "$stamp" ]; then echo "$root"; exit 0; fi
+# the stamp holds the requirements the venv was built from: a change re-runs only pip
+reqs="$(grep -v '^numpy' "$here/requirements.txt")"
+if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$reqs" ]; then echo "$root"; exit 0; fi
 if [ "$(id -u)" -ne 0 ]; then
   echo "invrad setup (FreeCAD 1.0): needs root for debootstrap/chroot; run as root or set" \
        "INVRAD_NO_FREECAD1=1 to test on the host's FreeCAD only" >&2
@@ -45,5 +47,5 @@ pipcert=(env); [ -f "$root/etc/ssl/certs/invrad-host-ca.crt" ] && \
             REQUESTS_CA_BUNDLE=/etc/ssl/certs/invrad-host-ca.crt)
 chroot "$root" "${pipcert[@]}" PIP_FIND_LINKS= /opt/invrad-venv/bin/python -m pip install -q \
   -r /tmp/invrad-requirements.txt
-touch "$stamp"
+printf '%s' "$reqs" > "$stamp"
 echo "$root"

@@ -95,9 +95,14 @@ def test_an_image_declaring_huge_dimensions_is_refused_unread(tmp_path, monkeypa
     _png_header_only(path, 20000, 20000)
     assert path.stat().st_size < 1000
     monkeypatch.setenv(memory.ENV, "2G")
-    with pytest.raises(memory.MemoryLimitError) as e:
+    with pytest.raises((memory.MemoryLimitError, OSError)) as e:
         read_lux_image(str(path))
-    assert "bomb.png" in str(e.value) and "20000 x 20000" in str(e.value)
+    if isinstance(e.value, memory.MemoryLimitError):
+        assert "bomb.png" in str(e.value) and "20000 x 20000" in str(e.value)
+    else:
+        # newer OpenImageIO (3.x, with Python 3.13) refuses such a header itself, before
+        # invrad's estimate: refused unread all the same, with its reason
+        assert "corrupt" in str(e.value) or "claims" in str(e.value), str(e.value)
 
 
 def test_cli_refuses_with_one_line_and_writes_nothing(tmp_path):

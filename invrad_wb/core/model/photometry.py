@@ -81,11 +81,15 @@ class Photometry:
         return f"Photometry({self.name!r}, {self.flux_lm:.0f} lm)"
 
 
+#: numpy 2 names it trapezoid (trapz is deprecated there); numpy 1.x has only trapz
+_trapezoid = getattr(np, "trapezoid", None) or np.trapz
+
+
 def integrate(cd):
     """Flux (lm) of a (361, 181) candela table: the integral of I over the sphere
     (trapezoids in gamma with sin(gamma), in C over the 360 degrees)."""
     g = np.radians(np.arange(181) * STEP_DEG)
-    ring = np.trapz(cd[:-1] * np.sin(g), g, axis=1)        # per C plane, 0..359
+    ring = _trapezoid(cd[:-1] * np.sin(g), g, axis=1)      # per C plane, 0..359
     return float(np.sum(ring) * np.radians(STEP_DEG))
 
 
