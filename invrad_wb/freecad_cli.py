@@ -43,6 +43,7 @@ def honour_pythonpath():
 honour_pythonpath()
 
 from invrad_wb.errors import Cancelled, InvradError, SettingsError  # noqa: E402
+from invrad_wb.progress import workers_arg  # noqa: E402
 
 ENV_JOB = "INVRAD_FREECAD_JOB"
 #: Printed by the child before its own output; what comes before is FreeCAD's banner.
@@ -101,6 +102,9 @@ def add_arguments(p):
     p.add_argument("--freecadcmd", help="path of freecadcmd (default: $INVRAD_FREECADCMD or"
                                         " the PATH)")
     p.add_argument("-v", "--verbose", action="store_true", help="print progress")
+    p.add_argument("--workers", default="1", metavar="N",
+                   help="rooms on N worker processes ('auto': one per core; default 1); the"
+                        " result does not depend on N")
 
 
 class _DeprecatedAlias(argparse.Action):
@@ -135,6 +139,7 @@ def _options(args):
 def main(args):
     """Run the ``freecad`` command (parsed ``args``); returns 0 or raises InvradError."""
     opts = _options(args)
+    workers_arg(opts.get("workers", "1"))       # a bad count costs no FreeCAD start
     _checked_paths(opts)          # before FreeCAD starts: a bad path costs no run
     if in_freecad():
         run_job(opts)
@@ -297,7 +302,7 @@ def run_job(opts, out=None):
         locate=locate_settings, backend=opts.get("backend") or "auto",
         replace=not opts.get("keep"), rooms=opts.get("rooms"), report_dir=opts["report"],
         base_dir=os.path.dirname(opts["targets"]) if opts.get("targets") else
-        os.path.dirname(src), design=spec)
+        os.path.dirname(src), design=spec, workers=workers_arg(opts.get("workers", "1")))
     if mesh_size:
         settings.resolution_m = float(mesh_size)
     result = pipeline.run(doc, settings, progress=progress)

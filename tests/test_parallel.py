@@ -83,6 +83,21 @@ def test_a_worker_error_reaches_the_caller_with_its_message():
     assert not multiprocessing.active_children()
 
 
+def _die(i):
+    if i == 1:
+        os._exit(3)             # what the OOM killer or a segfault leaves: no exception
+    import time
+    time.sleep(0.5)
+    return i
+
+
+def test_a_worker_that_dies_is_an_error_not_a_hang():
+    from invrad_wb.errors import InvradError
+    with pytest.raises(InvradError, match="worker process stopped unexpectedly.*room 2"):
+        W.map_rooms(_die, [(0,), (1,), (2,)], workers=2)
+    assert not multiprocessing.active_children()
+
+
 def test_cancel_stops_every_worker(four_rooms):
     scene, true = four_rooms
     calls = []
@@ -96,13 +111,44 @@ def test_cancel_stops_every_worker(four_rooms):
     assert not multiprocessing.active_children()
 
 
-def test_without_a_python_for_workers_rooms_run_in_process(monkeypatch):
-    # inside FreeCAD sys.executable is FreeCAD itself: no worker can be spawned with it
+def test_embedded_python_finds_its_interpreter_else_rooms_run_in_process(monkeypatch,
+                                                                            tmp_path):
+    # inside FreeCAD sys.executable is FreeCAD itself: workers use the Python it embeds
     monkeypatch.setattr(sys, "executable", "/usr/bin/FreeCAD")
     monkeypatch.delenv("INVRAD_PYTHON", raising=False)
+    exe = W.worker_python()
+    assert exe and os.path.basename(exe) == "python%d.%d" % sys.version_info[:2]
+    cp = subprocess.run([exe, "-c", "import sys; print(sys.version_info[:2])"],
+                        capture_output=True, text=True, timeout=60)
+    assert cp.stdout.strip() == str(tuple(sys.version_info[:2]))
+    # no such interpreter: rooms run in this process
+    for attr in ("base_prefix", "base_exec_prefix", "prefix"):
+        monkeypatch.setattr(sys, attr, str(tmp_path))
     assert W.worker_python() is None
     pids = W.map_rooms(_pid, [()] * 3, workers=2)
     assert set(pids) == {os.getpid()}
+
+
+def test_workers_from_an_embedding_program_do_not_rerun_its_script(tmp_path):
+    # what FreeCAD does: its executable is not Python and __main__ is a script that
+    # imports FreeCAD; the workers must start without running it
+    script = tmp_path / "fc_script.py"
+    script.write_text(
+        "import os, sys\n"
+        "if __name__ != '__main__':\n"
+        "    raise SystemExit('the embedding script ran in a worker')\n"
+        "sys.executable = '/usr/bin/FreeCAD'\n"
+        "from invrad_wb.core.accel import workers as W\n"
+        "from test_parallel import _pid\n"
+        "pids = W.map_rooms(_pid, [()] * 4, workers=2)\n"
+        "assert os.getpid() not in pids, pids\n"
+        "print('ok', len(set(pids)))\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [os.path.dirname(os.path.abspath(__file__)), os.environ.get("PYTHONPATH", "")]))
+    env.pop("INVRAD_PYTHON", None)
+    cp = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                        timeout=120, env=env)
+    assert cp.returncode == 0 and cp.stdout.startswith("ok"), cp.stderr[-2000:]
 
 
 def _pid():

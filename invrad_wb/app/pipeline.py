@@ -52,6 +52,8 @@ class PipelineSettings:
     insert : insert the fixtures into the document (False: only compute and report)
     design : DesignSpec or None: design from requirements and a catalogue (least watts)
         instead of locating luminaires of ``flux_lm`` (which is then ignored)
+    workers : rooms on this many worker processes (int or 'auto'; 1: in this process);
+        the result is the same
     """
     flux_lm: float
     resolution_m: float = S.RESOLUTION_M
@@ -64,6 +66,7 @@ class PipelineSettings:
     base_dir: str = None
     insert: bool = True
     design: object = None
+    workers: object = 1
 
 
 @dataclass
@@ -317,12 +320,13 @@ def _find_luminaires(building, settings, flux, progress, locate=None):
     if settings.design is not None:
         from invrad_wb.core.design.design import design
         return design(building.scene, settings.design, room_names=building.room_names,
-                      backend=settings.backend, progress=progress)
+                      backend=settings.backend, progress=progress, workers=settings.workers)
     if locate is None:
         from invrad_wb.core.inverse.locate import locate
+    extra = {} if settings.workers in (1, None) else {"workers": settings.workers}
     return locate(building.scene, flux_lm=flux, settings=settings.locate, progress=progress,
                   backend=settings.backend,
-                  room_names={p.room_id: p.space.Label for p in building.rooms})
+                  room_names={p.room_id: p.space.Label for p in building.rooms}, **extra)
 
 
 def by_room(building, luminaires):

@@ -30,6 +30,9 @@ RUN = {
     "backend": ("str", "auto"),
     "replace": ("bool", True),
     "report_dir": ("str", ""),
+    # rooms on worker processes (the Python FreeCAD embeds): 'auto' = one per core; '1' =
+    # in FreeCAD's process. No widget: Tools > Edit parameters > Mod/InvRad > workers
+    "workers": ("str", "auto"),
 }
 
 #: Locate settings whose core default is None ("automatic"): their value type.
@@ -248,7 +251,13 @@ def pipeline_settings(rooms=None, report_dir=None, insert=True, run=None, locate
     r.update(run or {})
     loc = load_locate()
     loc.update(locate or {})
+    from invrad_wb.core.accel.workers import check_workers
+    from invrad_wb.errors import SettingsError
+    try:
+        workers = check_workers(r["workers"])
+    except SettingsError as exc:
+        raise SettingsError(f"preference {ROOT.split(':', 1)[1]}/workers: {exc}") from None
     return PipelineSettings(flux_lm=r["flux_lm"], resolution_m=r["resolution_m"],
                             interreflection=r["interreflection"], locate=loc,
                             backend=r["backend"], replace=r["replace"], rooms=rooms,
-                            report_dir=report_dir, insert=insert)
+                            report_dir=report_dir, insert=insert, workers=workers)

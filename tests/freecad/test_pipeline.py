@@ -231,6 +231,23 @@ def texture_targets_from(space, lums, faces, folder, px=48):
 class TestLocateKnownAnswer(FreeCADTestCase):
     """The full pipeline with the real locate finds luminaires where they were."""
 
+    def test_rooms_on_worker_processes_give_the_same_fixtures(self):
+        # inside freecadcmd the executable is FreeCAD: the workers run the Python it embeds
+        from invrad_wb.core.accel.workers import worker_python
+        office = make_walled_room(self.doc, label="Office")
+        store = make_box_space(self.doc, (6, 0, 0), (9, 3, 2.5), label="Store")
+        targets.set_work_plane(office, 300.0)
+        targets.set_work_plane(store, 200.0)
+        self.assertIsNotNone(worker_python())
+        found = {}
+        for w in (1, 2):
+            res = pipeline.run(self.doc, PipelineSettings(flux_lm=2000.0, resolution_m=0.4,
+                                                          interreflection=False, workers=w,
+                                                          insert=False))
+            found[w] = [(tuple(l.position), l.flux_lm, l.room) for l in res.luminaires]
+        self.assertEqual(found[1], found[2])
+        self.assertEqual({r for _, _, r in found[1]}, {0, 1})
+
     def test_two_ceiling_luminaires_are_found(self):
         space, truth = office_with_two_lights(self.doc, self.tmp)
         res = pipeline.run(self.doc, PipelineSettings(flux_lm=2000.0, resolution_m=0.2,

@@ -19,15 +19,15 @@ when it returns False the pending and running rooms are stopped (the pool is ter
 the Dask futures cancelled) and :class:`~invrad_wb.errors.Cancelled` is raised, before
 anything is returned to be written.
 
-Worker processes run this package's Python: ``sys.executable`` when it is a Python
-interpreter, else ``INVRAD_PYTHON`` (inside FreeCAD, whose executable is not one); when
-there is neither, rooms run in this process.
+Worker processes run this package's Python (:func:`worker_python`; inside FreeCAD the
+Python it embeds); when there is none, rooms run in this process.
 """
+import contextlib
 import os
 import sys
 import time
 
-from invrad_wb.errors import Cancelled, SettingsError
+from invrad_wb.errors import Cancelled, InvradError, SettingsError
 
 #: seconds between two looks at finished rooms (and at the progress callback: cancel)
 POLL_S = 0.05
@@ -58,12 +58,44 @@ def check_workers(workers):
 
 
 def worker_python():
-    """The Python interpreter for worker processes, or None when there is none."""
-    exe = os.environ.get("INVRAD_PYTHON") or sys.executable or ""
-    name = os.path.basename(exe).lower()
-    if name.startswith("python") and os.path.isfile(exe):
+    """The Python interpreter for worker processes, or None when there is none.
+
+    ``$INVRAD_PYTHON``; else ``sys.executable`` when it is a Python; else (Python embedded
+    in FreeCAD, whose executable is FreeCAD) the interpreter of the same version in the
+    Python installation FreeCAD embeds (``<base prefix>/bin/pythonX.Y``): workers get the
+    parent's ``sys.path``, so they import the very same modules.
+    """
+    exe = os.environ.get("INVRAD_PYTHON")
+    if exe:
+        return exe if os.path.isfile(exe) else None
+    exe = sys.executable or ""
+    if os.path.basename(exe).lower().startswith("python") and os.path.isfile(exe):
         return exe
+    version = "%d.%d" % sys.version_info[:2]
+    for prefix in dict.fromkeys((sys.base_prefix, sys.base_exec_prefix, sys.prefix)):
+        for cand in (os.path.join(prefix, "bin", "python" + version),
+                     os.path.join(prefix, "python.exe")):
+            if os.path.isfile(cand) and os.access(cand, os.X_OK):
+                return cand
     return None
+
+
+@contextlib.contextmanager
+def _plain_main(embedded):
+    """Workers started from an embedding program (FreeCAD) must not re-run its
+    ``__main__`` (a FreeCAD script) as spawn does: hide it while they start."""
+    main = sys.modules.get("__main__")
+    if not embedded or main is None:
+        yield
+        return
+    saved = {k: main.__dict__[k] for k in ("__file__", "__spec__") if k in main.__dict__}
+    try:
+        main.__dict__.pop("__file__", None)
+        main.__spec__ = None
+        yield
+    finally:
+        main.__dict__.pop("__spec__", None)
+        main.__dict__.update(saved)
 
 
 def _call(fn, task):
@@ -120,12 +152,15 @@ def _tell(progress, frac, msg):
 def _map_pool(fn, tasks, labels, nw, progress):
     import multiprocessing as mp
     ctx = mp.get_context("spawn")
-    ctx.set_executable(worker_python())
+    exe = worker_python()
+    ctx.set_executable(exe)
     n = len(tasks)
     out = [None] * n
     # BLAS keeps its thread count: a different one changes float rounding, and the
     # result must not depend on the number of workers
-    pool = ctx.Pool(nw)
+    with _plain_main(embedded=os.path.realpath(exe) != os.path.realpath(sys.executable or "")):
+        pool = ctx.Pool(nw)
+    started = _worker_pids(pool)
     try:
         pending, nxt, done = {}, 0, 0
         while done < n:
@@ -141,6 +176,12 @@ def _map_pool(fn, tasks, labels, nw, progress):
                 done += 1
                 _tell(progress, done / n, f"{done}/{n} rooms: {labels[i]} done")
             if not finished:
+                if started and _worker_pids(pool) - started:
+                    # the pool replaced a worker that died: its room would never finish
+                    raise InvradError(
+                        "a worker process stopped unexpectedly (killed, out of memory or"
+                        " crashed) while it ran " + ", ".join(labels[i] for i in sorted(pending))
+                        + "; run with one worker (--workers 1) to see the room's own error")
                 _tell(progress, done / n, f"{done}/{n} rooms: "
                       + ", ".join(labels[i] for i in sorted(pending)))
                 time.sleep(POLL_S)
@@ -149,6 +190,11 @@ def _map_pool(fn, tasks, labels, nw, progress):
     finally:
         pool.terminate()                            # cancel or error: stop every worker
     return out
+
+
+def _worker_pids(pool):
+    """The pool's worker process ids (empty if this Python's Pool hides them)."""
+    return {p.pid for p in getattr(pool, "_pool", ()) or ()}
 
 
 def _map_dask(fn, tasks, labels, nw, address, progress):
