@@ -289,6 +289,20 @@ def test_locate_without_flux_finds_mixed_fluxes(name, rho):
     assert r.flux_lm is None and r.to_dict()["flux_lm"] is None
 
 
+def test_without_flux_a_wall_light_gets_no_weak_helper():
+    # one 2673 lm wall light, rho 0.6: the fit once kept a 134 lm ceiling light beside it
+    # (its own flux 5.6 % low, cost 34x the true answer's) because pruning skipped the
+    # refit that shows the wall light alone explains everything
+    from invrad_wb.core.forward.render import render
+    scene, true = known_scene("wall_light", reflectance=0.6, backend=BACKEND)
+    true[0].flux_lm = 2673.0
+    scene = scene.with_vertex_lux(render(scene, true, interreflection=True, backend=BACKEND))
+    r = locate(scene, None, backend=BACKEND)
+    assert len(r.luminaires) == 1, [l.to_dict() for l in r.luminaires]
+    assert np.linalg.norm(r.luminaires[0].position - true[0].position) < 0.02
+    assert r.luminaires[0].flux_lm == pytest.approx(2673.0, rel=0.02)
+
+
 def test_radiosity_model_beats_constant_ambient_with_interreflection():
     scene, true = known_scene("two_ceiling", reflectance=0.7, backend=BACKEND)
     full = match(locate(scene, 3000.0, backend=BACKEND).luminaires, true)
