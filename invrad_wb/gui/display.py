@@ -132,18 +132,51 @@ def overlay_geometry(building, values, offset_m=0.01, targets=True, vmax=None):
 
 
 def room_labels(building, height_m=0.9):
-    """``[(room label, (x, y, z) mm)]``: where each room's name is written, above the
-    middle of its floor (``height_m`` above it, over a work plane at 0.75 m)."""
+    """``[(room label, (x, y, z) mm)]``: where each room's name is written, ``height_m``
+    above its floor (over a work plane at 0.75 m): inside the floor's outline as far as
+    possible from the walls and from the room's light fixtures, so that the name covers
+    neither (as on the design report's plans)."""
+    from invrad_wb.core.output.design_report import label_point
+    # the names are screen text (about 7 x 13 px a character); seen whole, a building of
+    # extent X metres spans about 500 px: a character is about X / 70 m wide
+    allv = building.scene.vertices
+    char_m = float(np.max(np.ptp(allv[:, :2], axis=0))) / 70.0 if len(allv) else 0.1
     out = []
     for p in building.rooms:
         m = p.mesh
         tri = m.triangles[m.floor_triangles] if m.floor_triangles.any() else m.triangles
-        v = m.vertices[np.unique(tri.reshape(-1))]
+        corners = m.vertices[tri]                       # (t, 3, 3) metres
+        v = corners.reshape(-1, 3)
         lo = v.min(axis=0)
-        c = 0.5 * (v.min(axis=0) + v.max(axis=0))
+        c = 0.5 * (v.min(axis=0) + v.max(axis=0))[:2]
+        edges = _outline_edges(corners) if m.floor_triangles.any() else []
+        if len(edges):
+            half = (0.5 * char_m * max(len(p.space.Label), 1) + 0.1, char_m + 0.1)
+            c = label_point(edges, _fixture_xy(p.space), half_size=half)
         out.append((p.space.Label, (1000.0 * c[0], 1000.0 * c[1],
                                     1000.0 * (lo[2] + height_m))))
     return out
+
+
+def _outline_edges(tri):
+    """Boundary edges (e, 2, 2) in plan of a set of floor triangles (t, 3, 3), metres."""
+    xy = np.round(tri[:, :, :2], 6)
+    e = np.concatenate([xy[:, [0, 1]], xy[:, [1, 2]], xy[:, [2, 0]]])
+    a, b = e[:, 0], e[:, 1]
+    swap = (a[:, 0] > b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] > b[:, 1]))
+    key = np.where(swap[:, None], np.hstack([b, a]), np.hstack([a, b]))   # either direction
+    _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    return e[cnt[np.asarray(inv).reshape(-1)] == 1]
+
+
+def _fixture_xy(space):
+    """Plan positions (metres) of the light fixtures in a Space (none if unreadable)."""
+    try:
+        from invrad_wb.app import fixtures
+        return [fixtures.fixture_luminaire(o).position[:2]
+                for o in fixtures.room_fixtures(space, generated_only=False)]
+    except Exception:
+        return []
 
 
 # ------------------------------------------------------------------------- coin3d

@@ -186,8 +186,21 @@ def design(doc=None, spec=None, rooms=None, run=None):
         return None
     res.fixtures = [o.Name for o in new]
     _colour_fixtures(doc, res.fixtures)
+    _show_design(doc, res)
     messages.show("info", title, "\n".join(describe_design(res)), box=False)
     return res
+
+
+def _show_design(doc, res):
+    """A false-colour view already open shows the design's achieved illuminance (and
+    room names placed clear of the new fixtures), not the previous run's."""
+    from invrad_wb.gui import display
+    if display.state(doc) is None or getattr(res, "achieved", None) is None:
+        return
+    try:
+        display.show_achieved(doc, res.building, res.achieved)
+    except Exception as exc:         # the design stands; only the view is stale
+        messages.exception("Design lighting: view", exc)
 
 
 def _import_in_main_thread():

@@ -106,10 +106,12 @@ def _inside(edges, p):
     return (np.count_nonzero(crosses & (p[:, :1] < x_at), axis=1) % 2) == 1
 
 
-def label_point(edges, avoid, n=24):
+def label_point(edges, avoid, n=24, half_size=None):
     """A point inside a room's outline as far as possible from its walls and from the
     points ``avoid`` (luminaires): where its label overlaps neither (pole of
-    inaccessibility on an n x n raster)."""
+    inaccessibility on an n x n raster). ``half_size`` (hx, hy), metres: the label's half
+    width and height; the distance to a point then counts in label boxes (a wide label
+    keeps further from points beside it than from points above it)."""
     lo, hi = edges.reshape(-1, 2).min(axis=0), edges.reshape(-1, 2).max(axis=0)
     g = np.stack(np.meshgrid(np.linspace(lo[0], hi[0], n), np.linspace(lo[1], hi[1], n)),
                  -1).reshape(-1, 2)
@@ -122,8 +124,14 @@ def label_point(edges, avoid, n=24):
         np.einsum("ij,ij->i", ab, ab), 1e-12), 0, 1)
     d = np.linalg.norm(g[:, None] - (a + t[..., None] * ab), axis=2).min(axis=1)
     if len(avoid):
-        d = np.minimum(d, np.linalg.norm(g[:, None] - np.asarray(avoid)[None], axis=2)
-                       .min(axis=1))
+        diff = g[:, None] - np.asarray(avoid, dtype=np.float64).reshape(-1, 2)[None]
+        if half_size is None:
+            da = np.linalg.norm(diff, axis=2)
+        else:
+            hx, hy = half_size
+            # box distance in label units, back in metres on the label's height scale
+            da = np.max(np.abs(diff) / np.array([hx, hy]), axis=2) * hy
+        d = np.minimum(d, da.min(axis=1))
     return g[int(np.argmax(d))]
 
 
