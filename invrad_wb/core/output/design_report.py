@@ -106,10 +106,10 @@ def _inside(edges, p):
     return (np.count_nonzero(crosses & (p[:, :1] < x_at), axis=1) % 2) == 1
 
 
-def label_point(edges, avoid, n=24, half_size=None):
+def label_point(edges, avoid, n=25, half_size=None):
     """A point inside a room's outline as far as possible from its walls and from the
     points ``avoid`` (luminaires): where its label overlaps neither (pole of
-    inaccessibility on an n x n raster). ``half_size`` (hx, hy), metres: the label's half
+    inaccessibility on an n x n raster; odd n puts the middle on it). ``half_size`` (hx, hy), metres: the label's half
     width and height; the distance to a point then counts in label boxes (a wide label
     keeps further from points beside it than from points above it)."""
     lo, hi = edges.reshape(-1, 2).min(axis=0), edges.reshape(-1, 2).max(axis=0)
@@ -132,7 +132,13 @@ def label_point(edges, avoid, n=24, half_size=None):
             # box distance in label units, back in metres on the label's height scale
             da = np.max(np.abs(diff) / np.array([hx, hy]), axis=2) * hy
         d = np.minimum(d, da.min(axis=1))
-    return g[int(np.argmax(d))]
+    # of the points within a quarter raster step of the best clearance, the one nearest
+    # the middle (an empty rectangle's clearance ridge is a whole segment)
+    step = float(np.min((hi - lo) / (n - 1)))
+    near_best = d >= d.max() - 0.25 * step
+    mid = 0.5 * (lo + hi)
+    k = np.flatnonzero(near_best)
+    return g[k[int(np.argmin(np.linalg.norm(g[k] - mid, axis=1)))]]
 
 
 def storeys(rooms, step=0.5):
