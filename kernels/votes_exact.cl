@@ -13,32 +13,69 @@
  * PoCL vectorises explicit vectors only). Pixels gather, so no atomics are needed.
  * Optional: occlusion of (point, pixel) segments that vote (-D OCCLUSION=1) and shade
  * points that forbid pixels whose luminaire would light them above a limit (-D SHADE=1).
- * Numpy twin: invrad_wb.core.votes.cast_exact_numpy.
+ * A photometric distribution replaces the lambertian e(c) with -D PROFILE=1 (see below).
+ * Numpy twin: invrad_wb.core.inverse.votes.cast_exact_numpy.
  */
 #include "bvh.h"
 
 #define LN_PI 1.1447298858494002f
 
+#if PROFILE
+/* A photometric distribution (-D PROFILE=1): prof[i] = (ln p, w) at gamma = i * PROFILE_STEP
+ * degrees, p the C-averaged intensity (cd/lm) and w = (d ln p / d gamma) / sin gamma; then
+ *     ln e = ln p(gamma) + ln B - 3 ln r,
+ *     grad ln e = w (n / r + A d / r^3) + m / B - 3 d / r^2     (cos gamma = A / r).
+ * ln p < -1e29: dark there, no vote. Numpy twin: votes.vote_profile / _profile_at. */
+inline void profile16(const float16 cosg, __global const float2 *prof, const int nprof,
+                      float16 *lnp, float16 *w)
+{
+    const float16 f = acos(clamp(cosg, -1.0f, 1.0f)) * (57.29577951308232f / PROFILE_STEP);
+    float fa[16], la[16], wa[16];
+    vstore16(f, 0, fa);
+    for (int l = 0; l < 16; ++l) {
+        const int i = min((int)fa[l], nprof - 2);
+        const float t = fa[l] - (float)i;
+        const float2 a = prof[i], b = prof[i + 1];
+        la[l] = a.x + t * (b.x - a.x);
+        wa[l] = a.y + t * (b.y - a.y);
+    }
+    *lnp = vload16(0, la);
+    *w = vload16(0, wa);
+}
+#endif
+
 inline float16 tent_votes(const float16 cx, const float16 cy, const float16 cz,
                           const float3 n, const float3 s, const float3 m,
                           const float lnE, const float w, const float pixel,
-                          float16 *lnF)
+                          __global const float2 *prof, const int nprof, float16 *lnF)
 {
     const float16 dx = cx - s.x, dy = cy - s.y, dz = cz - s.z;
     const float16 A = -(n.x * dx + n.y * dy + n.z * dz);
     const float16 B = m.x * dx + m.y * dy + m.z * dz;
     const float16 r2 = dx * dx + dy * dy + dz * dz;
-    const int16 ok = (A > 1e-6f) & (B > 1e-6f);
+    int16 ok = (A > 1e-6f) & (B > 1e-6f);
     const float16 Ac = select((float16)(1.0f), A, ok);
     const float16 Bc = select((float16)(1.0f), B, ok);
     const float16 inv_r2 = 1.0f / r2;
-    const float16 lne = log(Ac * Bc * inv_r2 * inv_r2) - LN_PI;
-    *lnF = lne;
-    const float16 L = lne - lnE;
     const float16 iA = 1.0f / Ac, iB = 1.0f / Bc;
+#if PROFILE
+    const float16 inv_r = rsqrt(r2);
+    float16 lnp, wp;
+    profile16(Ac * inv_r, prof, nprof, &lnp, &wp);
+    ok &= (lnp > -1e29f);
+    const float16 lne = lnp + log(Bc) - 1.5f * log(r2);
+    const float16 k = Ac * inv_r2 * inv_r;                /* A / r^3 */
+    const float16 gx = wp * (n.x * inv_r + k * dx) + m.x * iB - 3.0f * dx * inv_r2;
+    const float16 gy = wp * (n.y * inv_r + k * dy) + m.y * iB - 3.0f * dy * inv_r2;
+    const float16 gz = wp * (n.z * inv_r + k * dz) + m.z * iB - 3.0f * dz * inv_r2;
+#else
+    const float16 lne = log(Ac * Bc * inv_r2 * inv_r2) - LN_PI;
     const float16 gx = -n.x * iA + m.x * iB - 4.0f * dx * inv_r2;
     const float16 gy = -n.y * iA + m.y * iB - 4.0f * dy * inv_r2;
     const float16 gz = -n.z * iA + m.z * iB - 4.0f * dz * inv_r2;
+#endif
+    *lnF = lne;
+    const float16 L = lne - lnE;
     const float16 gn = gx * n.x + gy * n.y + gz * n.z;
     const float16 tx = gx - gn * n.x, ty = gy - gn * n.y, tz = gz - gn * n.z;
     const float16 gt = sqrt(tx * tx + ty * ty + tz * tz);
@@ -56,6 +93,7 @@ __kernel void exact_votes(const int nblocks, const int first, __global const int
                           const int nshade, __global const float4 *shade_pts,
                           __global const float4 *shade_nrm, const float ln_shade_limit,
                           const float eps, const float baseline,
+                          __global const float2 *prof, const int nprof,
                           __global const float4 *lo, __global const float4 *hi,
                           __global const int2 *info, __global const float16 *tris,
                           __global float *out)
@@ -79,7 +117,7 @@ __kernel void exact_votes(const int nblocks, const int first, __global const int
         if (w <= 0.0f) continue;
         const float4 sp = pts[p];
         const float3 s = sp.xyz, m = pnrm[p].xyz;
-        float16 v = tent_votes(cx, cy, cz, n, s, m, sp.w, w, pixel, &lne);
+        float16 v = tent_votes(cx, cy, cz, n, s, m, sp.w, w, pixel, prof, nprof, &lne);
 #if OCCLUSION
         if (any(v > 0.0f)) {
             float va[16], xa[16], ya[16], za[16];
@@ -105,8 +143,15 @@ __kernel void exact_votes(const int nblocks, const int first, __global const int
         const float16 A = -(n.x * dx + n.y * dy + n.z * dz);
         const float16 B = m.x * dx + m.y * dy + m.z * dz;
         const float16 r2 = dx * dx + dy * dy + dz * dz;
-        const int16 ok = (A > 1e-6f) & (B > 1e-6f);
+        int16 ok = (A > 1e-6f) & (B > 1e-6f);
+#if PROFILE
+        float16 lnp, wp;
+        profile16(select((float16)(1.0f), A, ok) * rsqrt(r2), prof, nprof, &lnp, &wp);
+        ok &= (lnp > -1e29f);
+        const float16 lnev = lnp + log(select((float16)(1.0f), B, ok)) - 1.5f * log(r2);
+#else
         const float16 lnev = log(select((float16)(1e-30f), A * B / (r2 * r2), ok)) - LN_PI;
+#endif
         int16 hot = ok & (lnev > ln_shade_limit) & !forbid;
 #if OCCLUSION
         if (any(hot)) {

@@ -167,3 +167,68 @@ def test_locate_refines_with_the_distribution(name, rho):
     assert m["found"] == m["true"] == 2 and m["spurious"] == 0, m
     assert m["max_error_cm"] < 1.0, m
     assert match(locate(scene, 2000.0).luminaires, true)["found"] < 2
+
+
+def _vote_case():
+    import sys
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import test_locate as T
+    s = T._small_case()
+    pts = T.voting_points(s, density=30)
+    canvas = T.build_canvas(s, 0, pixel=0.15, dummy_spacing=0.3)
+    W = T.vote_weights(canvas, pts, pts.lux, "illumination")
+    return T, canvas, pts, W
+
+
+@pytest.mark.parametrize("name", ["spot.ies", "asymmetric.ies"])
+def test_photometric_votes_opencl_matches_numpy_twin(name):
+    pytest.importorskip("pyopencl")
+    from invrad_wb.core.accel.device import opencl_available
+    if not opencl_available():
+        pytest.skip("no OpenCL device")
+    from invrad_wb.core.inverse.votes import cast_exact_numpy, cast_exact_opencl, vote_profile
+    T, canvas, pts, W = _vote_case()
+    prof = vote_profile(read_photometry(f(name)))
+    a = cast_exact_numpy(canvas, pts, W, pts.lux, 2000.0, profile=prof)
+    b = cast_exact_opencl(canvas, pts, W, pts.lux, 2000.0, profile=prof)
+    assert a.sum() > 100 and abs(a.sum() - b.sum()) < 1e-3 * a.sum()
+    T.assert_same_votes_up_to_pixel_borders(canvas, a, b)
+    lam = cast_exact_numpy(canvas, pts, W, pts.lux, 2000.0)
+    assert np.abs(a - lam).sum() > 0.05 * lam.sum()       # the distribution changes the votes
+
+
+def test_a_lambertian_distribution_votes_like_the_lambertian_model():
+    from invrad_wb.core.inverse.votes import cast_exact_numpy, vote_profile
+    from invrad_wb.core.model.photometry import Photometry
+    T, canvas, pts, W = _vote_case()
+    a = cast_exact_numpy(canvas, pts, W, pts.lux, 2000.0)
+    b = cast_exact_numpy(canvas, pts, W, pts.lux, 2000.0,
+                         profile=vote_profile(Photometry.lambertian()))
+    # the same contours, up to the profile table's interpolation (1/4 degree)
+    assert abs(a.sum() - b.sum()) < 2e-3 * a.sum()
+    assert np.abs(a - b).max() < 0.3
+
+
+def test_narrow_beam_votes_peak_on_the_luminaires():
+    """The votes use the file's distribution: the raw peaks (no refinement) of two
+    narrow-beam downlights lie on them; lambertian votes put them a metre away."""
+    from invrad_wb.core.forward.render import render
+    from invrad_wb.core.inverse import locate as L
+    from invrad_wb.core.synthetic import generate as g
+    ph = read_photometry(f("spot.ies"))
+    scene = g.box_room((6, 4, 3), cell=0.1, reflectance=0.0)
+    true = [Luminaire([2.0, 1.5, 3.0], [0, 0, -1], 2000.0, photometry=ph),
+            Luminaire([4.2, 2.6, 3.0], [0, 0, -1], 2000.0, photometry=ph)]
+    scene = scene.with_vertex_lux(render(scene, true, interreflection=False))
+
+    def raw_errors(**kw):
+        r = L.locate(scene, 2000.0, photometry=ph, refine=False, threshold=64, **kw)
+        P = np.array([p.position for run in r.rooms for p in run.peaks])
+        return [float(np.min(np.linalg.norm(P - t.position, axis=1))) for t in true]
+    assert max(raw_errors()) < 0.05
+    lambertian = L.vote_profile
+    try:
+        L.vote_profile = lambda photometry: None
+        assert min(raw_errors()) > 0.5
+    finally:
+        L.vote_profile = lambertian

@@ -34,7 +34,7 @@ from invrad_wb.core.inverse.refine import (LOG_SCALE_LIMIT, Light, RefineProblem
                                           swap_search)
 from invrad_wb.core.inverse.sampling import voting_points, default_density
 from invrad_wb.core.inverse.votemaps import build_canvas
-from invrad_wb.core.inverse.votes import vote_weights, cast_exact
+from invrad_wb.core.inverse.votes import vote_weights, cast_exact, vote_profile
 
 VOTE_MODELS = ("exact", "ellipse")
 #: luminaires stay this far above a work plane (nothing is mounted right above a desk)
@@ -220,7 +220,7 @@ class RoomRun:
         s, backend, photometry, has_rho = self.remake
         t = {k: 0.0 for k in ("votes", "radiosity")}
         self.vote_fn = _vote_function(self.canvas, self.points, self.ambient_lux,
-                                      self.occluders, s, self.flux, backend, t)
+                                      self.occluders, s, self.flux, backend, t, photometry)
         self.problem, self.indirect_model = _refine_problem(
             self.scene, self.points, self.canvas, self.occluders, s, self.flux, backend,
             has_rho, t, photometry)
@@ -804,9 +804,9 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
     rooms : iterable of int, optional
         Rooms to process (default: all).
     photometry : Photometry, optional
-        The luminaires' intensity distribution: the refinement and its interreflection
-        model use it (the votes stay lambertian: their peaks are the refinement's starting
-        points). None: lambertian.
+        The luminaires' intensity distribution: the exact votes use it (averaged over its
+        C planes: a candidate's rotation is not known yet), the refinement and its
+        interreflection model the full distribution. None: lambertian.
     room_names : dict room id -> name, optional
         Names for the progress messages (a FreeCAD Space's label) instead of "room <id>".
     workers : int or 'auto'
@@ -941,7 +941,7 @@ def _locate_room(scene, room, s, flux, backend, timings, report, photometry=None
     if free:
         ladder = _flux_ladder(pts)
         flux = max(ladder)
-    vote_fn = _vote_function(canvas, pts, ambient, occ, s, flux, backend, timings)
+    vote_fn = _vote_function(canvas, pts, ambient, occ, s, flux, backend, timings, photometry)
     if free:
         # votes as if 1/share of the light came from a luminaire of flux: one of f = share*flux
         ladder = {f: vote_fn(f / flux) for f in ladder}
@@ -1019,9 +1019,11 @@ def _occluders(scene, s):
     return BVH(scene.triangles[faces]) if len(faces) else None
 
 
-def _vote_function(canvas, pts, ambient, occ, s, flux, backend, timings):
+def _vote_function(canvas, pts, ambient, occ, s, flux, backend, timings, photometry=None):
     """``vote_fn(share=1, lux=None)``: the votes (canvas.size,) float32 of the voting points
-    as if ``1/share`` of each point's light came from one luminaire of ``flux`` lm.
+    as if ``1/share`` of each point's light came from one luminaire of ``flux`` lm (of the
+    ``photometry`` distribution, averaged over its C planes, with the exact model; the
+    thesis' ellipses are lambertian).
 
     The ambient (interreflected) estimate, lux, is taken off the targets first; points
     with 0 lx are shade (no luminaire may light them above the shade limit).
@@ -1031,6 +1033,7 @@ def _vote_function(canvas, pts, ambient, occ, s, flux, backend, timings):
     vote_lux = np.where(lit, np.maximum(pts.lux - ambient, 0.0), 0.0)
     # a point barely above the ambient level carries no position information
     vote_lux[vote_lux < 0.05 * pts.lux] = 0.0
+    profile = vote_profile(photometry)
     shade_limit = s.shade_limit_lux
     if shade_limit is None and len(shade):
         shade_limit = max(1.0, 0.1 * float(np.median(pts.lux[lit])))
@@ -1043,7 +1046,7 @@ def _vote_function(canvas, pts, ambient, occ, s, flux, backend, timings):
         W = vote_weights(canvas, pts, vl, s.weighting, s.vote_strength)
         if s.vote_model == "exact":
             out = cast_exact(canvas, pts, W, vl, flux, backend=backend, bvh=occ,
-                             shade=shade, shade_limit_lux=shade_limit)
+                             shade=shade, shade_limit_lux=shade_limit, profile=profile)
         else:
             from invrad_wb.core.inverse.votes_ellipse import cast_ellipse
             out = cast_ellipse(canvas, pts, W, vl, flux, bvh=occ, shade=shade,

@@ -92,7 +92,54 @@ def vote_weights(canvas, points, vote_lux, weighting="illumination", strength=1.
     return W.astype(np.float32)
 
 
-def _tent_numpy(c, n, s, m, lnE, w, pixel):
+#: the vote profile's table: gamma = 0, 0.25, ... 180 degrees (the photometry's 1 degree
+#: intensities interpolated linearly: ln p and its slope are steep near a cut-off)
+PROFILE_STEP_DEG = 0.25
+#: below this share of its peak a distribution counts as dark there (no contour, no vote)
+PROFILE_DARK = 1e-4
+
+
+def vote_profile(photometry):
+    """The distribution votes use, (721, 2) float32: per gamma (0..180 degrees,
+    :data:`PROFILE_STEP_DEG` apart) ``ln p`` and ``w``, or None for lambertian.
+
+    ``p(gamma)``, cd/lm, is the intensity averaged over the C planes: at vote time a
+    candidate's rotation about its normal is not known (the refinement uses the full
+    I(C, gamma)). A luminaire of flux F at c gives a point s ``F p(gamma) cos(beta) / r^2``
+    (``cos gamma = A / r``), so ``ln e = ln p + ln B - 3 ln r`` and
+    ``grad ln e = w (n / r + A d / r^3) + m / B - 3 d / r^2`` with
+    ``w = (d ln p / d gamma) / sin gamma`` (lambertian: ``w = -1 / cos gamma``, which gives
+    the lambertian gradient). Where ``p`` is below :data:`PROFILE_DARK` of its peak,
+    ``ln p`` is -1e30: no vote.
+    """
+    if photometry is None:
+        return None
+    p1 = np.asarray(photometry.table, dtype=np.float64)[:-1].mean(axis=0)    # C 0..359
+    deg = np.arange(0.0, 180.0 + 1e-9, PROFILE_STEP_DEG)
+    p = np.interp(deg, np.arange(len(p1)) * 180.0 / (len(p1) - 1), p1)
+    g = np.radians(deg)
+    dark = p < PROFILE_DARK * p.max()
+    lnp = np.log(np.maximum(p, 1e-300))
+    q = np.gradient(lnp, g)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = q / np.sin(g)
+    w[0] = w[1]
+    w[-1] = w[-2]
+    w = np.where(dark | ~np.isfinite(w), 0.0, w)
+    lnp = np.where(dark, -1e30, lnp)
+    return np.stack([lnp, w], axis=1).astype(np.float32)
+
+
+def _profile_at(profile, cos_g):
+    """(ln p, w) at cos gamma, linear in gamma between the table's degrees."""
+    f = np.degrees(np.arccos(np.clip(cos_g, -1.0, 1.0))) / PROFILE_STEP_DEG
+    i = np.minimum(f.astype(np.int64), len(profile) - 2)
+    t = f - i
+    lo, hi = profile[i].astype(np.float64), profile[i + 1].astype(np.float64)
+    return lo[..., 0] + t * (hi[..., 0] - lo[..., 0]), lo[..., 1] + t * (hi[..., 1] - lo[..., 1])
+
+
+def _tent_numpy(c, n, s, m, lnE, w, pixel, profile=None):
     """Exact-vote tent weights for candidates c (p, 3) and points s (k, 3): (p, k)."""
     d = c[:, None, :] - s[None, :, :]
     A = -(d @ n)
@@ -101,10 +148,19 @@ def _tent_numpy(c, n, s, m, lnE, w, pixel):
     ok = (A > 1e-6) & (B > 1e-6)
     Ac = np.where(ok, A, 1.0)
     Bc = np.where(ok, B, 1.0)
-    lne = np.log(Ac * Bc / (r2 * r2)) - np.log(np.pi)
+    if profile is None:
+        lne = np.log(Ac * Bc / (r2 * r2)) - np.log(np.pi)
+        g = (-n[None, None, :] / Ac[..., None] + m[None, :, :] / Bc[..., None]
+             - 4.0 * d / r2[..., None])
+    else:
+        r = np.sqrt(r2)
+        lnp, wp = _profile_at(profile, Ac / r)
+        ok &= lnp > -1e29
+        lne = lnp + np.log(Bc) - 1.5 * np.log(r2)
+        g = (wp[..., None] * (n[None, None, :] / r[..., None] + Ac[..., None] * d
+                              / (r2 * r)[..., None])
+             + m[None, :, :] / Bc[..., None] - 3.0 * d / r2[..., None])
     L = lne - lnE[None, :]
-    g = (-n[None, None, :] / Ac[..., None] + m[None, :, :] / Bc[..., None]
-         - 4.0 * d / r2[..., None])
     g = g - (g @ n)[..., None] * n
     gt = np.linalg.norm(g, axis=2)
     delta = np.abs(L) / np.maximum(gt, 1e-12)
@@ -113,7 +169,7 @@ def _tent_numpy(c, n, s, m, lnE, w, pixel):
 
 
 def cast_exact_numpy(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
-                     shade_limit_lux=None, baseline=0.0, chunk_pairs=2_000_000):
+                     shade_limit_lux=None, baseline=0.0, chunk_pairs=2_000_000, profile=None):
     """Exact votes, numpy twin of ``kernels/votes_exact.cl``.
 
     Parameters
@@ -130,6 +186,8 @@ def cast_exact_numpy(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
         ``shade_limit_lux`` (unoccluded) get no votes.
     baseline : float
         Added to every pixel before shade forbids it (1 gives the allowed-pixel mask).
+    profile : (721, 2) float32, optional
+        :func:`vote_profile` of the luminaires' distribution (None: lambertian).
 
     Returns
     -------
@@ -149,7 +207,7 @@ def cast_exact_numpy(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
             for a in range(0, len(cent), step):
                 c = cent[a:a + step]
                 tent, _ = _tent_numpy(c, mp.normal, s, m, lnE[active],
-                                      W[mi, active].astype(np.float64), mp.pixel)
+                                      W[mi, active].astype(np.float64), mp.pixel, profile)
                 if bvh is not None:
                     pi, ki = np.nonzero(tent > 0)
                     if len(pi):
@@ -165,7 +223,8 @@ def cast_exact_numpy(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
             for a in range(0, len(cent), step):
                 c = cent[a:a + step]
                 _, lne = _tent_numpy(c, mp.normal, shade.positions, shade.normals,
-                                     np.zeros(len(shade)), np.ones(len(shade)), mp.pixel)
+                                     np.zeros(len(shade)), np.ones(len(shade)), mp.pixel,
+                                     profile)
                 hot = lne > ln_lim
                 if bvh is not None:
                     pi, ki = np.nonzero(hot)
@@ -205,7 +264,7 @@ def canvas_device_arrays(canvas):
 
 
 def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
-                      shade_limit_lux=None, baseline=0.0):
+                      shade_limit_lux=None, baseline=0.0, profile=None):
     """Exact votes on the OpenCL device; same contract as :func:`cast_exact_numpy`."""
     env = get_env()
     out = np.zeros(canvas.size, np.float32)
@@ -214,7 +273,11 @@ def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
     occlusion = bvh is not None and bvh.n_triangles > 0
     use_shade = shade is not None and len(shade) > 0 and shade_limit_lux is not None
     knl = env.kernel("votes_exact", "exact_votes",
-                     [f"-D OCCLUSION={int(occlusion)}", f"-D SHADE={int(use_shade)}"])
+                     [f"-D OCCLUSION={int(occlusion)}", f"-D SHADE={int(use_shade)}",
+                      f"-D PROFILE={int(profile is not None)}",
+                      f"-D PROFILE_STEP={PROFILE_STEP_DEG!r}f"])
+    prof = (np.zeros((2, 2), np.float32) if profile is None
+            else np.ascontiguousarray(profile, np.float32))
     origin, u, v, n, info, blocks = canvas_device_arrays(canvas)
     with np.errstate(divide="ignore"):
         lnE = np.log(np.maximum(vote_lux, 1e-30) / flux)
@@ -241,7 +304,8 @@ def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
                     np.float32(canvas.pixel), np.int32(len(points)),
                     buf(float4(points.positions, lnE)), buf(float4(points.normals)),
                     buf(np.ascontiguousarray(W, np.float32)), np.int32(ns), buf(sp), buf(sn),
-                    np.float32(ln_lim), np.float32(C.RAY_EPS_M), np.float32(baseline)),
+                    np.float32(ln_lim), np.float32(C.RAY_EPS_M), np.float32(baseline),
+                    buf(prof), np.int32(len(prof))),
                    (*bvh_bufs, d_out),
                    max(32, C.CL_CHUNK_VOTE_PAIRS // max(1, len(points) + ns)), local=32)
     env.cl.enqueue_copy(env.queue, out, d_out)
