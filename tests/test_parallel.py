@@ -217,3 +217,18 @@ def test_cli_batch_of_a_folder_same_as_one_by_one_and_a_bad_file_named(tmp_path)
     cp = subprocess.run(base + ["project", "--flux", "3000", "-o", "r2", "--lux", "x.json"],
                         cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert cp.returncode == 2 and "--lux" in cp.stderr and not (tmp_path / "r2").exists()
+
+
+def _env():
+    return {k: os.environ.get(k) for k in ("INVRAD_MEMORY_LIMIT", "POCL_MAX_PTHREAD_COUNT")}
+
+
+def test_workers_share_the_memory_budget(monkeypatch):
+    # two rooms at their limit on two workers must not take twice the budget
+    monkeypatch.setenv("INVRAD_MEMORY_LIMIT", "2G")
+    monkeypatch.delenv("POCL_MAX_PTHREAD_COUNT", raising=False)
+    env = W.map_rooms(_env, [()] * 2, workers=2)
+    assert env[0]["INVRAD_MEMORY_LIMIT"] == str(1 << 30)
+    assert int(env[0]["POCL_MAX_PTHREAD_COUNT"]) == max(1, W.usable_cores() // 2)
+    assert os.environ["INVRAD_MEMORY_LIMIT"] == "2G"             # this process unchanged
+    assert "POCL_MAX_PTHREAD_COUNT" not in os.environ

@@ -98,6 +98,34 @@ def _plain_main(embedded):
         main.__dict__.update(saved)
 
 
+def worker_environ(nw):
+    """Environment for ``nw`` workers sharing this machine: each gets ``1/nw`` of the memory
+    budget (:mod:`invrad_wb.core.model.memory`: ``nw`` rooms at their limit must not take
+    ``nw`` times the budget) and ``cores/nw`` PoCL threads (not every worker all cores).
+    Neither changes a result: PoCL's thread count does not change what a work-item
+    computes."""
+    from invrad_wb.core.model import memory
+    env = {memory.ENV: str(max(1, memory.limit_bytes() // nw))}
+    if "POCL_MAX_PTHREAD_COUNT" not in os.environ:
+        env["POCL_MAX_PTHREAD_COUNT"] = str(max(1, usable_cores() // nw))
+    return env
+
+
+@contextlib.contextmanager
+def _environ(values):
+    """``os.environ`` with ``values`` while workers start (they inherit it)."""
+    old = {k: os.environ.get(k) for k in values}
+    try:
+        os.environ.update(values)
+        yield
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
 def _call(fn, task):
     return fn(*task)
 
@@ -158,7 +186,8 @@ def _map_pool(fn, tasks, labels, nw, progress):
     out = [None] * n
     # BLAS keeps its thread count: a different one changes float rounding, and the
     # result must not depend on the number of workers
-    with _plain_main(embedded=os.path.realpath(exe) != os.path.realpath(sys.executable or "")):
+    embedded = os.path.realpath(exe) != os.path.realpath(sys.executable or "")
+    with _plain_main(embedded), _environ(worker_environ(nw)):
         pool = ctx.Pool(nw)
     started = _worker_pids(pool)
     try:
@@ -214,6 +243,7 @@ def _map_dask(fn, tasks, labels, nw, address, progress):
                        dask.config.get("distributed.nanny.pre-spawn-environ", {}).items()
                        if not k.endswith("_NUM_THREADS")}
             environ.update({k: v for k, v in os.environ.items() if k.endswith("_NUM_THREADS")})
+            environ.update(worker_environ(nw))
             with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
                 cluster = LocalCluster(n_workers=nw, threads_per_worker=1, processes=True,
                                        dashboard_address=None, host="127.0.0.1")
