@@ -19,9 +19,12 @@ EXIT_NOT_COMPLIANT = 3
 
 def add_parser(sub):
     p = sub.add_parser("design", help="lighting design from requirements (least watts)")
-    p.add_argument("scene", help="scene file (PLY with room and reflectance)")
+    p.add_argument("scene", nargs="+",
+                   help="scene file (PLY with room and reflectance); several files or folders"
+                        " of PLY files: one process for all, -o (and --schedule) are then"
+                        " folders, --report gets one subfolder per scene")
     p.add_argument("--spec", required=True, help="DESIGN.json: requirements and catalogue")
-    p.add_argument("-o", "--output", required=True, help="RESULT.json")
+    p.add_argument("-o", "--output", required=True, help="RESULT.json (several scenes: a folder)")
     p.add_argument("--schedule", help="also write the luminaire schedule as CSV")
     p.add_argument("--report", help="folder for the client's report (HTML, CSV, plans)")
     p.add_argument("--unit", default="m", choices=("m", "mm"), help="scene length unit")
@@ -70,37 +73,78 @@ def _print_room(r):
 
 
 def run(args):
-    from invrad_wb.core.design.design import design
+    from invrad_wb.cli import _batch_scenes
     from invrad_wb.core.design.spec import read_spec
+    from invrad_wb.errors import InvradError
+    from invrad_wb.outputs import check_file, check_folder
+    import time
+    spec = read_spec(args.spec)
+    workers = workers_arg(args.workers)
+    scenes = args.scene
+    if not (len(scenes) > 1 or os.path.isdir(scenes[0])):
+        check_file(args.output, "-o", inputs=[scenes[0], args.spec])
+        if args.schedule:
+            check_file(args.schedule, "--schedule", inputs=[scenes[0], args.spec])
+        if args.report:
+            check_folder(args.report, "--report")
+        return _design_one(args, scenes[0], args.output, args.schedule, args.report, spec,
+                           workers)
+    # many scenes in one process: one OpenCL context, kernels built once
+    scenes = _batch_scenes(scenes)
+    check_folder(args.output, "-o (a folder for RESULT.json files with several scenes)")
+    for opt, what in ((args.schedule, "--schedule"), (args.report, "--report")):
+        if opt:
+            check_folder(opt, f"{what} (a folder with several scenes)")
+    failed, t0 = [], time.time()
+    for i, path in enumerate(scenes):
+        stem = os.path.splitext(os.path.basename(path))[0]
+        print(f"[{i + 1}/{len(scenes)}] {path}")
+        out = os.path.join(args.output, stem + ".json")
+        sched = args.schedule and os.path.join(args.schedule, stem + ".csv")
+        report = args.report and os.path.join(args.report, stem)
+        try:
+            for f, what in ((out, "-o"), (sched, "--schedule")):
+                if f:
+                    os.makedirs(os.path.dirname(f), exist_ok=True)
+                    check_file(f, what, inputs=[path, args.spec])
+            rc = _design_one(args, path, out, sched, report, spec, workers)
+        except InvradError as exc:
+            print(f"invrad: error: {exc}", file=sys.stderr)
+            rc = 2
+        if rc:
+            failed.append((path, rc))
+    print(f"{len(scenes)} scene(s) designed in {time.time() - t0:.1f} s, "
+          f"{sum(1 for _, rc in failed if rc == EXIT_NOT_COMPLIANT)} not compliant,"
+          f" {sum(1 for _, rc in failed if rc == 2)} failed -> {args.output}")
+    if failed:
+        return 2 if any(rc == 2 for _, rc in failed) else EXIT_NOT_COMPLIANT
+    return 0
+
+
+def _design_one(args, scene_path, output, schedule, report, spec, workers):
+    """One scene: design, write RESULT.json (schedule, report), print the rooms."""
+    from invrad_wb.core.design.design import design
     from invrad_wb.core.io.atomic import atomic_write_text
     from invrad_wb.core.io.sceneio import read_scene
-    from invrad_wb.outputs import check_file, check_folder
-    spec = read_spec(args.spec)
-    check_file(args.output, "-o", inputs=[args.scene, args.spec])
-    if args.schedule:
-        check_file(args.schedule, "--schedule", inputs=[args.scene, args.spec])
-    if args.report:
-        check_folder(args.report, "--report")
-    workers = workers_arg(args.workers)
-    scene = read_scene(args.scene, unit=args.unit)
+    scene = read_scene(scene_path, unit=args.unit)
     with CliProgress(args.verbose, "design") as progress:
         result = design(scene, spec, backend=args.backend, progress=progress,
                         mixed=args.mixed, dimming=args.dimming, workers=workers,
                         dask=args.dask)
     data = result.to_dict()
-    atomic_write_text(args.output, json.dumps(data, indent=2, allow_nan=False) + "\n")
-    if args.schedule:
-        atomic_write_text(args.schedule, schedule_csv(result))
-    if args.report:
-        html = result.write_report(args.report,
-                                   title=f"Lighting design: {os.path.basename(args.scene)}")
+    atomic_write_text(output, json.dumps(data, indent=2, allow_nan=False) + "\n")
+    if schedule:
+        atomic_write_text(schedule, schedule_csv(result))
+    if report:
+        html = result.write_report(report,
+                                   title=f"Lighting design: {os.path.basename(scene_path)}")
         print(f"report -> {html}")
     for r in result.rooms:
         _print_room(r)
     print(f"{len(result.luminaires)} luminaire(s), {result.watts:.1f} W in"
-          f" {result.timings['total']:.1f} s -> {args.output}")
+          f" {result.timings['total']:.1f} s -> {output}")
     if not result.compliant:
-        print("invrad: the catalogue cannot meet every requirement: the closest design"
-              " is written (see the notes above)", file=sys.stderr)
+        print(f"invrad: {scene_path}: the catalogue cannot meet every requirement: the"
+              " closest design is written (see the notes above)", file=sys.stderr)
         return EXIT_NOT_COMPLIANT
     return 0

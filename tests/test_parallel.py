@@ -232,3 +232,32 @@ def test_workers_share_the_memory_budget(monkeypatch):
     assert int(env[0]["POCL_MAX_PTHREAD_COUNT"]) == max(1, W.usable_cores() // 2)
     assert os.environ["INVRAD_MEMORY_LIMIT"] == "2G"             # this process unchanged
     assert "POCL_MAX_PTHREAD_COUNT" not in os.environ
+
+
+def test_cli_design_batch_same_as_one_by_one(tmp_path):
+    from invrad_wb.core.io.sceneio import write_scene
+    proj = tmp_path / "project"
+    proj.mkdir()
+    for name, size in (("small", (4.0, 3.0, 2.8)), ("big", (8.0, 6.0, 3.0))):
+        sc = g.box_room(size=size, cell=0.5)
+        write_scene(proj / f"{name}.ply", sc, lux=np.full(len(sc.vertices), np.nan))
+    (proj / "broken.ply").write_text("ply\n")
+    (tmp_path / "d.json").write_text(json.dumps(
+        {"catalogue": CAT, "rooms": {"*": {"room_type": "office"}}}))
+    base = [sys.executable, "-m", "invrad_wb", "design"]
+    cp = subprocess.run(base + ["project", "--spec", "d.json", "-o", "res", "--schedule",
+                                "sched"], cwd=tmp_path, capture_output=True, text=True,
+                        timeout=300)
+    assert cp.returncode == 2 and "broken.ply" in cp.stderr, cp.stderr
+    assert sorted(os.listdir(tmp_path / "res")) == ["big.json", "small.json"]
+    assert sorted(os.listdir(tmp_path / "sched")) == ["big.csv", "small.csv"]
+    for name in ("small", "big"):
+        cp = subprocess.run(base + [f"project/{name}.ply", "--spec", "d.json", "-o",
+                                    "one.json"], cwd=tmp_path, capture_output=True,
+                            text=True, timeout=300)
+        assert cp.returncode == 0, cp.stderr
+        one = json.loads((tmp_path / "one.json").read_text())
+        batch = json.loads((tmp_path / "res" / f"{name}.json").read_text())
+        strip = lambda d: [{k: v for k, v in r.items() if k != "seconds"} for r in d["rooms"]]
+        assert strip(one) == strip(batch)
+        assert one["luminaires"] == batch["luminaires"] and one["luminaires"]
