@@ -316,6 +316,35 @@ def test_a_painted_spot_gets_an_accent_and_is_met_by_an_independent_render():
     assert spot["pass"] and spot["accent"] in {e["name"] for e in cat}
 
 
+def test_general_lighting_dims_down_for_the_accents_light(monkeypatch):
+    """A dimmable catalogue: the accent's light on the work plane lets the general lighting
+    dim (office case: 153.3 -> 142.2 W, Em 550 -> 509 lx); an independent render still
+    meets the spot and an independent exact solve Em and U0."""
+    import invrad_wb.core.design.design as D
+    from invrad_wb.core.design.accent import SPOT_CORE
+    from invrad_wb.core.forward.render import render
+    base = g.with_reflectances(g.box_room(size=(6.0, 4.0, 3.0), cell=0.15))
+    sc, painted = _with_spot(base, (6.0, 2.0, 1.6), 0.6, 600.0, 6.0)
+    cat = [dict(e, dimming=[0.1, 1.0]) for e in CAT]
+    rd = design_room(sc, spec(cat=cat), 0)
+    with monkeypatch.context() as m:
+        m.setattr(D, "_redim_with_accents", lambda *a: None)
+        before = design_room(sc, spec(cat=cat), 0)
+    assert rd.compliant and before.compliant
+    assert rd.watts < 0.97 * before.watts and rd.candidate.dim < before.candidate.dim
+    assert rd.accent_watts == pytest.approx(before.accent_watts)
+    assert any("dimmed to" in n for n in rd.notes)
+    t = sc.vertex_targets()
+    core = painted & (t >= SPOT_CORE * 600.0)
+    lux = 0.8 * render(sc, rd.luminaires, interreflection=True)
+    assert abs(lux[core].mean() - t[core].mean()) <= 0.10 * t[core].mean()
+    droom = DesignRoom(sc, 0)
+    wpr = spec(cat=cat).room_spec(0).work_plane
+    pts, _ = droom.grid(wpr.height_m, wpr.margin_m)          # the EN 12464-1 grid
+    wp, _ = RoomModel(sc, droom, pts, 0.8).exact(rd.luminaires)
+    assert wp.mean() >= 500.0 and wp.min() / wp.mean() >= 0.6
+
+
 def test_a_spot_darker_than_the_general_light_is_reported_not_met():
     base = g.with_reflectances(g.box_room(size=(6.0, 4.0, 3.0), cell=0.15))
     sc, _ = _with_spot(base, (6.0, 2.0, 1.6), 0.6, 60.0, 6.0)

@@ -16,8 +16,9 @@ from invrad_wb.errors import Cancelled, SettingsError
 from invrad_wb.core.accel.workers import map_rooms
 from invrad_wb.core.design.evaluate import RoomModel
 from invrad_wb.core.design.room import DesignRoom
-from invrad_wb.core.design.accent import SPOT_TOLERANCE, find_goals, light_spots
-from invrad_wb.core.design.search import Metrics, RoomSearch, run_search
+from invrad_wb.core.design.accent import SPOT_TOLERANCE, find_goals, light_spots, within
+from invrad_wb.core.design.search import (Candidate, Metrics, RoomSearch, complies,
+                                          run_search)
 
 #: shade points per room at most (deterministic subsample beyond)
 MAX_SHADE_POINTS = 2000
@@ -254,7 +255,7 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
     rd.luminaires = search.luminaires(cand)
     rd.grid_points = points
     rd._shade_limit = rs.shade_limit_lux
-    _light_goals(scene, rd, model, droom, rs, entries, photometry, req)
+    _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search)
     rd.ugr_limit = rs.ugr_max
     rd.ugr = _room_ugr(model, droom, rd.luminaires)
     _explain(rd, search, entries)
@@ -262,7 +263,53 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
     return rd
 
 
-def _light_goals(scene, rd, model, droom, rs, entries, photometry, req):
+#: re-dimming after accents tries the general lighting's output in this many steps
+REDIM_STEPS = 200
+#: a spot met before re-dimming must stay within this share of its tolerance
+REDIM_SPOT_MARGIN = 0.9
+
+
+def _redim_with_accents(rd, model, search, general, accents, req, rs):
+    """Accents add light to the work plane too: dim the general lighting (within its
+    entries' dimming range) as far as every requirement still holds with the accents:
+    Em, U0, shade, and each spot that was met. Light adds up (radiosity is linear), so one
+    exact solve of each part gives every dimming level."""
+    cand = rd.candidate
+    if cand is None:
+        return
+    e0, e1 = (search.entries[k] for k in cand.entries)
+    floor = max(e0.dimming[0], e1.dimming[0]) if search.dimming else 1.0
+    if cand.dim <= floor + 1e-9:
+        return
+    G, Gd = model.exact(general)
+    A, Ad = model.exact(accents)
+    spots = [sp for sp in rd.spots if sp.goal.kind == "spot"]
+    for f in np.linspace(floor / cand.dim, 1.0, REDIM_STEPS + 1):
+        met = Metrics.of(f * G + A, f * Gd + Ad, model.n_wp)
+        if (met.em < req.lux * 1.001
+                or not complies(met.em, met.u0, met.shade_max, req, rs.shade_limit_lux)):
+            continue
+        # met spots stay met with a margin (the exact model is not the verification)
+        if all(within(f * sp.base_mean + sp.achieved_mean - sp.base_mean, sp.goal.target_mean,
+                      REDIM_SPOT_MARGIN * SPOT_TOLERANCE)
+               for sp in spots if sp.ok):
+            break
+    else:
+        return
+    if f >= 1.0 - 1e-9:
+        return
+    rd.candidate = Candidate(cand.geom, cand.entries, cand.dim * f, cand.watts * f, met.em,
+                             met.u0, met.shade_max, True)
+    rd.luminaires = search.luminaires(rd.candidate) + accents
+    rd.metrics = met
+    for sp in rd.spots:
+        sp.achieved_mean += (f - 1.0) * sp.base_mean
+        sp.base_mean *= f
+    rd.notes.append(f"general lighting dimmed to {100 * rd.candidate.dim:.0f} % with the"
+                    " accents' light on the work plane")
+
+
+def _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search=None):
     """Painted spots as requirements (accent luminaires where the general lighting leaves
     them too dark), other surface targets reported as goals; the exact figures of the
     whole installation replace those of the work-plane layout."""
@@ -275,10 +322,13 @@ def _light_goals(scene, rd, model, droom, rs, entries, photometry, req):
                                     shade=shade if len(shade[0]) else None,
                                     shade_limit=rs.shade_limit_lux)
     if accents:
+        general = rd.luminaires
         rd.luminaires = rd.luminaires + accents
         rd.accent_watts = sum(s.accent_watts for s in rd.spots)
         lux, direct = model.exact(rd.luminaires)
         rd.metrics = Metrics.of(lux, direct, model.n_wp)
+        if search is not None:
+            _redim_with_accents(rd, model, search, general, accents, req, rs)
     for sp in rd.spots:
         g = sp.goal
         if g.kind == "spot":
