@@ -414,6 +414,8 @@ def apply_targets_file(doc, path):
         raise SceneError(f"cannot read targets: {exc.strerror}", path)
     except json.JSONDecodeError as exc:
         raise SceneError(f"not valid JSON: {exc}", path)
+    except UnicodeDecodeError as exc:
+        raise SceneError(f"not UTF-8 text (byte {exc.start}): not a JSON file", path)
     if not isinstance(data, dict) or not isinstance(data.get("rooms"), dict):
         raise SceneError('expected {"rooms": {"<room>": {...}}}', path)
     base = os.path.dirname(os.path.abspath(path))

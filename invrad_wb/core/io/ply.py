@@ -62,11 +62,26 @@ def read_ply_elements(path):
     path = os.fspath(path)
     data = _read_bytes(path)
     fmt, decls, comments, offset = _parse_ply_header(data, path)
+    _check_counts_fit(decls, len(data) - offset, path)
     if fmt is None:
         elements = _read_ply_ascii(data[offset:], decls, path)
     else:
         elements = _read_ply_binary(data, offset, decls, fmt, path)
     return elements, comments
+
+
+def _check_counts_fit(decls, body_bytes, path):
+    """Refuse element counts the data cannot hold before anything is allocated: every
+    property of every row takes at least one byte (a digit and a separator in ASCII, a
+    value or a list's count in binary). A corrupt count (10^12 vertices in a 2 kB file)
+    otherwise asked numpy for terabytes."""
+    need = 0
+    for element, count, props in decls:
+        need += count * max(1, len(props))
+        if need > body_bytes:
+            raise SceneError(f"the header declares {count} '{element}' rows, more than the"
+                             f" {body_bytes} bytes after it can hold: a corrupt or truncated"
+                             " file", path)
 
 
 def _parse_ply_header(data, path):

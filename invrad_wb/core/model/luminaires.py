@@ -176,6 +176,10 @@ def load_luminaires(path):
         raise LuminaireError(f"{path}: cannot read: {exc.strerror}")
     except json.JSONDecodeError as exc:
         raise LuminaireError(f"{path}: not valid JSON: {exc}")
+    except UnicodeDecodeError as exc:
+        raise LuminaireError(f"{path}: not UTF-8 text (byte {exc.start}): not a JSON file")
+    except RecursionError:
+        raise LuminaireError(f"{path}: JSON nested too deeply")
     if isinstance(data, dict):
         items = data.get("luminaires")
     else:
