@@ -933,20 +933,6 @@ def geometric_error(h, alpha, e, params, x_max=None, n=128):
     return mean_rel, max_rel, r_eq
 
 
-def level_error(h, alpha, e, params, x_max=None, n=128):
-    """Largest relative level deviation ``|e(p) / e - 1|`` over ``n`` fitted-curve points."""
-    h = _check_h(h)
-    h, alpha, e = np.broadcast_arrays(h, np.asarray(alpha, np.float64),
-                                      np.asarray(e, np.float64))
-    if x_max is None:
-        x_max = maximum_closed_form(h, alpha).x
-    t = 2.0 * np.pi * (np.arange(n) + 0.5) / n
-    pts = ellipse_points(params, t, x_max)
-    ex = (slice(None),) * h.ndim + (None,)
-    ep = illuminance_per_lumen(h[ex], alpha[ex], pts[..., 0], pts[..., 1])
-    return np.max(np.abs(ep / e[ex] - 1.0), axis=-1)
-
-
 def table_entries(alpha, q, k=DEFAULT_SAMPLES, k_orth=32, start=None, n_check=128):
     """Voting-table entries at unit distance: maximum, thesis fit, orthogonal refinement.
 
