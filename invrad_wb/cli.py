@@ -167,6 +167,23 @@ def _batch_scenes(paths):
     return out
 
 
+def run_batch(scenes, one):
+    """``one(path, stem) -> exit status`` for each scene in turn, each announced; a scene's
+    InvradError is printed in one line and counts as status 2, the others go on.
+    Returns ``([(path, status) of the scenes that did not end with 0], seconds)``."""
+    failed, t0 = [], time.time()
+    for i, path in enumerate(scenes):
+        print(f"[{i + 1}/{len(scenes)}] {path}")
+        try:
+            rc = one(path, os.path.splitext(os.path.basename(path))[0])
+        except InvradError as exc:
+            print(f"invrad: error: {exc}", file=sys.stderr)
+            rc = 2
+        if rc:
+            failed.append((path, rc))
+    return failed, time.time() - t0
+
+
 def _cmd_locate(args):
     scenes = args.scene
     batch = len(scenes) > 1 or os.path.isdir(scenes[0])
@@ -193,22 +210,15 @@ def _cmd_locate(args):
     if args.vote_maps:
         check_folder(args.vote_maps, "--vote-maps")
     os.makedirs(args.output, exist_ok=True)
-    failed, t0 = [], time.time()
-    for i, path in enumerate(scenes):
-        stem = os.path.splitext(os.path.basename(path))[0]
-        print(f"[{i + 1}/{len(scenes)}] {path}")
-        try:
-            out = os.path.join(args.output, stem + ".json")
-            check_file(out, "-o", inputs=[path])
-            rc = _locate_one(args, path, out, args.vote_maps and
-                             os.path.join(args.vote_maps, stem), settings, phot, workers)
-        except InvradError as exc:
-            print(f"invrad: error: {exc}", file=sys.stderr)
-            rc = 2
-        if rc:
-            failed.append((path, rc))
+
+    def one(path, stem):
+        out = os.path.join(args.output, stem + ".json")
+        check_file(out, "-o", inputs=[path])
+        return _locate_one(args, path, out, args.vote_maps and
+                           os.path.join(args.vote_maps, stem), settings, phot, workers)
+    failed, seconds = run_batch(scenes, one)
     print(f"{len(scenes) - len(failed)} of {len(scenes)} scene(s) located in"
-          f" {time.time() - t0:.1f} s -> {args.output}")
+          f" {seconds:.1f} s -> {args.output}")
     if failed:
         print("invrad: no result for: " + ", ".join(p for p, _ in failed), file=sys.stderr)
         return max(rc for _, rc in failed)

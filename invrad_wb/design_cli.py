@@ -73,11 +73,9 @@ def _print_room(r):
 
 
 def run(args):
-    from invrad_wb.cli import _batch_scenes
+    from invrad_wb.cli import _batch_scenes, run_batch
     from invrad_wb.core.design.spec import read_spec
-    from invrad_wb.errors import InvradError
     from invrad_wb.outputs import check_file, check_folder
-    import time
     spec = read_spec(args.spec)
     workers = workers_arg(args.workers)
     scenes = args.scene
@@ -95,25 +93,18 @@ def run(args):
     for opt, what in ((args.schedule, "--schedule"), (args.report, "--report")):
         if opt:
             check_folder(opt, f"{what} (a folder with several scenes)")
-    failed, t0 = [], time.time()
-    for i, path in enumerate(scenes):
-        stem = os.path.splitext(os.path.basename(path))[0]
-        print(f"[{i + 1}/{len(scenes)}] {path}")
+
+    def one(path, stem):
         out = os.path.join(args.output, stem + ".json")
         sched = args.schedule and os.path.join(args.schedule, stem + ".csv")
-        report = args.report and os.path.join(args.report, stem)
-        try:
-            for f, what in ((out, "-o"), (sched, "--schedule")):
-                if f:
-                    os.makedirs(os.path.dirname(f), exist_ok=True)
-                    check_file(f, what, inputs=[path, args.spec])
-            rc = _design_one(args, path, out, sched, report, spec, workers)
-        except InvradError as exc:
-            print(f"invrad: error: {exc}", file=sys.stderr)
-            rc = 2
-        if rc:
-            failed.append((path, rc))
-    print(f"{len(scenes)} scene(s) designed in {time.time() - t0:.1f} s, "
+        for f, what in ((out, "-o"), (sched, "--schedule")):
+            if f:
+                os.makedirs(os.path.dirname(f), exist_ok=True)
+                check_file(f, what, inputs=[path, args.spec])
+        return _design_one(args, path, out, sched, args.report and
+                           os.path.join(args.report, stem), spec, workers)
+    failed, seconds = run_batch(scenes, one)
+    print(f"{len(scenes)} scene(s) designed in {seconds:.1f} s, "
           f"{sum(1 for _, rc in failed if rc == EXIT_NOT_COMPLIANT)} not compliant,"
           f" {sum(1 for _, rc in failed if rc == 2)} failed -> {args.output}")
     if failed:

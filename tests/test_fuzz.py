@@ -53,6 +53,13 @@ def _refused_cleanly(fn, path):
         assert str(path.name) in str(exc) or "f." in str(exc), str(exc)
 
 
+def _fuzz_json(tmp_path, good, seed, reader):
+    path = tmp_path / "f.json"
+    for data in _mutations(good, np.random.default_rng(seed), N_MUTATIONS):
+        path.write_bytes(data)
+        _refused_cleanly(reader, path)
+
+
 @pytest.mark.parametrize("binary", [False, True])
 def test_corrupt_ply_files_are_read_or_refused_in_one_line(tmp_path, binary):
     sc = g.box_room(size=(3.0, 2.0, 2.5), cell=1.0)
@@ -69,11 +76,7 @@ def test_corrupt_luminaire_files_are_read_or_refused_in_one_line(tmp_path):
     good = json.dumps({"luminaires": [
         {"position": [1.0, 2.0, 2.9], "normal": [0, 0, -1], "flux_lm": 3000.0, "radius_m": 0.1},
         {"position": [3.0, 2.0, 2.9], "normal": [0, 0, -1], "flux_lm": 2000.0}]}).encode()
-    rng = np.random.default_rng(11)
-    path = tmp_path / "f.json"
-    for data in _mutations(good, rng, N_MUTATIONS):
-        path.write_bytes(data)
-        _refused_cleanly(load_luminaires, path)
+    _fuzz_json(tmp_path, good, 11, load_luminaires)
 
 
 def test_corrupt_design_specs_are_read_or_refused_in_one_line(tmp_path):
@@ -83,11 +86,7 @@ def test_corrupt_design_specs_are_read_or_refused_in_one_line(tmp_path):
                                       "dimming": [0.1, 1.0], "mounting": ["ceiling"]}],
                        "rooms": {"0": {"work_plane": {"lux": 500, "u0": 0.6}},
                                  "*": {"room_type": "office"}}}).encode()
-    rng = np.random.default_rng(13)
-    path = tmp_path / "f.json"
-    for data in _mutations(good, rng, N_MUTATIONS):
-        path.write_bytes(data)
-        _refused_cleanly(read_spec, path)
+    _fuzz_json(tmp_path, good, 13, read_spec)
 
 
 def test_corrupt_obj_meshes_and_sidecars_are_read_or_refused_in_one_line(tmp_path):

@@ -890,17 +890,17 @@ def _room_task(sub, room, s, flux, backend, photometry, label, subset_scene=True
     is the room's own copy (its caches may go), not the caller's scene."""
     timings = {k: 0.0 for k in ("sampling", "maps", "votes", "postprocess", "radiosity")}
     run = _locate_room(sub, room, s, flux, backend, timings,
-                       report or (lambda f, msg: None), photometry, label=label,
-                       subset=False)
+                       report or (lambda f, msg: None), photometry, label=label)
     # memory bounded by the largest room, not the building: a room's refinement problem
     # and radiosity model (tens of MB) go once it is done (repeak rebuilds them)
     run.own_scene = subset_scene
     return run.detach(), timings
 
 
-def _locate_room(scene, room, s, flux, backend, timings, report, photometry=None,
-                 label=None, subset=True):
-    """Steps 1-5 of the module docstring for one room; returns its :class:`RoomRun`.
+def _locate_room(sub, room, s, flux, backend, timings, report, photometry=None,
+                 label=None):
+    """Steps 1-5 of the module docstring for one room (``sub``: its faces only); returns
+    its :class:`RoomRun`.
 
     ``label`` names the room in progress messages (default "room <id>"). ``timings``
     (seconds per stage) is added to; ``report(fraction of this room, message)``
@@ -908,7 +908,6 @@ def _locate_room(scene, room, s, flux, backend, timings, report, photometry=None
     """
     label = label or f"room {room}"
     report(0.0, f"{label}: voting points")
-    sub = scene.room_subset(room) if subset and len(scene.rooms) > 1 else scene
     t = time.time()
     density = s.votes_per_m2 or default_density(sub)
     pts = voting_points(sub, density=density, seed=s.seed)
