@@ -269,11 +269,12 @@ REDIM_STEPS = 200
 REDIM_SPOT_MARGIN = 0.9
 
 
-def _redim_with_accents(rd, model, search, general, accents, req, rs):
+def _redim_with_accents(rd, model, search, parts, accents, req, rs):
     """Accents add light to the work plane too: dim the general lighting (within its
     entries' dimming range) as far as every requirement still holds with the accents:
-    Em, U0, shade, and each spot that was met. Light adds up (radiosity is linear), so one
-    exact solve of each part gives every dimming level."""
+    Em, U0, shade, and each spot that was met. Light adds up (radiosity is linear), so the
+    exact solves of the two ``parts`` ((lux, direct) of the general lighting, of the
+    accents) give every dimming level."""
     cand = rd.candidate
     if cand is None:
         return
@@ -281,8 +282,7 @@ def _redim_with_accents(rd, model, search, general, accents, req, rs):
     floor = max(e0.dimming[0], e1.dimming[0]) if search.dimming else 1.0
     if cand.dim <= floor + 1e-9:
         return
-    G, Gd = model.exact(general)
-    A, Ad = model.exact(accents)
+    (G, Gd), (A, Ad) = parts
     spots = [sp for sp in rd.spots if sp.goal.kind == "spot"]
     for f in np.linspace(floor / cand.dim, 1.0, REDIM_STEPS + 1):
         met = Metrics.of(f * G + A, f * Gd + Ad, model.n_wp)
@@ -325,10 +325,12 @@ def _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search=N
         general = rd.luminaires
         rd.luminaires = rd.luminaires + accents
         rd.accent_watts = sum(s.accent_watts for s in rd.spots)
-        lux, direct = model.exact(rd.luminaires)
-        rd.metrics = Metrics.of(lux, direct, model.n_wp)
+        # one exact solve per part (light adds up): the whole and every dimming level
+        parts = model.exact(general), model.exact(accents)
+        (G, Gd), (A, Ad) = parts
+        rd.metrics = Metrics.of(G + A, Gd + Ad, model.n_wp)
         if search is not None:
-            _redim_with_accents(rd, model, search, general, accents, req, rs)
+            _redim_with_accents(rd, model, search, parts, accents, req, rs)
     for sp in rd.spots:
         g = sp.goal
         if g.kind == "spot":
