@@ -2,24 +2,30 @@
 # Run a command of the checkout under FreeCAD 1.0 (the trixie root of setup-freecad1.sh):
 #   .ci/test-freecad1.sh                      FreeCAD's test suite (tests/freecad/run.py)
 #   .ci/test-freecad1.sh freecadcmd --version any command, in the checkout's folder
-# The checkout is bind-mounted at /invrad inside the root for the run, then unmounted.
+# The checkout is bind-mounted at /invrad-<hash of its path> inside the root for the run, then
+# unmounted, so that runs from several checkouts (git worktrees) can share the root at once;
+# /proc, /sys and /dev are unmounted by the last run to leave.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 root="$("$here/.ci/setup-freecad1.sh" | tail -1)"
 site="$(chroot "$root" /opt/invrad-venv/bin/python -c 'import site; print(site.getsitepackages()[0])')"
-mkdir -p "$root/invrad"
+mnt="invrad-$(printf %s "$here" | md5sum | cut -c1-8)"
+mkdir -p "$root/$mnt"
 # /proc for FreeCAD, /sys for PoCL's CPU topology (hwloc), /dev for /dev/shm and ptys
-mounts=(invrad proc sys dev)
 cleanup() {
-  for m in "${mounts[@]}"; do umount -l "$root/$m" 2>/dev/null || true; done
+  umount -l "$root/$mnt" 2>/dev/null || true
+  rmdir "$root/$mnt" 2>/dev/null || true
+  # another checkout's run still inside: leave /proc, /sys and /dev to it
+  for d in "$root"/invrad-*; do mountpoint -q "$d" && return 0; done
+  for m in proc sys dev; do umount -l "$root/$m" 2>/dev/null || true; done
 }
 trap cleanup EXIT
-mountpoint -q "$root/invrad" || mount --bind "$here" "$root/invrad"
+mountpoint -q "$root/$mnt" || mount --bind "$here" "$root/$mnt"
 mountpoint -q "$root/proc" || mount -t proc proc "$root/proc"
 mountpoint -q "$root/sys" || mount --rbind /sys "$root/sys"
 mountpoint -q "$root/dev" || mount --rbind /dev "$root/dev"
 [ $# -gt 0 ] || set -- freecadcmd tests/freecad/run.py
 chroot "$root" env -i HOME=/root PATH=/opt/invrad-venv/bin:/usr/sbin:/usr/bin:/sbin:/bin \
-  LANG=C.UTF-8 PYTHONPATH="$site:/invrad" QT_QPA_PLATFORM=offscreen \
+  LANG=C.UTF-8 PYTHONPATH="$site:/$mnt" QT_QPA_PLATFORM=offscreen \
   INVRAD_PYTHON=/opt/invrad-venv/bin/python \
-  bash -c 'cd /invrad && exec "$@"' bash "$@"
+  bash -c 'cd "$0" && exec "$@"' "/$mnt" "$@"
