@@ -12,13 +12,22 @@ from invrad_wb.core.forward.render import render
 
 #: name -> builder(reflectance) -> (scene without targets, luminaires)
 _BUILDERS = {}
+#: scenes whose luminaires differ in flux (for locate without a flux); name -> builder
+_MIXED = {}
 
 
-def _scenario(name):
-    def deco(fn):
-        _BUILDERS[name] = fn
-        return fn
-    return deco
+def _registrar(table):
+    """A decorator factory that files a builder under its name in ``table``."""
+    def register(name):
+        def deco(fn):
+            table[name] = fn
+            return fn
+        return deco
+    return register
+
+
+_scenario = _registrar(_BUILDERS)
+_mixed = _registrar(_MIXED)
 
 
 def _down(p, flux=3000.0, radius=0.0):
@@ -89,17 +98,6 @@ def _four(rho, cell):
 
 
 SCENARIOS = tuple(_BUILDERS)
-
-
-#: scenes whose luminaires differ in flux (for locate without a flux); name -> builder
-_MIXED = {}
-
-
-def _mixed(name):
-    def deco(fn):
-        _MIXED[name] = fn
-        return fn
-    return deco
 
 
 @_mixed("three_fluxes")
