@@ -380,7 +380,7 @@ def _box_net(scene, planes, floor, floor_z):
                    key=lambda p: -p.area)
     ext = float(max(np.ptp(scene.vertices[scene.faces[np.concatenate(
         [p.faces for p in planes])]].reshape(-1, 3), axis=0).max(), 1e-3))
-    res = ext / 300.0
+    res = ext / 150.0
     occupied = _net_cells(scene, floor, *net[floor.index], res)
     others = []
     for p in walls:
@@ -480,7 +480,7 @@ def unfolded_layout(scene, room):
                           layout="box net" if net else "shelf")
 
 
-def unfolded_raster(scene, room, metres_per_pixel=None, max_pixels=800):
+def unfolded_raster(scene, room, metres_per_pixel=None, max_pixels=800, layout=None):
     """All planes of a room in one raster, laid out by :func:`unfolded_layout` (for the
     values of the unfolded pictures as EXR).
 
@@ -489,12 +489,13 @@ def unfolded_raster(scene, room, metres_per_pixel=None, max_pixels=800):
     scene : Scene
     room : int, room id
     metres_per_pixel : float, optional (default: a round size that fits ``max_pixels``)
+    layout : :class:`UnfoldedLayout`, optional (default: computed)
 
     Returns
     -------
     :class:`RoomRaster` (``layout`` is 'box net' or 'shelf')
     """
-    lay = unfolded_layout(scene, room)
+    lay = unfolded_layout(scene, room) if layout is None else layout
     tile_list = [(k, A, b, scene.planes[k].faces, 0) for k, (A, b) in lay.tiles.items()]
     r = _rasterise(scene, tile_list, metres_per_pixel, max_pixels)
     r.layout = lay.layout

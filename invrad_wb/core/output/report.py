@@ -339,6 +339,8 @@ def build_report(scene, target_vertex_lux, achieved_vertex_lux, luminaires, out_
             room_names, r, project, len(rooms) == 1))
         scale = {"lux_range": None if lux_range is None else [float(x) for x in lux_range],
                  "rooms": {rr["room"]: rr["lux_max"] for rr in reports},
+                 # one scale for a whole view (the workbench's false colour): the highest
+                 "lux_max": max([rr["lux_max"] for rr in reports] or [1.0]),
                  "deviation_limit": run.limit, "colour_map": "viridis",
                  "deviation_map": "RdBu (blue too dark, red too bright)"}
         _write_json(stage, title, extra, scale, reports, run)
@@ -438,13 +440,13 @@ def _room_report(stage, run, r, name):
         else float(run.lux_range[0]))
     figures = _room_figures(stage, view, f"room{r}", m_all["target_em"])
     if run.write_exr:
-        figures.update(_room_rasters(stage, run, r, dev, f"room{r}"))
+        figures.update(_room_rasters(stage, run, r, dev, f"room{r}", view.unfolded()))
     return {"room": r, "name": name, "metrics": m_all,
             "verdict": verdict(m_all, run.tolerance),
             "parts": _room_parts(run, r, rf, floor_z), "luminaires": lums,
             "flux_lm": float(sum(run.luminaires[i].flux_lm for i in lums)),
             "images": figures, "floor_z": floor_z, "lux_max": vmax,
-            "layout": im.unfolded_layout(scene, r).layout}
+            "layout": view.unfolded().layout}
 
 
 def _room_figures(stage, view, stem, required):
@@ -462,10 +464,10 @@ def _room_figures(stage, view, stem, required):
     return out
 
 
-def _room_rasters(stage, run, r, dev, stem):
+def _room_rasters(stage, run, r, dev, stem, layout):
     """The values behind the figures as half-float EXR (unfolded and from above)."""
     scene, out = run.scene, {}
-    ras = im.unfolded_raster(scene, r, run.mpp)
+    ras = im.unfolded_raster(scene, r, run.mpp, layout=layout)
     fname = f"{stem}_unfolded.exr"
     im.save_exr(stage.path(fname), np.stack([ras.sample(run.target), ras.sample(
         run.achieved), ras.sample(dev)], axis=2), ["target", "achieved", "deviation"],

@@ -43,6 +43,7 @@ class RoomView:
     lum_xyz : (k, 3) float64, the room's luminaires (metres)
     lum_labels : list of k str ('L1', ...)
     lux_min : float, bottom of the lux scale (0 unless the caller fixes a range)
+    layout : UnfoldedLayout, optional (computed once on first use)
     """
     scene: object
     room: int
@@ -55,6 +56,12 @@ class RoomView:
     lum_xyz: np.ndarray
     lum_labels: list
     lux_min: float = 0.0
+    layout: object = None
+
+    def unfolded(self):
+        if self.layout is None:
+            self.layout = unfolded_layout(self.scene, self.room)
+        return self.layout
 
     def norm(self):
         return F.lux_norm(self.lux_max, self.lux_min)
@@ -188,7 +195,7 @@ def _lux_bar(fig, cax, norm):
 
 def unfolded_pair(view):
     """PNG of the room's target and achieved illuminance, unfolded, one colour bar."""
-    lay = unfolded_layout(view.scene, view.room)
+    lay = view.unfolded()
     span = _extent(view, lay)
     fig, a1, a2, cax = _pair_figure([span, span])
     norm = view.norm()
@@ -222,7 +229,7 @@ def deviation_pair(view):
     """PNG of the deviation from the target: unfolded and from above, one colour bar (%)."""
     from matplotlib.colors import Normalize
     from matplotlib.cm import ScalarMappable
-    lay = unfolded_layout(view.scene, view.room)
+    lay = view.unfolded()
     ups = _plan_planes(view.scene, view.room)
     span = _extent(view, lay)
     pspan = _plan_span(view.scene, ups) if ups else span
