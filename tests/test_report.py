@@ -427,7 +427,28 @@ def test_value_grid_and_scale_of_a_room(tmp_path):
     page = open(paths.html, encoding="utf-8").read()
     assert "equals the target everywhere" in page
     # (the ceiling gets no direct light: a 0 lx target there, kept dark)
-    assert paths.rooms[0]["verdict"] == {"em": True, "u0": True, "shade": True, "ok": True}
+    v = paths.rooms[0]["verdict"]
+    assert (v["em"], v["u0"], v["shade"], v["ok"]) == (True, True, True, True)
+
+
+def test_verdict_judges_em_u0_and_shade():
+    base = {"target_em": 500.0, "em": 500.0, "target_u0": 0.5, "u0": 0.5,
+            "n_shade_faces": 0, "shade_max_lux": float("nan")}
+    assert M.verdict(base)["ok"] is True
+    assert M.verdict(dict(base, em=390.0))["em"] is False           # -22 %: out of +-20 %
+    assert M.verdict(dict(base, em=610.0))["em"] is False
+    assert M.verdict(dict(base, u0=0.41))["u0"] is True             # >= 0.8 x 0.5
+    assert M.verdict(dict(base, u0=0.39))["ok"] is False
+    # a uniform target asks for U0 0.7 (EN 12464-1's highest class), not 0.8
+    uni = dict(base, target_u0=1.0, u0=0.72)
+    assert M.verdict(uni)["u0"] is True and M.verdict(uni)["u0_required"] == 0.7
+    assert M.verdict(dict(uni, u0=0.69))["u0"] is False
+    dark = dict(base, n_shade_faces=3, shade_max_lux=120.0)
+    assert M.verdict(dark)["shade"] is False and M.verdict(dark)["ok"] is False
+    assert M.verdict(dict(dark, shade_max_lux=90.0))["shade"] is True
+    none = {"target_em": float("nan"), "em": float("nan"), "target_u0": float("nan"),
+            "u0": float("nan"), "n_shade_faces": 0}
+    assert M.verdict(none)["ok"] is None
 
 
 def test_iso_levels_are_round_and_include_the_target():

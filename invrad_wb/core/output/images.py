@@ -347,7 +347,8 @@ class UnfoldedLayout:
         (metres, X to the right, Y up) of a 3-D point ``p`` on that plane
     labels : list of dict, one per plane: ``plane``, ``text`` ('floor', 'wall x = 0.00 m'),
         ``xy`` (where to write it, metres: walls of the net near their foot, the attached
-        ceiling near the top wall, other planes at their centre)
+        ceiling near the top wall, other planes at their centre), ``rotation`` (degrees:
+        90 for the walls folded out to the left and right)
     layout : str, 'box net' or 'shelf'
     """
     tiles: dict
@@ -475,7 +476,10 @@ def unfolded_layout(scene, room):
         if inward is not None:
             half = 0.5 * abs(float((hi_p - lo_p) @ np.abs(inward)))
             c = c + inward * max(half - 0.3, 0.0)
-        labels.append({"plane": int(k), "text": _short_label(pl, floor_z), "xy": c})
+        # walls folded out to the left or right read along their foot: written upright
+        side = inward is not None and abs(inward[0]) > 0.7
+        labels.append({"plane": int(k), "text": _short_label(pl, floor_z), "xy": c,
+                       "rotation": 90 if side else 0})
     return UnfoldedLayout(tiles=tiles, labels=labels,
                           layout="box net" if net else "shelf")
 

@@ -297,11 +297,17 @@ def relative_deviation(target_vertex_lux, achieved_vertex_lux, reference_lux):
     return out
 
 
+#: the highest uniformity EN 12464-1 asks of a task area: a uniform target (U0 = 1) asks
+#: for this, not for more
+U0_CAP = 0.7
+
+
 def verdict(m, tolerance=TOLERANCE):
     """Does a set of faces meet its targets? (the report's pass/fail, per room)
 
     * Em: the achieved mean within ``tolerance`` of the target mean;
-    * U0: the achieved uniformity at least ``1 - tolerance`` times the target's;
+    * U0: the achieved uniformity at least ``min((1 - tolerance) x target U0, U0_CAP)``
+      (a uniform target asks for EN 12464-1's highest class, 0.7, not for 0.8);
     * shade: the brightest shade point at most ``tolerance`` times the target mean (the
       rule ``within_tol_pct`` applies where the target is 0).
 
@@ -311,18 +317,18 @@ def verdict(m, tolerance=TOLERANCE):
 
     Returns
     -------
-    dict: ``em``, ``u0``, ``shade`` (bool, or None where there is nothing to judge) and
-    ``ok`` (all judged parts pass; None when nothing was judged)
+    dict: ``em``, ``u0``, ``shade`` (bool, or None where there is nothing to judge),
+    ``u0_required`` (float or NaN) and ``ok`` (all judged parts pass; None when nothing
+    was judged)
     """
-    def ok(x):
-        return bool(x) if np.isfinite(x) else None
-
     te, tu = m.get("target_em", _NAN), m.get("target_u0", _NAN)
-    em = ok(abs(m["em"] - te) <= tolerance * te + 1e-9) if np.isfinite(te) else None
-    u0 = (ok(m["u0"] >= (1 - tolerance) * tu - 1e-9)
-          if np.isfinite(tu) and np.isfinite(m["u0"]) else None)
+    em = bool(abs(m["em"] - te) <= tolerance * te + 1e-9) if np.isfinite(te) else None
+    u0_req = min((1 - tolerance) * tu, U0_CAP) if np.isfinite(tu) else _NAN
+    u0 = (bool(m["u0"] >= u0_req - 1e-9)
+          if np.isfinite(u0_req) and np.isfinite(m["u0"]) else None)
     shade = None
     if m.get("n_shade_faces") and np.isfinite(te):
         shade = bool(m["shade_max_lux"] <= tolerance * te + 1e-9)
     judged = [x for x in (em, u0, shade) if x is not None]
-    return {"em": em, "u0": u0, "shade": shade, "ok": all(judged) if judged else None}
+    return {"em": em, "u0": u0, "shade": shade, "u0_required": u0_req,
+            "ok": all(judged) if judged else None}

@@ -46,7 +46,7 @@ from invrad_wb.core.output import document
 from invrad_wb.core.output import room_figures as rfig
 from invrad_wb.core.output.images import describe_plane, room_floor_z  # noqa: F401 - API
 from invrad_wb.core.output.metrics import (  # noqa: F401 - part of this module's API
-    TOLERANCE, describe_point, relative_deviation, room_metrics, verdict)
+    TOLERANCE, U0_CAP, describe_point, relative_deviation, room_metrics, verdict)
 
 #: colour scale of the deviation images: -50 % .. +50 %
 DEVIATION_LIMIT = im.DEVIATION_LIMIT
@@ -552,6 +552,7 @@ def _page(stage, run, reports, title, project, extra, embed):
         flux=f"{sum(l.flux_lm for l in run.luminaires):.0f}",
         n_pass=sum(1 for rr in judged if rr["verdict"]["ok"]), n_judged=len(judged),
         tol=f"{100 * run.tolerance:.0f}", limit=f"{100 * run.limit:.0f}",
+        u0_cap=f"{U0_CAP:g}",
         run=[(str(k), str(v)) for k, v in (extra or {}).items()],
         appendix=[_appendix_row(rr) for rr in reports],
         fixed_range=None if run.lux_range is None else
@@ -581,7 +582,9 @@ def _metric_rows(m, v):
         {"label": "Emax (lx)", "target": fmt_lux(m["target_emax"]),
          "achieved": fmt_lux(m["emax"]), "diff": _diff(m["emax"], m["target_emax"]),
          "ok": None},
-        {"label": "U0 = Emin / Em", "target": fmt_ratio(m["target_u0"]),
+        {"label": "U0 = Emin / Em", "target": fmt_ratio(m["target_u0"]) + (
+            f" (asks {fmt_ratio(v['u0_required'])})" if np.isfinite(v["u0_required"])
+            and v["u0_required"] < m["target_u0"] - 1e-9 else ""),
          "achieved": fmt_ratio(m["u0"]), "diff": du, "ok": v["u0"]}]
 
 
@@ -626,6 +629,19 @@ def _part_row(p):
             "shade": fmt_lux(m["shade_max_lux"])}
 
 
+def _unique_rows(parts):
+    """The surface table's rows, each set of faces once (a room's only work plane is both
+    'work plane' and a plane: listed once, as the work plane)."""
+    rows, seen = [], set()
+    for p in parts:
+        m = p["metrics"]
+        key = (round(m["area_m2"], 9), m["n_faces"], m["em"], m["target_em"])
+        if key not in seen:
+            seen.add(key)
+            rows.append(_part_row(p))
+    return rows if len(rows) > 1 else []
+
+
 def _lum_rows(run, idx):
     keys = _extra_keys(run.luminaires)
     return keys, [{"label": f"L{i + 1}", "position": ", ".join(
@@ -663,8 +679,7 @@ def _room_context(rr, run, src):
             "area": f"{m['area_m2']:.2f}", "n_lum": len(rr["luminaires"]),
             "flux": f"{rr['flux_lm']:.0f}", "rows": _metric_rows(m, v),
             "facts": _facts(m), "figures": figures,
-            "parts": [_part_row(p) for p in rr["parts"] if p["kind"] != "plane"
-                      or len(rr["parts"]) > 1],
+            "parts": _unique_rows(rr["parts"]),
             "lum_keys": keys, "lums": lums, "target_em": fmt_lux(m["target_em"]),
             "em": fmt_lux(m["em"]), "target_u0": fmt_ratio(m["target_u0"]),
             "u0": fmt_ratio(m["u0"]), "shade_max": fmt_lux(m["shade_max_lux"]),

@@ -119,7 +119,7 @@ def _unfolded(ax, view, lay, vals, cmap, norm, kind):
         _outline(ax, s, faces, A, b, colors="0.2", linewidths=0.8)
     for lab in lay.labels:
         ax.text(lab["xy"][0], lab["xy"][1], lab["text"], ha="center", va="center",
-                fontsize=7, bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none",
+                rotation=lab.get("rotation", 0), fontsize=7, bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none",
                                         alpha=0.8), zorder=5)
     if kind != "target":
         xy, labels = unfolded_marks(view, lay)
