@@ -374,6 +374,8 @@ class _Run:
     mpp: float
     tolerance: float
     write_exr: bool
+    refine: bool = True
+    backend: str = "auto"
 
 
 def _paths(out_dir, written, reports, scale, notes):
@@ -437,7 +439,10 @@ def _room_report(stage, run, r, name):
         scene, r, name, run.target, run.achieved, dev, vmax, run.limit,
         np.array([run.luminaires[i].position for i in lums]).reshape(-1, 3),
         [f"L{i + 1}" for i in lums], 0.0 if run.lux_range is None
-        else float(run.lux_range[0]))
+        else float(run.lux_range[0]), reference=ref)
+    # steep light next to luminaires drawn from the exact direct light, not a polygon
+    view.mesh = rfig.display_mesh(scene, r, run.target, run.achieved, vmax, ref,
+                                  run.luminaires if run.refine else None, run.backend)
     figures = _room_figures(stage, view, f"room{r}", m_all["target_em"])
     if run.write_exr:
         figures.update(_room_rasters(stage, run, r, dev, f"room{r}", view.unfolded()))

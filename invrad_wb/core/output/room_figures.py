@@ -37,13 +37,16 @@ class RoomView:
     room : int, room id
     name : str, the room's name (titles)
     target, achieved : (n,) float64, lux per scene vertex (NaN target = none, 0 = shade)
-    deviation : (n,) float64, (E - T) / T per vertex (fraction), NaN where no target
+    deviation : (n,) float64, (E - T) / T per vertex (fraction), NaN where no target (the
+        EXR's; the pictures take theirs from the display mesh)
     lux_max : float, top of the room's lux scale
     limit : float, deviation at the ends of its scale (fraction)
     lum_xyz : (k, 3) float64, the room's luminaires (metres)
     lum_labels : list of k str ('L1', ...)
     lux_min : float, bottom of the lux scale (0 unless the caller fixes a range)
     layout : UnfoldedLayout, optional (computed once on first use)
+    mesh : DisplayMesh, optional (what is drawn; default the scene's own faces)
+    reference : float, lux: the room's target mean (deviation on shade targets)
     """
     scene: object
     room: int
@@ -57,6 +60,15 @@ class RoomView:
     lum_labels: list
     lux_min: float = 0.0
     layout: object = None
+    mesh: object = None
+    reference: float = float("nan")
+
+    def display(self):
+        """The :class:`DisplayMesh` drawn (default: the scene's faces as they are)."""
+        if self.mesh is None:
+            self.mesh = display_mesh(self.scene, self.room, self.target, self.achieved,
+                                     self.lux_max, self.reference)
+        return self.mesh
 
     def unfolded(self):
         if self.layout is None:
@@ -67,16 +79,20 @@ class RoomView:
         return F.lux_norm(self.lux_max, self.lux_min)
 
 
-def _field(ax, scene, faces, A, b, vals, cmap, norm):
-    """Draw per-vertex ``vals`` over ``faces`` mapped by ``X = A p + b``: Gouraud-shaded
-    where all three corners have a value, the no-target grey elsewhere."""
+def _field(ax, mesh, plane, A, b, kind, cmap, norm):
+    """Draw the display mesh's ``kind`` values on one plane, mapped by ``X = A p + b``:
+    Gouraud-shaded where all three corners have a value, the no-target grey elsewhere."""
     from matplotlib.tri import Triangulation
     from matplotlib.collections import PolyCollection
-    faces = np.asarray(faces, dtype=np.int64)
-    verts, inv = np.unique(scene.faces[faces].reshape(-1), return_inverse=True)
-    xy = scene.vertices[verts] @ A.T + b
+    tri = mesh.tri[mesh.plane == plane]
+    if not len(tri):
+        return
+    verts, inv = np.unique(tri.reshape(-1), return_inverse=True)
+    xy = mesh.xyz[verts] @ A.T + b
     tri = inv.reshape(-1, 3)
-    v = vals[verts]
+    v = mesh.values(kind)[verts]
+    if kind == "deviation":
+        v = 100.0 * v
     bad = ~np.all(np.isfinite(v[tri]), axis=1)
     if bad.any():
         ax.add_collection(PolyCollection(xy[tri[bad]], facecolors=F.NO_TARGET,
@@ -86,7 +102,6 @@ def _field(ax, scene, faces, A, b, vals, cmap, norm):
         t.set_mask(bad)
         ax.tripcolor(t, np.nan_to_num(v), shading="gouraud", cmap=cmap, norm=norm,
                      rasterized=True)
-    return xy, tri
 
 
 def _outline(ax, scene, faces, A, b, **kw):
@@ -109,12 +124,13 @@ def _shade(ax, scene, faces, A, b, target, fill):
     return True
 
 
-def _unfolded(ax, view, lay, vals, cmap, norm, kind):
+def _unfolded(ax, view, lay, cmap, norm, kind):
     """One unfolded view of the room: every plane's field, outline and label."""
     s = view.scene
+    mesh = view.display()
     for k, (A, b) in lay.tiles.items():
         faces = s.planes[k].faces
-        _field(ax, s, faces, A, b, vals, cmap, norm)
+        _field(ax, mesh, k, A, b, kind, cmap, norm)
         _shade(ax, s, faces, A, b, view.target, fill=kind == "target")
         _outline(ax, s, faces, A, b, colors="0.2", linewidths=0.8)
     for lab in lay.labels:
@@ -200,8 +216,8 @@ def unfolded_pair(view):
     fig, a1, a2, cax = _pair_figure([span, span])
     norm = view.norm()
     cmap = F.lux_cmap()
-    _unfolded(a1, view, lay, view.target, cmap, norm, "target")
-    _unfolded(a2, view, lay, view.achieved, cmap, norm, "achieved")
+    _unfolded(a1, view, lay, cmap, norm, "target")
+    _unfolded(a2, view, lay, cmap, norm, "achieved")
     a1.set_title(f"{view.name}: target", fontsize=9)
     a2.set_title(f"{view.name}: achieved", fontsize=9)
     _lux_bar(fig, cax, norm)
@@ -214,11 +230,11 @@ def _plan_planes(scene, room):
     return sorted(ups, key=lambda p: float(p.origin[2]))
 
 
-def _plan(ax, view, vals, cmap, norm, shade_fill=False):
+def _plan(ax, view, kind, cmap, norm, shade_fill=False):
     s = view.scene
     ups = _plan_planes(s, view.room)
     for p in ups:
-        _field(ax, s, p.faces, _XY, np.zeros(2), vals, cmap, norm)
+        _field(ax, view.display(), p.index, _XY, np.zeros(2), kind, cmap, norm)
         _shade(ax, s, p.faces, _XY, np.zeros(2), view.target, fill=shade_fill)
     for p in ups:
         _outline(ax, s, p.faces, _XY, np.zeros(2), colors="0.2", linewidths=0.8)
@@ -234,13 +250,12 @@ def deviation_pair(view):
     span = _extent(view, lay)
     pspan = _plan_span(view.scene, ups) if ups else span
     fig, a1, a2, cax = _pair_figure([span, pspan])
-    pct = 100.0 * view.deviation
     norm = Normalize(-100.0 * view.limit, 100.0 * view.limit)
     cmap = F.deviation_cmap()
-    _unfolded(a1, view, lay, pct, cmap, norm, "deviation")
+    _unfolded(a1, view, lay, cmap, norm, "deviation")
     a1.set_title(f"{view.name}: all surfaces", fontsize=9)
     if ups:
-        _plan(a2, view, pct, cmap, norm)
+        _plan(a2, view, "deviation", cmap, norm)
         F.luminaire_marks(a2, view.lum_xyz[:, :2], view.lum_labels, size=6)
         _plan_axes(a2, view.scene, ups)
         a2.set_title(f"{view.name}: from above", fontsize=9)
@@ -343,9 +358,9 @@ def plan_pair(view, required=None):
     span = _plan_span(s, ups)
     fig, a1, a2, cax = _pair_figure([span, span])
     norm, cmap = view.norm(), F.lux_cmap()
-    _plan(a1, view, view.achieved, cmap, norm)
+    _plan(a1, view, "achieved", cmap, norm)
     top = max(ups, key=lambda p: (round(float(p.origin[2]), 3), p.area))
-    _iso_lines(a1, s, top, view.achieved, required)
+    _iso_lines(a1, view.display(), top.index, required)
     F.luminaire_marks(a1, view.lum_xyz[:, :2], view.lum_labels)
     for ax in (a1, a2):
         _plan_axes(ax, s, ups)
@@ -365,18 +380,18 @@ def _plane_words(scene, room, plane):
     return describe_plane(plane, room_floor_z(scene, room))
 
 
-def _iso_lines(ax, scene, plane, values, required):
+def _iso_lines(ax, mesh, plane, required):
     """Labelled iso-lux lines over one plane (matplotlib's tricontour + clabel)."""
     from matplotlib.tri import Triangulation
-    verts, inv = np.unique(scene.faces[plane.faces].reshape(-1), return_inverse=True)
-    v = values[verts]
+    tri = mesh.tri[mesh.plane == plane]
+    verts, inv = np.unique(tri.reshape(-1), return_inverse=True)
+    v = mesh.achieved[verts]
     if len(verts) < 3 or not np.all(np.isfinite(v)):
         return
     levels = F.iso_levels(v, required)
     if not levels:
         return
-    t = Triangulation(scene.vertices[verts, 0], scene.vertices[verts, 1],
-                      inv.reshape(-1, 3))
+    t = Triangulation(mesh.xyz[verts, 0], mesh.xyz[verts, 1], inv.reshape(-1, 3))
     cs = ax.tricontour(t, v, levels=levels, colors=F.ISO_COLOUR, linewidths=0.9)
     ax.clabel(cs, fmt=lambda x: f"{x:.0f} lx", fontsize=7, inline=True,
               inline_spacing=2)
@@ -396,3 +411,108 @@ def scale_top(target, achieved, faces_of_room, scene):
     p99 = float(np.percentile(a, 99)) if len(a) else 0.0
     return nice_max(max(tmax, p99, 1e-3))
 
+
+
+# ---------------------------------------------------------------------------- display mesh
+#: a face whose corners differ by more than this fraction of the room's scale is split in
+#: four for the pictures (steep light next to a luminaire)
+REFINE_FRACTION = 0.15
+#: how many times a face may be split (up to 4^levels sub-triangles)
+REFINE_LEVELS = 2
+
+
+@dataclass
+class DisplayMesh:
+    """The room's faces as drawn: the scene's own, split where the light is steep.
+
+    The pictures draw the piecewise-linear field of the mesh. Where a luminaire sits close
+    to a surface the light there peaks between vertices, and the linear field of a coarse
+    mesh draws the peak as a polygon (an octagonal saturated blob). Split faces get the
+    direct light computed exactly at their new corners (the forward solver's own
+    :func:`~invrad_wb.core.forward.direct.direct_illuminance`, occlusion included) plus the
+    interreflected light interpolated linearly (it is smooth); targets are interpolated
+    (they are linear per face by definition). The metrics keep the scene's vertex field.
+
+    Attributes
+    ----------
+    xyz : (k, 3) float64, points (metres); the scene's vertices of the room come first
+    tri : (t, 3) int64, triangles into ``xyz``
+    plane : (t,) int64, scene plane of each triangle
+    target, achieved : (k,) float64, lux
+    deviation : (k,) float64, fraction (as :func:`~invrad_wb.core.output.metrics.
+        relative_deviation`)
+    n_split : int, how many faces were split (all levels)
+    """
+    xyz: np.ndarray
+    tri: np.ndarray
+    plane: np.ndarray
+    target: np.ndarray
+    achieved: np.ndarray
+    deviation: np.ndarray
+    n_split: int = 0
+
+    def values(self, kind):
+        return {"target": self.target, "achieved": self.achieved,
+                "deviation": self.deviation}[kind]
+
+
+def display_mesh(scene, room, target, achieved, lux_max, reference, luminaires=None,
+                 backend="auto", fraction=REFINE_FRACTION, levels=REFINE_LEVELS):
+    """The room's :class:`DisplayMesh` (``luminaires`` None: the scene's faces as they
+    are). ``reference``: the room's target mean (lux) for deviations on shade targets."""
+    from invrad_wb.core.output.metrics import relative_deviation
+    faces = np.flatnonzero(scene.face_room == room)
+    verts, inv = np.unique(scene.faces[faces].reshape(-1), return_inverse=True)
+    xyz = scene.vertices[verts].copy()
+    tri = inv.reshape(-1, 3)
+    plane = scene.face_plane[faces]
+    T, E = target[verts].copy(), achieved[verts].copy()
+    n_split = 0
+    if luminaires:
+        normal = scene.vertex_normals[verts]
+        direct = np.full(len(xyz), np.nan)
+        for _ in range(levels):
+            steep = np.ptp(E[tri], axis=1) > fraction * lux_max
+            if not steep.any():
+                break
+            n_split += int(steep.sum())
+            xyz, tri, plane, T, E, normal, direct = _split_faces(
+                scene, xyz, tri, plane, T, E, normal, direct, steep, luminaires, backend)
+    D = relative_deviation(T, E, reference)
+    return DisplayMesh(xyz, tri, np.asarray(plane, np.int64), T, E, D, n_split)
+
+
+def _split_faces(scene, xyz, tri, plane, T, E, normal, direct, steep, luminaires,
+                 backend):
+    """Split the ``steep`` faces in four at their edge midpoints; new points get the exact
+    direct light plus the interpolated indirect light."""
+    from invrad_wb.core.forward.direct import direct_illuminance
+    from invrad_wb.core.forward.render import scene_bvh
+    st = tri[steep]
+    edges = np.sort(np.concatenate([st[:, [0, 1]], st[:, [1, 2]], st[:, [2, 0]]]), axis=1)
+    uniq, e_inv = np.unique(edges, axis=0, return_inverse=True)
+    mid = len(xyz) + np.arange(len(uniq))
+    m01, m12, m20 = e_inv.reshape(3, -1)
+    a, b = uniq[:, 0], uniq[:, 1]
+    # direct light where it is not known yet: the split edges' ends and the midpoints
+    new_xyz = 0.5 * (xyz[a] + xyz[b])
+    new_n = normal[a]
+    need = np.unique(uniq.reshape(-1))
+    need = need[np.isnan(direct[need])]
+    pts = np.concatenate([xyz[need], new_xyz])
+    nrm = np.concatenate([normal[need], new_n])
+    d = direct_illuminance(pts, nrm, luminaires, bvh=scene_bvh(scene), backend=backend)
+    direct[need] = d[:len(need)]
+    indirect = 0.5 * ((E[a] - direct[a]) + (E[b] - direct[b]))
+    new_d = d[len(need):]
+    xyz = np.concatenate([xyz, new_xyz])
+    normal = np.concatenate([normal, new_n])
+    direct = np.concatenate([direct, new_d])
+    E = np.concatenate([E, np.maximum(new_d + indirect, 0.0)])
+    T = np.concatenate([T, 0.5 * (T[a] + T[b])])
+    m01, m12, m20 = mid[m01], mid[m12], mid[m20]
+    kids = np.concatenate([np.stack([st[:, 0], m01, m20], 1), np.stack([m01, st[:, 1], m12], 1),
+                           np.stack([m20, m12, st[:, 2]], 1), np.stack([m01, m12, m20], 1)])
+    tri = np.concatenate([tri[~steep], kids])
+    plane = np.concatenate([plane[~steep], np.tile(plane[steep], 4)])
+    return xyz, tri, plane, T, E, normal, direct
