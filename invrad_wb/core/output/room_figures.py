@@ -24,6 +24,8 @@ from invrad_wb.core.geometry.raster import locate_points
 
 #: largest number of value-grid points along one side (readable numbers)
 MAX_GRID_SIDE = 14
+#: luminaires on the unfolded surfaces are labelled up to this many
+MAX_UNFOLDED_LABELS = 8
 _XY = np.array([[1.0, 0, 0], [0, 1.0, 0]])
 
 
@@ -139,7 +141,9 @@ def _unfolded(ax, view, lay, cmap, norm, kind):
                                         alpha=0.8), zorder=5)
     if kind != "target":
         xy, labels = unfolded_marks(view, lay)
-        F.luminaire_marks(ax, xy, labels, size=6)
+        # many rings on small tiles: unlabelled (the plan from above names them)
+        F.luminaire_marks(ax, xy, labels if len(labels) <= MAX_UNFOLDED_LABELS else None,
+                          size=6)
     _frame(ax, [s.vertices[s.faces[s.planes[k].faces]].reshape(-1, 3) @ A.T + b
                 for k, (A, b) in lay.tiles.items()])
 
