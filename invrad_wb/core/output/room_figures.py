@@ -191,7 +191,7 @@ def _extent(view, lay):
     return pts.max(axis=0) - pts.min(axis=0)
 
 
-def _pair_figure(spans, height_cap=4.6):
+def _pair_figure(spans, height_cap=3.9):
     """A figure with two panels whose data spans are ``spans`` [(w, h), (w, h)] metres,
     at the page width, and a colour-bar axis at the right. Returns (fig, ax1, ax2, cax)."""
     total_w = sum(float(w) for w, _ in spans)
