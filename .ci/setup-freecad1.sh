@@ -33,7 +33,9 @@ mkdir -p "$root/etc/ssl/certs"
 [ -f "$cert" ] && cp "$cert" "$root/etc/ssl/certs/invrad-host-ca.crt"
 mountpoint -q "$root/proc" || mount -t proc proc "$root/proc"
 trap 'umount "$root/proc" 2>/dev/null || true' EXIT
-pkgs=(freecad-python3 python3-venv python3-pip pocl-opencl-icd ocl-icd-libopencl1)
+# weasyprint (with Pango) for the reports' PDF, poppler-utils for the tests' PDF checks
+pkgs=(freecad-python3 python3-venv python3-pip pocl-opencl-icd ocl-icd-libopencl1
+      weasyprint poppler-utils)
 [ -n "${INVRAD_NO_GUI:-}" ] || pkgs+=(freecad xvfb xauth)
 chroot "$root" apt-get update -qq
 chroot "$root" env DEBIAN_FRONTEND=noninteractive \

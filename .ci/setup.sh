@@ -15,6 +15,10 @@ command -v freecadcmd >/dev/null 2>&1 || need_apt+=(freecad-python3)
 command -v xvfb-run >/dev/null 2>&1 || [ -n "${INVRAD_NO_GUI:-}" ] || need_apt+=(xvfb xauth)
 if [ -z "${INVRAD_NO_GUI:-}" ] && ! command -v freecad >/dev/null 2>&1; then need_apt+=(freecad); fi
 /usr/bin/python3 -c 'import venv, ensurepip' 2>/dev/null || need_apt+=(python3-venv python3-pip)
+# the reports' PDF (WeasyPrint with its Pango) and the PDF checks of the tests (pdftoppm,
+# pdftotext, pdfimages)
+/usr/bin/python3 -c 'import weasyprint' 2>/dev/null || need_apt+=(weasyprint)
+command -v pdftoppm >/dev/null 2>&1 || need_apt+=(poppler-utils)
 if [ ${#need_apt[@]} -gt 0 ]; then
   echo "invrad setup: installing Debian packages: ${need_apt[*]}"
   SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"

@@ -272,8 +272,10 @@ def _cmd_verify(args):
     achieved = render(scene, lums, interreflection=not args.no_interreflection,
                       backend=args.backend)
     paths = build_report(scene, scene.vertex_targets(), achieved, lums, args.report,
-                         title=f"invrad verification: {os.path.basename(args.scene)}")
-    print(f"report -> {getattr(paths, 'html', paths)}")
+                         project=os.path.splitext(os.path.basename(args.scene))[0])
+    print(f"report -> {paths.html}" + (f" and {paths.pdf}" if paths.pdf else ""))
+    for note in paths.notes:
+        print(f"invrad: {note}", file=sys.stderr)
 
 
 def _cmd_example(args):

@@ -257,7 +257,7 @@ def test_design_report_is_a_document_with_the_figures(tmp_path):
     assert "Bad &lt;b&gt;&#34;&amp;&lt;/b&gt;" in text and "<b>\"&</b>" not in text
     files = sorted(os.listdir(tmp_path / "rep"))
     assert files == ["floor_plan_0.png", "index.html", "plan_room0.png", "plan_room1.png",
-                     "rooms.csv", "schedule.csv"]
+                     "report.pdf", "rooms.csv", "schedule.csv"]
     rows = list(csv.DictReader(open(tmp_path / "rep" / "rooms.csv", encoding="utf-8")))
     for row, r in zip(rows, res.rooms):
         assert float(row["em"]) == pytest.approx(r.metrics.em, abs=0.5)

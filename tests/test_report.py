@@ -14,6 +14,9 @@ import pytest
 from invrad_wb.core.synthetic import generate as g
 from invrad_wb.core.output import images as im
 from invrad_wb.core.output import report as R
+from invrad_wb.core.output import figures as FG
+from invrad_wb.core.output import metrics as M
+from invrad_wb.core.output import room_figures as RF
 from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.core.forward.render import render
 from invrad_wb.core.output.report import build_report, describe_plane, room_metrics
@@ -126,10 +129,10 @@ def test_misplaced_brighter_luminaire_deviation_sign_and_place():
     # mean absolute deviation integrates |E - T| exactly over each triangle even where it
     # changes sign: compare with a dense sub-triangle sampling
     d = (achieved - target)[s.faces]
-    B = R._sub_barycentric(24)
+    B = M._sub_barycentric(24)
     dense = (s.face_areas * np.abs(d @ B.T).mean(axis=1)).sum() / 16.0
     assert m["mae_lux"] == pytest.approx(dense, rel=2e-3)
-    assert R._abs_integral(np.array([[1.0, -1.0, 0.0]]), np.array([1.0]))[0] == \
+    assert M._abs_integral(np.array([[1.0, -1.0, 0.0]]), np.array([1.0]))[0] == \
         pytest.approx(1 / 3)        # |f| of a linear field through 0: 2 x (1/2 x 1/3)
 
 
@@ -214,9 +217,11 @@ def test_colour_scales():
     assert d[1, 2] > d[1, 0] and d[3, 0] > d[3, 2]
     assert tuple(d[5]) == im.NAN_GREY
     assert [im.nice_max(v) for v in (0.7, 180, 250, 1234)] == [0.8, 200, 250, 1500]
-    bar = im.colour_bar(0, 500, "lux", width=300)
-    row = bar[10]
-    assert tuple(row[34]) == (68, 1, 84) and tuple(row[34 + 299]) == (253, 231, 37)
+    # the report's figures use matplotlib's viridis: the same colours at the ends
+    cmap = FG.lux_cmap()
+    assert np.allclose(np.array(cmap(0.0)[:3]) * 255, (68, 1, 84), atol=1)
+    assert np.allclose(np.array(cmap(1.0)[:3]) * 255, (253, 231, 37), atol=1)
+    assert cmap(1.5) == cmap(1.0)                             # above the scale: top colour
 
 
 def test_unfolded_box_net_geometry_and_hot_spot():
@@ -251,7 +256,7 @@ def test_unfolded_box_net_geometry_and_hot_spot():
     vals = r.sample(E)
     on_floor = r.plane == floor.index
     top = float(np.nanmax(vals[on_floor]))          # walls near the luminaire are brighter
-    img = im.paint(r, vals, lambda v: im.false_colour(v, 0, top))
+    img = im.false_colour(vals, 0, top)
     hot = img[int(rr), int(c)]
     assert hot[0] > 200 and hot[1] > 200 and hot[2] < 90         # yellow
     assert vals[int(rr), int(c)] >= top * 0.99
@@ -352,7 +357,8 @@ def test_report_html_csv_json_and_images(tmp_path):
                          groups=[(0, "desk <A>", desk)])
     page = open(paths.html, encoding="utf-8").read()
     assert "<script" not in page and "&lt;b&gt;" in page
-    assert "&lt;script&gt;alert(&quot;x&quot;)&lt;/script&gt; &amp; co" in page
+    from markupsafe import escape
+    assert "&lt;script&gt;alert(" in page and str(escape(evil)) in page
     assert "Run &lt;1&gt;" in page and "&lt;i&gt;" in page
     m = paths.metrics[0]
     parts = {p["part"]: p["metrics"] for p in paths.rooms[0]["parts"]}
@@ -364,10 +370,9 @@ def test_report_html_csv_json_and_images(tmp_path):
     assert m["shade_max_lux"] > 0 and "wall x = 6.00 m" in m["shade_max_where"]
     assert "data:image/png;base64," in page                     # self-contained
     # files
-    for f in ("room0_target.png", "room0_achieved.png", "room0_deviation.png",
-              "room0_plan_achieved.png", "room0_plan_deviation.png", "colourbar_lux.png",
-              "colourbar_deviation.png", "room0_unfolded.exr", "room0_plan.exr",
-              "rooms.csv", "surfaces.csv", "luminaires.csv", "metrics.json", "index.html"):
+    for f in ("room0_plan.png", "room0_surfaces.png", "room0_deviation.png",
+              "room0_unfolded.exr", "room0_plan.exr", "rooms.csv", "surfaces.csv",
+              "luminaires.csv", "metrics.json", "index.html", "report.pdf"):
         assert (out / f).is_file(), f
     assert not [f for f in os.listdir(out) if f.startswith(".")]
     # rooms.csv: one row per room, same numbers as the metrics
@@ -395,45 +400,63 @@ def test_report_html_csv_json_and_images(tmp_path):
     assert "<td>down</td>" in page and "score" not in page and "-0.00" not in page
     data = json.load(open(paths.metrics_json, encoding="utf-8"))
     assert data["rooms"][0]["metrics"]["em"] == m["em"]
-    assert data["scale"]["lux_max"] == paths.scale["lux_max"] >= 400
-    # the plan image shows the luminaires as rings: white/black at the ring, hot colour
-    # just beside it
-    png = im.read_image(out / "room0_plan_achieved.png")
-    assert png.shape[2] == 3 and png.shape[0] > 300
+    assert data["scale"]["rooms"]["0"] == paths.scale["rooms"][0] >= 400
+    # a cover, a page per room, an appendix; the room's name on its page and figures
+    assert page.count('<section class="room"') == 1 and "Technical appendix" in page
+    assert page.count("<figure") == 3
+    png = im.read_image(out / "room0_plan.png")
+    assert png.shape[2] in (3, 4) and png.shape[1] > 900        # page width at 150 dpi
 
 
-def test_report_images_show_the_hot_spot_in_the_hot_colour(tmp_path):
+def test_value_grid_and_scale_of_a_room(tmp_path):
     s = g.box_room((4, 3, 2.5), cell=0.25, reflectance=0.0)
     lums = [Luminaire([1.0, 1.0, 2.5], [0, 0, -1], 2000.0)]
     E = render(s, lums, interreflection=False, backend="numpy")
-    paths = build_report(s, E, E, lums, str(tmp_path), write_exr=False)
-    vmax = paths.scale["lux_max"]
-    assert vmax == im.nice_max(E.max())
-    plan = im.plan_raster(s, 0)
-    png = np.round(im.read_image(tmp_path / "room0_plan_achieved.png") * 255)
-    # compose() adds a 30 px title and centres the map 3 px below it
-    left = (png.shape[1] - plan.shape[1]) // 2
+    paths = build_report(s, E, E, lums, str(tmp_path), write_exr=False, pdf=False)
+    # one scale per room: a round top above the highest target
+    assert paths.scale["rooms"][0] == paths.rooms[0]["lux_max"] == im.nice_max(E.max())
+    # the value grid: EN 12464-1 spacing p = 0.2 * 5^log10(4) = 0.527 m -> 8 x 6 cells
+    # of 0.5 m, values at the cell centres close to the analytic illuminance
     floor = [p for p in s.planes if p.normal[2] > 0.9][0]
+    pts, vals, cell = RF.value_grid(s, floor, E)
+    assert len(pts) == 48 and cell == pytest.approx([0.5, 0.5])
+    assert pts.min(axis=0) == pytest.approx([0.25, 0.25])
+    exact = _analytic(np.c_[pts, np.zeros(len(pts))], [1.0, 1.0, 2.5], 2000.0)
+    assert vals == pytest.approx(exact, rel=0.02)
+    # a perfect match is on target everywhere
+    page = open(paths.html, encoding="utf-8").read()
+    assert "equals the target everywhere" in page
+    # (the ceiling gets no direct light: a 0 lx target there, kept dark)
+    v = paths.rooms[0]["verdict"]
+    assert (v["em"], v["u0"], v["shade"], v["ok"]) == (True, True, True, True)
 
-    def colour_at(x, y):
-        c, rr = plan.pixel_of(np.array([[x, y, 0.0]]), floor.index)[0]
-        return png[33 + int(rr), left + int(c)]
 
-    # below the ring (its label is up and to the right): the colour of the value there
-    x, y = 1.0, 1.0 - 0.2
-    c, rr = plan.pixel_of(np.array([[x, y, 0.0]]), floor.index)[0]
-    expect = im.false_colour(plan.sample(E)[int(rr), int(c)], 0, vmax).astype(float)
-    beside = colour_at(x, y)
-    assert np.abs(beside - expect).max() <= 3 or \
-        np.abs(beside - 0.55 * expect).max() <= 3            # or on an iso-lux line
-    far = colour_at(3.9, 2.9)
-    assert far[1] < beside[1] - 30 and far[2] < beside[2]   # darker: lower in viridis
-    ring = colour_at(1.0, 1.0)                              # the centre dot is black
-    assert ring.max() < 60
-    # deviation of a perfect match is white on the plan
-    dev = np.round(im.read_image(tmp_path / "room0_plan_deviation.png") * 255)
-    c, rr = plan.pixel_of(np.array([[3.0, 2.0, 0.0]]), floor.index)[0]
-    assert np.all(dev[33 + int(rr), left + int(c)] > 240)
+def test_verdict_judges_em_u0_and_shade():
+    base = {"target_em": 500.0, "em": 500.0, "target_u0": 0.5, "u0": 0.5,
+            "n_shade_faces": 0, "shade_max_lux": float("nan")}
+    assert M.verdict(base)["ok"] is True
+    assert M.verdict(dict(base, em=390.0))["em"] is False           # -22 %: out of +-20 %
+    assert M.verdict(dict(base, em=610.0))["em"] is False
+    assert M.verdict(dict(base, u0=0.41))["u0"] is True             # >= 0.8 x 0.5
+    assert M.verdict(dict(base, u0=0.39))["ok"] is False
+    # a uniform target asks for U0 0.7 (EN 12464-1's highest class), not 0.8
+    uni = dict(base, target_u0=1.0, u0=0.72)
+    assert M.verdict(uni)["u0"] is True and M.verdict(uni)["u0_required"] == 0.7
+    assert M.verdict(dict(uni, u0=0.69))["u0"] is False
+    dark = dict(base, n_shade_faces=3, shade_max_lux=120.0)
+    assert M.verdict(dark)["shade"] is False and M.verdict(dark)["ok"] is False
+    assert M.verdict(dict(dark, shade_max_lux=90.0))["shade"] is True
+    none = {"target_em": float("nan"), "em": float("nan"), "target_u0": float("nan"),
+            "u0": float("nan"), "n_shade_faces": 0}
+    assert M.verdict(none)["ok"] is None
+
+
+def test_iso_levels_are_round_and_include_the_target():
+    assert FG.iso_levels(np.array([120.0, 480.0])) == [200.0, 300.0, 400.0]
+    assert FG.iso_levels(np.array([120.0, 480.0]), 350.0) == [200.0, 300.0, 350.0, 400.0]
+    # a level within 30 % of a step of the target gives way to it
+    assert FG.iso_levels(np.array([120.0, 480.0]), 320.0) == [200.0, 320.0, 400.0]
+    assert FG.iso_levels(np.array([5.0, 5.0])) == []
 
 
 def test_report_is_atomic(tmp_path, monkeypatch):
@@ -444,15 +467,15 @@ def test_report_is_atomic(tmp_path, monkeypatch):
     build_report(s, E, E, lums, str(out))
     before = {f: open(out / f, "rb").read() for f in os.listdir(out)}
     calls = []
-    real = im.save_png
+    real = im.save_exr
 
-    def failing(path, image):
+    def failing(path, *a, **kw):
         calls.append(path)
-        if len(calls) == 3:
+        if len(calls) == 2:
             raise OSError("disk full")
-        return real(path, image)
+        return real(path, *a, **kw)
 
-    monkeypatch.setattr(im, "save_png", failing)
+    monkeypatch.setattr(im, "save_exr", failing)
     with pytest.raises(OSError, match="disk full"):
         build_report(s, E, E * 2, lums, str(out))
     after = {f: open(out / f, "rb").read() for f in os.listdir(out)}
@@ -463,7 +486,7 @@ def test_report_is_atomic(tmp_path, monkeypatch):
         build_report(s, E, E * 2, lums, str(fresh))
     assert os.listdir(fresh) == []
     # a failing text write (after all images) also leaves the old report
-    monkeypatch.setattr(im, "save_png", real)
+    monkeypatch.setattr(im, "save_exr", real)
 
     orig = R._Staging.text
 
@@ -492,3 +515,80 @@ def test_facing_is_said_in_words_and_never_minus_zero():
     assert R.facing_text([1e-9, 0.0, 2.0]) == "up"
     assert R.facing_text([-1.0, 0.0, 0.0]) == "-x"
     assert R.facing_text([-0.001, 0.6, -0.8]) == "+0.00, +0.60, -0.80"
+
+
+def test_light_next_to_a_luminaire_is_drawn_at_its_true_size():
+    """The octagonal saturated blob (FZK-Haus, Schlafzimmer): a wall luminaire 0.2 m below
+    the ceiling lights the ceiling with a peak between the vertices of a coarse mesh. The
+    pictures' display mesh splits such faces and takes the exact direct light there: the
+    area shown above 1000 lx matches the exact field's; the raw vertex field shows none."""
+    from invrad_wb.core.forward.render import scene_bvh
+    from invrad_wb.core.forward.direct import direct_illuminance_numpy
+    from invrad_wb.core.geometry.raster import locate_points
+    s = g.box_room((4, 3, 2.5), cell=0.5, reflectance=0.0)
+    lum = Luminaire([3.98, 1.5, 2.3], [-1, 0, 0], 2000.0, room=0)
+    E = render(s, [lum], interreflection=False, backend="numpy")
+    ceiling = [p for p in s.planes if p.normal[2] < -0.9][0]
+    xy = np.stack(np.meshgrid(np.linspace(2.5, 3.99, 150), np.linspace(0.5, 2.5, 200)),
+                  -1).reshape(-1, 2)
+    exact = direct_illuminance_numpy(np.c_[xy, np.full(len(xy), 2.5)],
+                                     np.tile([0, 0, -1.0], (len(xy), 1)), [lum],
+                                     bvh=scene_bvh(s))
+
+    def shown(mesh):
+        tri = mesh.tri[mesh.plane == ceiling.index]
+        t, b = locate_points(mesh.xyz[tri][:, :, :2], xy)
+        assert (t >= 0).all()
+        return np.einsum("kj,kj->k", b, mesh.achieved[tri][t])
+
+    raw = RF.display_mesh(s, 0, E, E, 1000.0, np.nan)
+    fine = RF.display_mesh(s, 0, E, E, 1000.0, np.nan, [lum], backend="numpy")
+    assert raw.n_split == 0 and fine.n_split > 0
+    B = exact >= 1000.0
+    assert B.sum() > 1000                                     # a real bright patch
+    assert (shown(raw) >= 1000.0).sum() == 0                   # the vertices miss it
+    A = shown(fine) >= 1000.0
+    assert (A & B).sum() / (A | B).sum() > 0.9                 # its true shape and size
+    # the scene's own vertices keep their values (the metrics' field is untouched)
+    verts = np.unique(s.faces[s.face_room == 0])
+    assert np.array_equal(fine.achieved[:len(verts)], E[verts])
+
+
+def _two_rooms_one_wall():
+    """Two rooms sharing a zero-thickness wall at x = 4 (as IFC spaces of an open kitchen
+    and living room meet: back-to-back boundary faces), a downlight in room 1."""
+    s, _ = g.floor_of_rooms(rooms=((4.0, 3.0), (4.0, 3.0)), wall=0.0, cell=0.25,
+                            reflectance=0.0)
+    return s, Luminaire([6.0, 1.5, 2.9], [0, 0, -1], 3000.0, room=1)
+
+
+def test_room_pictures_hold_only_their_own_room():
+    """The saw-tooth strip between Küche and Wohnen: each room's plan is drawn from its own
+    faces only, so two rooms' pictures never cover the same floor."""
+    from invrad_wb.core.geometry.raster import locate_points
+    s, lum = _two_rooms_one_wall()
+    E = render(s, [lum], interreflection=False, backend="numpy")
+    xy = np.stack(np.meshgrid(np.linspace(0.013, 7.987, 300), np.linspace(0.013, 2.987, 101)),
+                  -1).reshape(-1, 2)
+    covered = []
+    for r in (0, 1):
+        mesh = RF.display_mesh(s, r, E, E, 100.0, np.nan, [lum], backend="numpy")
+        ups = [p.index for p in s.planes if p.room == r and p.normal[2] > 0.9]
+        tri = mesh.tri[np.isin(mesh.plane, ups)]
+        covered.append(locate_points(mesh.xyz[tri][:, :, :2], xy)[0] >= 0)
+    assert not (covered[0] & covered[1]).any()
+    assert (covered[0] | covered[1]).all()                    # and together the whole floor
+
+
+@pytest.mark.xfail(strict=True, reason="forward solver: a vertex on a zero-thickness wall"
+                   " shared by two rooms gets the other room's direct light (the shadow"
+                   " ray's hit lies within RAY_EPS of its end); core/forward, not the"
+                   " report: the saw-tooth strip along Küche/Wohnen on FZK-Haus")
+def test_light_does_not_leak_through_a_shared_wall():
+    s, lum = _two_rooms_one_wall()
+    E = render(s, [lum], interreflection=False, backend="numpy")
+    floor = [p for p in s.planes if p.room == 0 and p.normal[2] > 0.9][0]
+    v = np.unique(s.faces[floor.faces])
+    x = s.vertices[v, 0]
+    assert E[v][np.abs(x - 3.75) < 1e-9].max() == 0.0         # a cell inside: dark
+    assert E[v][np.abs(x - 4.0) < 1e-9].max() == 0.0          # on the wall: 52 lx today

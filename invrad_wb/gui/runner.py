@@ -204,7 +204,8 @@ def _show_design(doc, res):
 
 
 def _import_in_main_thread():
-    """Import matplotlib here, before the worker thread draws the report with it.
+    """Import matplotlib (and WeasyPrint) here, before the worker thread draws the report
+    with it.
 
     In FreeCAD's GUI every import goes through shiboken's import hook; matplotlib's first
     import in the worker thread, while the GUI thread was handling events, crashed
@@ -212,6 +213,11 @@ def _import_in_main_thread():
     """
     import matplotlib.figure  # noqa: F401   (no pyplot: FreeCAD's own backend is left alone)
     import matplotlib.backends.backend_agg  # noqa: F401
+    from invrad_wb.core.output import document
+    try:                        # the reports' PDF engine, likewise (its absence is a note)
+        document.pdf_engine()
+    except document.PdfUnavailable:
+        pass
 
 
 def describe_design(res):
@@ -308,6 +314,7 @@ def verify(doc=None, rooms=None, report_dir=None, show=True):
                                             insert=False)
         building = pipeline.prepare(doc, settings)
         lums, skipped = results.document_luminaires(building)
+        _import_in_main_thread()         # the report draws with matplotlib
         vr = P.run(title, lambda cb: results.verify(doc, settings, progress=cb,
                                                     building=building, luminaires=lums))
         vr.skipped = skipped

@@ -6,7 +6,9 @@ dimming), installed W and W/m^2, notes where the catalogue cannot comply, and th
 plan: false colour over the EN 12464-1 calculation grid, labelled iso-lux lines, the value
 of every grid point, the luminaires and the room outline. A whole-floor plan shows every
 room with its luminaires and Em. Figures are drawn with matplotlib (Agg canvas, no pyplot
-state), the page with a Jinja2 template (autoescape). The folder appears all at once
+state, :mod:`invrad_wb.core.output.figures`), the page with a Jinja2 template (autoescape)
+in the verification report's style, and printed to ``report.pdf`` beside it
+(:mod:`invrad_wb.core.output.document`). The folder appears all at once
 (:func:`invrad_wb.core.io.atomic.atomic_dir`).
 """
 import csv
@@ -18,19 +20,16 @@ import numpy as np
 
 from invrad_wb.core.io.atomic import atomic_dir
 from invrad_wb.core.design.accent import SPOT_TOLERANCE
+from invrad_wb.core.output import document
+from invrad_wb.core.output.figures import figure as _fig, iso_levels, png as _png
 
 _TEMPLATE = "design_report.html.j2"
-_TEMPLATES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "templates")
 #: grid values are printed on the plan up to this many points (else every k-th)
 MAX_LABELS = 160
 
 
 def _figure(width_in, height_in):
-    from matplotlib.figure import Figure
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    fig = Figure(figsize=(width_in, height_in), dpi=110)
-    FigureCanvasAgg(fig)
-    return fig
+    return _fig(width_in, height_in, dpi=110)
 
 
 def _outline(ax, droom_edges):
@@ -61,7 +60,7 @@ def room_plan_png(rd, edges, lux_max, types):
     tri = Triangulation(pts[:, 0], pts[:, 1]) if len(pts) >= 3 else None
     if tri is not None:
         m = ax.tripcolor(tri, lux, shading="gouraud", cmap="viridis", vmin=0, vmax=lux_max)
-        levels = _iso_levels(lux, rd.requirement.lux)
+        levels = iso_levels(lux, rd.requirement.lux)
         if len(levels):
             cs = ax.tricontour(tri, lux, levels=levels, colors="white", linewidths=1.0)
             ax.clabel(cs, fmt="%d lx", fontsize=8, inline=True)
@@ -82,19 +81,6 @@ def room_plan_png(rd, edges, lux_max, types):
         ax.legend(loc="upper left", bbox_to_anchor=(1.22, 1.0), fontsize=8,
                   title="luminaires", title_fontsize=8, frameon=False)
     return _png(fig)
-
-
-def _iso_levels(lux, required):
-    """Round iso-lux levels inside the range of the values, the requirement among them."""
-    lo, hi = float(np.min(lux)), float(np.max(lux))
-    if hi - lo < 1e-6:
-        return []
-    steps = (10, 20, 25, 50, 100, 200, 250, 500, 1000)
-    step = next((s for s in steps if (hi - lo) / s <= 5), 2000)
-    levels = set(np.arange(np.ceil(lo / step) * step, hi, step).tolist())
-    if lo < required < hi:
-        levels.add(float(required))
-    return sorted(levels)
 
 
 def _inside(edges, p):
@@ -176,12 +162,6 @@ def floor_plan_png(rooms, z, types):
     return _png(fig)
 
 
-def _png(fig):
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", bbox_inches="tight")
-    return buf.getvalue()
-
-
 def schedule_rows(result):
     """Rows of the luminaire schedule: one per room and type (dicts)."""
     cat = {e.name: e for e in result.spec.catalogue}
@@ -236,18 +216,21 @@ def room_rows(result):
     return rows
 
 
-def write_design_report(result, out_dir, title="Lighting design", project=None):
-    """Write the report folder (``index.html``, ``schedule.csv``, ``rooms.csv``, plans).
+def write_design_report(result, out_dir, title="Lighting design", project=None, pdf=True,
+                        notes=None):
+    """Write the report folder (``index.html``, ``report.pdf``, ``schedule.csv``,
+    ``rooms.csv``, plans).
 
     Parameters
     ----------
     result : DesignResult (rooms carry their ``outline`` and ``floor_z``)
     out_dir : folder, replaced as a whole
+    pdf : bool, also print ``report.pdf`` (WeasyPrint; without it a line is appended to
+        ``notes`` and the rest is written)
+    notes : list, optional, receives such lines
     Returns the path of ``index.html``.
     """
-    from jinja2 import Environment, FileSystemLoader, select_autoescape
-    env = Environment(loader=FileSystemLoader(_TEMPLATES),
-                      autoescape=select_autoescape(["html", "j2"]))
+    notes = [] if notes is None else notes
     designed = [r for r in result.rooms if r.metrics is not None]
     lux_max = max([float(np.max(r.metrics.lux[:len(r.grid_points)])) for r in designed]
                   or [1.0])
@@ -269,13 +252,18 @@ def write_design_report(result, out_dir, title="Lighting design", project=None):
                                               "emax", "u0_req", "u0", "ugr", "ugr_limit", "ok",
                                               "watts", "wpm2", "layout"]))
         area = sum(r.area_m2 for r in designed)
-        html = env.get_template(_TEMPLATE).render(
-            title=title, project=project, date=datetime.date.today().isoformat(),
+        html = document.render_page(
+            _TEMPLATE, title=title, project=project, date=datetime.date.today().isoformat(),
             mf=result.spec.maintenance_factor, rooms=rows, plans=plans, schedule=sched,
             total_w=f"{result.watts:.1f}", total_wpm2=f"{result.watts / max(area, 1e-9):.2f}",
             compliant=result.compliant, n_lum=len(result.luminaires),
             catalogue=result.spec.catalogue, floors=floors)
         _write(tmp, "index.html", html)
+        if pdf:
+            try:
+                document.write_pdf(html, tmp, os.path.join(tmp, "report.pdf"))
+            except document.PdfUnavailable as exc:
+                notes.append(str(exc))
     return os.path.join(out_dir, "index.html")
 
 

@@ -1,40 +1,40 @@
-"""False-colour images of illuminance for people to look at, written with OpenImageIO.
+"""Colour scales and room rasters of illuminance; PNG and EXR files (OpenImageIO).
 
-Colour scales (both documented in every image by a labelled colour bar):
+Colour scales, per-value (the workbench's 3-D overlay uses them; the report's figures use
+the same maps through matplotlib, :mod:`invrad_wb.core.output.figures`):
 
 * :func:`false_colour`: illuminance on a linear scale ``vmin .. vmax`` lux in viridis
   (dark blue -> green -> yellow; perceptually ordered, readable in grey and by the colour
-  blind; the same 9 stops as the workbench's 3D overlay). Values above ``vmax`` get the top
-  colour. No target (NaN) is grey, hatched in maps; a shade target (exactly 0 lx, "must
-  stay dark") can be drawn black.
+  blind). Values above ``vmax`` get the top colour. No target (NaN) is grey; a shade
+  target (exactly 0 lx, "must stay dark") can be drawn black. :func:`nice_max` picks a
+  round top of scale.
 * :func:`diverging`: deviation from the target, ``-limit .. +limit`` (default +-50 %):
   blue = too dark, white = on target, red = too bright; values beyond the limit get the
   end colours.
 
-Room maps are rasterised from per-vertex values by barycentric interpolation over the
-faces (exactly the piecewise-linear field the metrics integrate):
+Room layouts and rasters (the values behind the report's pictures, written as EXR):
 
-* :func:`unfolded_raster`: every plane of a room, seen from inside the room. Layout: a box
-  net. The floor is drawn in plan (x to the right, y up) in the middle; each vertical wall
+* :func:`unfolded_layout`: every plane of a room laid flat, seen from inside the room: a
+  box net. The floor is in plan (x to the right, y up) in the middle; each vertical wall
   is folded down about its foot into the floor's plane, so it lies beside the floor edge it
-  stands on with its top away from the floor (read it rotated so that the floor edge is at
-  the bottom); the largest horizontal ceiling is attached beyond the top wall, mirrored as
-  seen from below. Planes that do not fit that net (work planes, table tops, pillars,
-  sloped ceilings, walls that would overlap in concave rooms) are drawn each in its own
-  (u, v) frame (walls: horizontal to the right, up is up) and shelf-packed to the right of
-  the net. Every plane is outlined and labelled ("floor", "wall +x", ...).
+  stands on with its top away from the floor; the largest horizontal ceiling is attached
+  beyond the top wall, mirrored as seen from below. Planes that do not fit that net (work
+  planes, table tops, pillars, sloped ceilings, walls that would overlap in concave rooms)
+  are each in their own (u, v) frame (walls: horizontal to the right, up is up),
+  shelf-packed to the right of the net. :func:`unfolded_raster` samples it on pixels.
 * :func:`plan_raster`: the room seen from above (orthographic): its upward-facing planes,
   the highest one where they overlap (a work plane hides the floor below it).
 
-Files: :func:`save_png` and :func:`save_exr` write atomically (temporary file with the
-right extension in the same folder, then rename), for anyone who needs an image out.
+Rasters interpolate per-vertex values barycentrically over the faces (exactly the
+piecewise-linear field the metrics integrate). :func:`save_png` and :func:`save_exr`
+write atomically (temporary file with the right extension in the same folder, then
+rename).
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 import math
 
 import numpy as np
 
-from invrad_wb.errors import InvradError
 from invrad_wb.core.io.oiio import oiio_module, read_pixels
 
 from invrad_wb.core.io.atomic import atomic_path
@@ -50,12 +50,8 @@ VIRIDIS = np.array([[68, 1, 84], [71, 44, 122], [59, 81, 139], [44, 113, 142],
 DIVERGING_STOPS = np.array([[33, 102, 172], [103, 169, 207], [209, 229, 240],
                             [247, 247, 247], [253, 219, 199], [239, 138, 98],
                             [178, 24, 43]], dtype=np.float64)
-NAN_GREY = (150, 150, 150)          # no target (hatched with HATCH_LIGHT in maps)
-HATCH_LIGHT = (205, 205, 205)
+NAN_GREY = (150, 150, 150)          # no target
 SHADE_BLACK = (5, 5, 5)             # target 0 lx (display.SHADE_RGB)
-BACKGROUND = (255, 255, 255)        # off the faces
-OUTLINE = (45, 45, 45)              # plane outlines
-TEXT = (20, 20, 20)
 
 #: Default deviation scale: -50 % .. +50 %.
 DEVIATION_LIMIT = 0.5
@@ -125,218 +121,6 @@ def nice_max(value):
     return float(10 ** (k + 1))
 
 
-def _nice_step(span, n=5):
-    raw = span / max(n, 1)
-    k = math.floor(math.log10(raw)) if raw > 0 else 0
-    for m in (1, 2, 2.5, 5, 10):
-        if m * 10 ** k >= raw * (1 - 1e-9):
-            return m * 10 ** k
-    return 10 ** (k + 1)
-
-
-def lux_ticks(vmin, vmax, n=5):
-    """Round tick values from vmin to vmax, about ``n`` intervals."""
-    step = _nice_step(float(vmax) - float(vmin), n)
-    first = math.ceil(vmin / step - 1e-9) * step
-    return [float(round(t, 10)) for t in np.arange(first, vmax + 1e-9 * step, step)]
-
-
-def _fmt_tick(v):
-    if v == 0:
-        return "0"
-    if abs(v) >= 10 or float(v).is_integer():
-        return f"{v:.0f}"
-    return f"{v:.2g}"
-
-
-# ---------------------------------------------------------------------------- text
-_FONT = ["DroidSans"]
-
-
-def draw_text(img, items, size=13):
-    """Draw text into an RGB uint8 image with OpenImageIO's bundled font.
-
-    Parameters
-    ----------
-    img : (h, w, 3) uint8
-    items : iterable of (x, y, text) or (x, y, text, dict) with optional keys
-        ``colour`` (RGB 0-255), ``align`` ('left', 'center', 'right'), ``valign``
-        ('baseline', 'top', 'center', 'bottom'), ``shadow`` (pixels of dark outline),
-        ``halo`` (RGB of a 2-pixel outline, e.g. white behind black text), ``box`` (RGB
-        of a translucent box behind the text), ``size``.
-
-    Returns
-    -------
-    (h, w, 3) uint8, a new image. Without text rendering (no FreeType) the image is
-    returned unchanged: the pictures stay valid, only unlabelled.
-    """
-    items = list(items)
-    if not items:
-        return img
-    try:
-        oiio = oiio_module("drawing text")
-    except InvradError:
-        return img
-    img = np.array(img, dtype=np.uint8, copy=True)
-    for it in items:                       # label boxes first, text over them
-        opt = it[3] if len(it) > 3 else {}
-        if opt.get("box") is not None:
-            _text_box(img, it[0], it[1], it[2], int(opt.get("size", size)),
-                      opt.get("align", "left"), opt.get("valign", "baseline"), opt["box"])
-    buf = oiio.ImageBuf(np.ascontiguousarray(img, dtype=np.float32) / 255.0)
-    drew = False
-
-    def put(x, y, text, kw):
-        ok = oiio.ImageBufAlgo.render_text(buf, int(round(x)), int(round(y)), str(text),
-                                           fontname=_FONT[0], **kw)
-        if not ok and _FONT[0]:
-            _FONT[0] = ""                      # fall back to OpenImageIO's default font
-            ok = oiio.ImageBufAlgo.render_text(buf, int(round(x)), int(round(y)),
-                                               str(text), fontname="", **kw)
-        return ok
-
-    for it in items:
-        x, y, text = it[:3]
-        opt = it[3] if len(it) > 3 else {}
-        kw = dict(fontsize=int(opt.get("size", size)),
-                  alignx=opt.get("align", "left"), aligny=opt.get("valign", "baseline"),
-                  shadow=int(opt.get("shadow", 0)))
-        halo = opt.get("halo")
-        if halo is not None:
-            hk = dict(kw, textcolor=tuple(c / 255.0 for c in halo))
-            for dx, dy in ((-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1),
-                           (1, 1), (-2, 0), (2, 0), (0, -2), (0, 2)):
-                put(x + dx, y + dy, text, hk)
-        kw["textcolor"] = tuple(c / 255.0 for c in opt.get("colour", TEXT))
-        drew = put(x, y, text, kw) or drew
-    if not drew:
-        return img
-    return np.clip(np.round(buf.get_pixels(oiio.FLOAT) * 255.0), 0, 255).astype(np.uint8)
-
-
-def _text_box(img, x, y, text, size, align, valign, colour, alpha=0.8, pad=3):
-    """Blend a box behind where :func:`draw_text` will put ``text`` (in place)."""
-    try:
-        oiio = oiio_module("measuring text")
-        r = oiio.ImageBufAlgo.text_size(str(text), size, _FONT[0])
-        x0, x1, y0, y1 = r.xbegin, r.xend, r.ybegin, r.yend
-        if not r.defined:
-            raise ValueError
-    except Exception:       # noqa: BLE001 - measuring is best effort
-        x0, x1, y0, y1 = 0, int(0.6 * size * len(str(text))), -int(0.75 * size), 2
-    w, h = x1 - x0, y1 - y0
-    left = {"left": x + x0, "center": x - w / 2, "right": x - w}.get(align, x + x0)
-    top = {"baseline": y + y0, "top": y, "center": y - h / 2, "bottom": y - h}.get(
-        valign, y + y0)
-    r0, r1 = max(int(top - pad), 0), min(int(top + h + pad + 1), img.shape[0])
-    c0, c1 = max(int(left - pad), 0), min(int(left + w + pad + 1), img.shape[1])
-    if r1 > r0 and c1 > c0:
-        sub = img[r0:r1, c0:c1].astype(np.float64)
-        img[r0:r1, c0:c1] = np.round(sub * (1 - alpha) + np.asarray(colour) * alpha)
-
-
-def text_width(text, size=13):
-    """Width in pixels of ``text`` (an estimate if the font cannot be measured)."""
-    try:
-        oiio = oiio_module("measuring text")
-        r = oiio.ImageBufAlgo.text_size(str(text), size, _FONT[0])
-        if r.defined:
-            return int(r.xend - r.xbegin)
-    except Exception:       # noqa: BLE001 - measuring is best effort
-        pass
-    return int(0.6 * size * len(str(text)))
-
-
-# ---------------------------------------------------------------------------- colour bars
-def colour_bar(vmin, vmax, kind="lux", width=320, label=None, ticks=None, swatches=None,
-               over=False):
-    """A labelled horizontal colour bar.
-
-    Parameters
-    ----------
-    vmin, vmax : float
-        Lux for ``kind='lux'``; fractions for ``kind='deviation'`` (ticks shown in %).
-    kind : {'lux', 'deviation'}
-    width : int, pixels of the bar itself
-    label : str, the title under the bar (default by ``kind``)
-    ticks : list of float, optional
-    swatches : list of (rgb, text), extra legend entries (e.g. no target = grey)
-    over : bool, mark the top end "and above" (values beyond are clipped to it)
-
-    Returns
-    -------
-    (h, w, 3) uint8
-    """
-    ml, mr = 34, 46
-    bar_h, top = 16, 6
-    t = np.linspace(0, 1, width)
-    vals = vmin + t * (vmax - vmin)
-    if kind == "deviation":
-        row = diverging(vals, max(abs(vmin), abs(vmax)))
-        if ticks is None:
-            ticks = list(np.linspace(vmin, vmax, 5))
-        lab = [f"{100 * x:+.0f} %" if abs(x) > 1e-12 else "0 %" for x in ticks]
-        label = label or "deviation from target (achieved - target) / target"
-    else:
-        row = false_colour(vals, vmin, vmax)
-        if ticks is None:
-            ticks = lux_ticks(vmin, vmax)
-        lab = [_fmt_tick(x) for x in ticks]
-        if over and lab:
-            lab[-1] += "+"
-        label = label or "illuminance (lx)"
-    swatches = list(swatches or [])
-    h = top + bar_h + 6 + 14 + 20 + (20 if swatches else 0)
-    w = ml + width + mr
-    img = np.full((h, w, 3), BACKGROUND, np.uint8)
-    img[top:top + bar_h, ml:ml + width] = row[None]
-    img[top - 1, ml - 1:ml + width + 1] = OUTLINE
-    img[top + bar_h, ml - 1:ml + width + 1] = OUTLINE
-    img[top - 1:top + bar_h + 1, ml - 1] = OUTLINE
-    img[top - 1:top + bar_h + 1, ml + width] = OUTLINE
-    texts = []
-    for x, s in zip(ticks, lab):
-        px = ml + int(round((x - vmin) / max(vmax - vmin, 1e-12) * (width - 1)))
-        img[top + bar_h:top + bar_h + 5, max(px - 0, 0):px + 1] = OUTLINE
-        texts.append((px, top + bar_h + 18, s, {"align": "center", "size": 12}))
-    y = top + bar_h + 38
-    if kind == "deviation":
-        texts.append((ml, y, "too dark", {"size": 12, "colour": tuple(DIVERGING_STOPS[0])}))
-        texts.append((ml + width, y, "too bright",
-                      {"size": 12, "align": "right", "colour": tuple(DIVERGING_STOPS[-1])}))
-        texts.append((ml + width // 2, y, label.split(" (")[0], {"size": 12,
-                                                                 "align": "center"}))
-    else:
-        texts.append((ml + width // 2, y, label, {"size": 12, "align": "center"}))
-    if swatches:
-        x = ml
-        y0 = y + 8
-        for rgb, text in swatches:
-            sw = np.empty((12, 18, 3), np.uint8)
-            sw[:] = rgb
-            if tuple(rgb) == NAN_GREY:
-                _hatch(sw, np.ones(sw.shape[:2], bool))
-            img[y0:y0 + 12, x:x + 18] = sw
-            img[y0, x:x + 18] = OUTLINE
-            img[y0 + 11, x:x + 18] = OUTLINE
-            img[y0:y0 + 12, x] = OUTLINE
-            img[y0:y0 + 12, x + 17] = OUTLINE
-            texts.append((x + 23, y0 + 10, text, {"size": 12}))
-            x += 23 + text_width(text, 12) + 16
-        if x > w:
-            img = np.concatenate([img, np.full((h, x - w, 3), BACKGROUND, np.uint8)], axis=1)
-    return draw_text(img, texts)
-
-
-def _hatch(rgb, mask, period=6):
-    """Diagonal grey stripes (the 'no target' pattern) where ``mask``."""
-    h, w = mask.shape
-    yy, xx = np.mgrid[:h, :w]
-    stripe = ((xx + yy) % period) < period // 2
-    rgb[mask & stripe] = NAN_GREY
-    rgb[mask & ~stripe] = HATCH_LIGHT
-
-
 # ---------------------------------------------------------------------------- rasters
 @dataclass
 class RoomRaster:
@@ -351,9 +135,6 @@ class RoomRaster:
     transforms : dict plane index -> (A (2, 3), b (2,)): 2-D image frame ``X = A p + b``
         (metres, X to the right, Y up) of a 3-D point ``p`` on that plane
     x0, y1 : float, image frame coordinates (metres) of the left and top image edges
-    labels : list of dict, one per plane: ``x``, ``y`` (pixel centre of its tile),
-        ``text``, ``w``, ``h`` (tile size in pixels), ``anchor`` (where to write it, or
-        None for the centre)
     layout : str, how the planes were placed (for captions)
     faces_of : (m, 3) int64, the scene's faces
     """
@@ -364,7 +145,6 @@ class RoomRaster:
     transforms: dict
     x0: float
     y1: float
-    labels: list = field(default_factory=list)
     layout: str = ""
     faces_of: np.ndarray = None     # the scene's faces (m, 3), for sample()
 
@@ -557,18 +337,100 @@ def _short_label(plane, floor_z):
     return s.split(" (facing")[0].replace("horizontal surface", "surface")
 
 
-def unfolded_raster(scene, room, metres_per_pixel=None, max_pixels=800):
-    """All planes of a room in one image, as a box net (see the module docstring).
+@dataclass
+class UnfoldedLayout:
+    """Where each plane of a room lies in a flat picture of the room (metres).
 
-    Parameters
+    Attributes
     ----------
-    scene : Scene
-    room : int, room id
-    metres_per_pixel : float, optional (default: a round size that fits ``max_pixels``)
+    tiles : dict plane index -> (A (2, 3), b (2,)): picture coordinates ``X = A p + b``
+        (metres, X to the right, Y up) of a 3-D point ``p`` on that plane
+    labels : list of dict, one per plane: ``plane``, ``text`` ('floor', 'wall x = 0.00 m'),
+        ``xy`` (where to write it, metres: walls of the net near their foot, the attached
+        ceiling near the top wall, other planes at their centre), ``rotation`` (degrees:
+        90 for the walls folded out to the left and right)
+    layout : str, 'box net' or 'shelf'
+    """
+    tiles: dict
+    labels: list
+    layout: str
+
+
+def _plane_extent(scene, plane, A, b):
+    t = scene.vertices[scene.faces[plane.faces]].reshape(-1, 3) @ A.T + b
+    return t.min(0), t.max(0)
+
+
+def _net_cells(scene, plane, A, b, res):
+    """Grid cells (of size ``res``) whose centre the plane covers in the net."""
+    t = scene.vertices[scene.faces[plane.faces]] @ A.T + b
+    lo_t = np.floor(t.reshape(-1, 2).min(0) / res).astype(np.int64)
+    hi_t = np.ceil(t.reshape(-1, 2).max(0) / res).astype(np.int64)
+    ii, jj = np.mgrid[lo_t[0]:hi_t[0] + 1, lo_t[1]:hi_t[1] + 1]
+    ii, jj = ii.reshape(-1), jj.reshape(-1)
+    tri, _ = locate_points(t, np.stack([(ii + 0.5) * res, (jj + 0.5) * res], 1))
+    ok = tri >= 0
+    return set(zip(ii[ok].tolist(), jj[ok].tolist()))
+
+
+def _box_net(scene, planes, floor, floor_z):
+    """The floor in plan and the vertical walls folded out around it, each wall that does
+    not overlap what is already placed. Returns (net {plane: (A, b)}, the other planes)."""
+    net = {floor.index: (np.array([[1.0, 0, 0], [0, 1.0, 0]]), np.zeros(2))}
+    walls = sorted([p for p in planes if abs(p.normal[2]) < 0.02 and not p.is_virtual],
+                   key=lambda p: -p.area)
+    ext = float(max(np.ptp(scene.vertices[scene.faces[np.concatenate(
+        [p.faces for p in planes])]].reshape(-1, 3), axis=0).max(), 1e-3))
+    res = ext / 150.0
+    occupied = _net_cells(scene, floor, *net[floor.index], res)
+    others = []
+    for p in walls:
+        hxy = p.normal[:2] / np.linalg.norm(p.normal[:2])
+        A = np.array([[1.0, 0, -hxy[0]], [0, 1.0, -hxy[1]]])
+        b = hxy * floor_z
+        mine = _net_cells(scene, p, A, b, res)
+        if len(mine & occupied) > 0.01 * max(len(mine), 1):
+            others.append(p)
+            continue
+        occupied |= mine
+        net[p.index] = (A, b)
+    others += [p for p in planes if p.index not in net and p not in others]
+    return net, others
+
+
+def _shelf_pack(scene, others, tiles, nlo, nhi, gap):
+    """Place ``others`` each in its own (u, v) frame in rows to the right of the net
+    (or alone, about square, when there is no net); fills ``tiles``."""
+    sizes = []
+    for p in others:
+        A = np.stack([p.u, p.v])
+        lo_p, hi_p = _plane_extent(scene, p, A, np.zeros(2))
+        sizes.append((p, A, lo_p, hi_p - lo_p))
+    sizes.sort(key=lambda s: -s[3][1])
+    total = sum(float(s[3][0] * s[3][1]) for s in sizes)
+    widest = max(float(s[3][0]) for s in sizes)
+    if nlo is not None:
+        limit = max(widest, 0.75 * float(nhi[1] - nlo[1]))
+        x_start, y_top = float(nhi[0]) + 2 * gap, float(nhi[1])
+    else:
+        limit = max(widest, math.sqrt(1.6 * total))
+        x_start, y_top = 0.0, 0.0
+    x, row_h = x_start, 0.0
+    for p, A, lo_p, size in sizes:
+        if x > x_start and x + size[0] > x_start + limit + 1e-9:
+            y_top -= row_h + gap
+            x, row_h = x_start, 0.0
+        tiles[p.index] = (A, np.array([x - lo_p[0], y_top - size[1] - lo_p[1]]))
+        x += float(size[0]) + gap
+        row_h = max(row_h, float(size[1]))
+
+
+def unfolded_layout(scene, room):
+    """All planes of a room laid flat, as a box net (see the module docstring).
 
     Returns
     -------
-    :class:`RoomRaster` (``layout`` is 'box net' or 'shelf')
+    :class:`UnfoldedLayout`
     """
     planes = [p for p in scene.planes if p.room == room]
     if not planes:
@@ -577,54 +439,13 @@ def unfolded_raster(scene, room, metres_per_pixel=None, max_pixels=800):
     ups = [p for p in planes if p.normal[2] > 0.99 and not p.is_virtual
            and abs(p.origin[2] - floor_z) < 0.05]
     floor = max(ups, key=lambda p: p.area) if ups else None
-    net, others = {}, []
-    if floor is not None:
-        net[floor.index] = (np.array([[1.0, 0, 0], [0, 1.0, 0]]), np.zeros(2))
-        walls = sorted([p for p in planes if abs(p.normal[2]) < 0.02 and not p.is_virtual],
-                       key=lambda p: -p.area)
-        ext = float(max(np.ptp(scene.vertices[scene.faces[np.concatenate(
-            [p.faces for p in planes])]].reshape(-1, 3), axis=0).max(), 1e-3))
-        res = ext / 300.0
-
-        def cells(plane, A, b):
-            """Grid cells (of size ``res``) whose centre the plane covers in the net."""
-            t = scene.vertices[scene.faces[plane.faces]] @ A.T + b
-            lo_t = np.floor(t.reshape(-1, 2).min(0) / res).astype(np.int64)
-            hi_t = np.ceil(t.reshape(-1, 2).max(0) / res).astype(np.int64)
-            ii, jj = np.mgrid[lo_t[0]:hi_t[0] + 1, lo_t[1]:hi_t[1] + 1]
-            ii, jj = ii.reshape(-1), jj.reshape(-1)
-            tri, _ = locate_points(t, np.stack([(ii + 0.5) * res, (jj + 0.5) * res], 1))
-            ok = tri >= 0
-            return set(zip(ii[ok].tolist(), jj[ok].tolist()))
-
-        occupied = cells(floor, *net[floor.index])
-        for p in walls:
-            hxy = p.normal[:2] / np.linalg.norm(p.normal[:2])
-            A = np.array([[1.0, 0, -hxy[0]], [0, 1.0, -hxy[1]]])
-            b = hxy * floor_z
-            mine = cells(p, A, b)
-            if len(mine & occupied) > 0.01 * max(len(mine), 1):
-                others.append(p)
-                continue
-            occupied |= mine
-            net[p.index] = (A, b)
-        placed = set(net)
-        others += [p for p in planes if p.index not in placed and p not in others]
-    else:
-        others = list(planes)
-
-    tiles = {k: v for k, v in net.items()}
-
-    def extent(pl, A, b):
-        t = scene.vertices[scene.faces[pl.faces]].reshape(-1, 3) @ A.T + b
-        return t.min(0), t.max(0)
-
+    net, others = _box_net(scene, planes, floor, floor_z) if floor else ({}, list(planes))
+    tiles = dict(net)
+    nlo = nhi = None
     if net:
-        los, his = zip(*(extent(scene.planes[k], *tiles[k]) for k in tiles))
+        los, his = zip(*(_plane_extent(scene, scene.planes[k], *net[k]) for k in net))
         nlo, nhi = np.min(los, axis=0), np.max(his, axis=0)
-    else:
-        nlo = nhi = np.zeros(2)
-    gap = max(0.15, 0.02 * float(max(nhi - nlo)) if net else 0.15)
+    gap = max(0.15, 0.02 * float(max(nhi - nlo))) if net else 0.15
     attached = None
     # the largest horizontal ceiling completes the net beyond its top edge
     ceilings = [p for p in others if p.normal[2] < -0.99 and not p.is_virtual]
@@ -632,71 +453,60 @@ def unfolded_raster(scene, room, metres_per_pixel=None, max_pixels=800):
         c = max(ceilings, key=lambda p: p.area)
         A = np.stack([c.u, c.v])
         # its u is +x (plane_basis), so keep x; put its bottom (v min) on the net's top
-        lo_c, hi_c = extent(c, A, np.zeros(2))
-        b = np.array([0.0 if c.u[0] > 0.99 else nlo[0] - lo_c[0], nhi[1] - lo_c[1]])
-        tiles[c.index] = (A, b)
+        lo_c, _ = _plane_extent(scene, c, A, np.zeros(2))
+        tiles[c.index] = (A, np.array([0.0 if c.u[0] > 0.99 else nlo[0] - lo_c[0],
+                                       nhi[1] - lo_c[1]]))
         attached = c.index
         others.remove(c)
-        lo2, hi2 = extent(c, A, b)
+        lo2, hi2 = _plane_extent(scene, c, *tiles[c.index])
         nlo, nhi = np.minimum(nlo, lo2), np.maximum(nhi, hi2)
-    # shelf-pack the rest, each in its own (u, v) frame
     if others:
-        sizes = []
-        for p in others:
-            A = np.stack([p.u, p.v])
-            lo_p, hi_p = extent(p, A, np.zeros(2))
-            sizes.append((p, A, lo_p, hi_p - lo_p))
-        sizes.sort(key=lambda s: -s[3][1])
-        total = sum(float(s[3][0] * s[3][1]) for s in sizes)
-        widest = max(float(s[3][0]) for s in sizes)
-        if net:
-            limit = max(widest, 0.75 * float(nhi[1] - nlo[1]))
-            x_start, y_top = float(nhi[0]) + 2 * gap, float(nhi[1])
-        else:
-            limit = max(widest, math.sqrt(1.6 * total))
-            x_start, y_top = 0.0, 0.0
-        x, row_h = x_start, 0.0
-        for p, A, lo_p, size in sizes:
-            if x > x_start and x + size[0] > x_start + limit + 1e-9:
-                y_top -= row_h + gap
-                x, row_h = x_start, 0.0
-            b = np.array([x - lo_p[0], y_top - size[1] - lo_p[1]])
-            tiles[p.index] = (A, b)
-            x += float(size[0]) + gap
-            row_h = max(row_h, float(size[1]))
-    tile_list = [(k, A, b, scene.planes[k].faces, 0) for k, (A, b) in tiles.items()]
-    r = _rasterise(scene, tile_list, metres_per_pixel, max_pixels)
-    r.layout = "box net" if net else "shelf"
-    mpp = r.metres_per_pixel
+        _shelf_pack(scene, others, tiles, nlo, nhi, gap)
+    labels = []
     for k, (A, b) in tiles.items():
         pl = scene.planes[k]
-        lo_p, hi_p = extent(pl, A, b)
+        lo_p, hi_p = _plane_extent(scene, pl, A, b)
         c = 0.5 * (lo_p + hi_p)
-        size_m = hi_p - lo_p
         # walls of the net: label near the foot (the floor edge), ceiling near the top wall
         inward = None
         if k in net and k != floor.index:
             inward = pl.normal[:2] / np.linalg.norm(pl.normal[:2])   # towards the floor
         elif k == attached:
             inward = np.array([0.0, -1.0])
-        anchor = None
         if inward is not None:
-            half = 0.5 * abs(float(size_m @ np.abs(inward)))
-            shift = max(half - 16 * mpp, 0.0)
-            anchor = c + inward * shift
-        r.labels.append({"x": (c[0] - r.x0) / mpp, "y": (r.y1 - c[1]) / mpp,
-                         "text": _short_label(pl, floor_z),
-                         "w": float(size_m[0] / mpp), "h": float(size_m[1] / mpp),
-                         "anchor": None if anchor is None else
-                         ((anchor[0] - r.x0) / mpp, (r.y1 - anchor[1]) / mpp)})
+            half = 0.5 * abs(float((hi_p - lo_p) @ np.abs(inward)))
+            c = c + inward * max(half - 0.3, 0.0)
+        # walls folded out to the left or right read along their foot: written upright
+        side = inward is not None and abs(inward[0]) > 0.7
+        labels.append({"plane": int(k), "text": _short_label(pl, floor_z), "xy": c,
+                       "rotation": 90 if side else 0})
+    return UnfoldedLayout(tiles=tiles, labels=labels,
+                          layout="box net" if net else "shelf")
+
+
+def unfolded_raster(scene, room, metres_per_pixel=None, max_pixels=800, layout=None):
+    """All planes of a room in one raster, laid out by :func:`unfolded_layout` (for the
+    values of the unfolded pictures as EXR).
+
+    Parameters
+    ----------
+    scene : Scene
+    room : int, room id
+    metres_per_pixel : float, optional (default: a round size that fits ``max_pixels``)
+    layout : :class:`UnfoldedLayout`, optional (default: computed)
+
+    Returns
+    -------
+    :class:`RoomRaster` (``layout`` is 'box net' or 'shelf')
+    """
+    lay = unfolded_layout(scene, room) if layout is None else layout
+    tile_list = [(k, A, b, scene.planes[k].faces, 0) for k, (A, b) in lay.tiles.items()]
+    r = _rasterise(scene, tile_list, metres_per_pixel, max_pixels)
+    r.layout = lay.layout
     return r
 
-
-#: margins (left, top, right, bottom) of plan images, room for the axes
-PLAN_MARGIN = (46, 26, 14, 40)
-
-
-def plan_raster(scene, room, metres_per_pixel=None, max_pixels=640, margin_px=PLAN_MARGIN):
+def plan_raster(scene, room, metres_per_pixel=None, max_pixels=640,
+                margin_px=(10, 10, 10, 10)):
     """The room's upward-facing planes seen from above, x to the right and y up.
 
     Where planes overlap the higher one is shown (a work plane hides the floor below).
@@ -711,208 +521,6 @@ def plan_raster(scene, room, metres_per_pixel=None, max_pixels=640, margin_px=PL
     r = _rasterise(scene, tiles, metres_per_pixel, max_pixels, margin_px)
     r.layout = "plan"
     return r
-
-
-# ---------------------------------------------------------------------------- drawing
-def paint(raster, values, colour_fn, outline=True):
-    """Colour a raster: (h, w) values -> (h, w, 3) uint8 with background, hatched NaN
-    and plane outlines."""
-    on = raster.face >= 0
-    rgb = np.full(raster.shape + (3,), BACKGROUND, np.uint8)
-    ok = on & np.isfinite(values)
-    if ok.any():
-        rgb[ok] = colour_fn(values[ok])
-    _hatch(rgb, on & ~np.isfinite(values))
-    if outline:
-        p = raster.plane
-        edge = np.zeros(p.shape, bool)
-        edge[:, 1:] |= p[:, 1:] != p[:, :-1]
-        edge[:, :-1] |= p[:, 1:] != p[:, :-1]
-        edge[1:] |= p[1:] != p[:-1]
-        edge[:-1] |= p[1:] != p[:-1]
-        edge[0] = edge[-1] = True
-        edge[:, 0] = edge[:, -1] = True
-        rgb[edge & on] = OUTLINE
-    return rgb
-
-
-def outline_mask(rgb, mask, colour=(0, 0, 0), dash=4):
-    """Draw the boundary of ``mask`` (h, w) bool as a dashed line (in place), e.g. the
-    shade targets."""
-    e = np.zeros(mask.shape, bool)
-    e[:, 1:] |= mask[:, 1:] & ~mask[:, :-1]
-    e[:, :-1] |= mask[:, :-1] & ~mask[:, 1:]
-    e[1:] |= mask[1:] & ~mask[:-1]
-    e[:-1] |= mask[:-1] & ~mask[1:]
-    yy, xx = np.mgrid[:mask.shape[0], :mask.shape[1]]
-    on = ((xx + yy) // dash) % 2 == 0
-    rgb[e & on] = colour
-    rgb[e & ~on] = (255, 255, 255)
-    return rgb
-
-
-def contours(rgb, raster, values, step, colour=(0, 0, 0), alpha=0.45):
-    """Blend iso-lines of ``values`` every ``step`` into ``rgb`` (in place)."""
-    if not step or step <= 0:
-        return rgb
-    lvl = np.floor(np.where(np.isfinite(values), values, -1.0) / step)
-    on = (raster.face >= 0) & np.isfinite(values)
-    e = np.zeros(lvl.shape, bool)
-    d = (lvl[:, 1:] != lvl[:, :-1]) & on[:, 1:] & on[:, :-1]
-    e[:, 1:] |= d
-    d = (lvl[1:] != lvl[:-1]) & on[1:] & on[:-1]
-    e[1:] |= d
-    rgb[e] = (rgb[e] * (1 - alpha) + np.asarray(colour) * alpha).astype(np.uint8)
-    return rgb
-
-
-def _disc(img, cx, cy, r, colour):
-    h, w, _ = img.shape
-    y0, y1 = max(int(cy - r - 1), 0), min(int(cy + r + 2), h)
-    x0, x1 = max(int(cx - r - 1), 0), min(int(cx + r + 2), w)
-    if y1 <= y0 or x1 <= x0:
-        return
-    yy, xx = np.mgrid[y0:y1, x0:x1]
-    m = (xx + 0.5 - cx) ** 2 + (yy + 0.5 - cy) ** 2 <= r * r
-    img[y0:y1, x0:x1][m] = colour
-
-
-def mark_luminaires(img, marks):
-    """Draw luminaires as marked circles: [(col, row, radius_px, label)] -> new image.
-
-    A black ring with a white inner ring, a black centre dot and the label beside it.
-    """
-    texts = []
-    for cx, cy, r, label in marks:
-        r = max(float(r), 6.0)
-        _disc(img, cx, cy, r + 2.0, (0, 0, 0))
-        _disc(img, cx, cy, r, (255, 255, 255))
-        _disc(img, cx, cy, r - 1.5, (0, 0, 0))
-        _disc(img, cx, cy, r - 3.0, (255, 255, 255))
-        _disc(img, cx, cy, 1.8, (0, 0, 0))
-        if label:
-            texts.append((cx + r + 6, cy - r + 4, label,
-                          {"box": (255, 255, 255), "size": 13}))
-    return draw_text(img, texts)
-
-
-def _rotated_text(img, cx, cy, text, size, box=(255, 255, 255)):
-    """Paste ``text`` turned 90 degrees (reading upwards) centred at (cx, cy), in place."""
-    w = text_width(text, size) + 8
-    h = size + 8
-    tile = draw_text(np.full((h, w, 3), box, np.uint8),
-                     [(w // 2, h // 2, text, {"size": size, "align": "center",
-                                              "valign": "center"})])
-    tile = np.rot90(tile)                       # counter-clockwise: reads bottom to top
-    th, tw = tile.shape[:2]
-    r0, c0 = int(round(cy - th / 2)), int(round(cx - tw / 2))
-    rr0, cc0 = max(r0, 0), max(c0, 0)
-    rr1, cc1 = min(r0 + th, img.shape[0]), min(c0 + tw, img.shape[1])
-    if rr1 > rr0 and cc1 > cc0:
-        sub = img[rr0:rr1, cc0:cc1].astype(np.float64)
-        t = tile[rr0 - r0:rr1 - r0, cc0 - c0:cc1 - c0].astype(np.float64)
-        # the box is translucent, the glyphs opaque
-        ink = (t.min(axis=2, keepdims=True) < 200)
-        img[rr0:rr1, cc0:cc1] = np.where(ink, t, np.round(sub * 0.2 + t * 0.8))
-    return img
-
-
-def label_planes(img, raster, size=13):
-    """Write each plane's label at its centre on a translucent white box; labels of narrow
-    upright tiles are turned to read upwards."""
-    flat = []
-    img = np.array(img, dtype=np.uint8, copy=True)
-    for lab in raster.labels:
-        x, y, t, w, h = lab["x"], lab["y"], lab["text"], lab["w"], lab["h"]
-        tw = text_width(t, size)
-        if tw > w - 4 and h > w and h >= 0.8 * tw:
-            _rotated_text(img, x, y, t, size)
-        else:
-            if lab.get("anchor") is not None:
-                x, y = lab["anchor"]
-            flat.append((x, y, t, {"box": (255, 255, 255), "size": size,
-                                   "align": "center", "valign": "center"}))
-    return draw_text(img, flat)
-
-
-def scale_bar(img, raster, x=12, y=None, colour=OUTLINE):
-    """A metre scale bar in the bottom-left corner (in place), returns the new image."""
-    mpp = raster.metres_per_pixel
-    length = _nice_step(80 * mpp, 1)
-    px = int(round(length / mpp))
-    h = img.shape[0]
-    y = h - 8 if y is None else y
-    if px < 4 or px + x >= img.shape[1]:
-        return img
-    img[y - 1:y + 1, x:x + px] = colour
-    img[y - 5:y + 1, x:x + 1] = colour
-    img[y - 5:y + 1, x + px - 1:x + px] = colour
-    return draw_text(img, [(x + px + 5, y, f"{_fmt_tick(length)} m", {"size": 11})])
-
-
-def plan_axes(img, raster, margin_px=PLAN_MARGIN):
-    """Metre ticks along the bottom and left of a plan image (x right, y up)."""
-    mpp = raster.metres_per_pixel
-    h, w, _ = img.shape
-    ml, mt, mr, mb = margin_px
-    xa, xb = raster.x0 + ml * mpp, raster.x0 + (w - mr) * mpp
-    yb, ya = raster.y1 - (h - mb) * mpp, raster.y1 - mt * mpp
-    step = _nice_step(max(xb - xa, ya - yb), 6)
-    texts = []
-    base = h - mb + 4
-    img[base, ml:w - mr] = OUTLINE
-    for xv in np.arange(math.ceil(xa / step - 1e-9) * step, xb + 1e-9, step):
-        c = int(round((xv - raster.x0) / mpp))
-        if 0 <= c < w:
-            img[base:base + 5, c] = OUTLINE
-            texts.append((c, base + 18, _fmt_tick(round(xv, 6)),
-                          {"align": "center", "size": 11}))
-    left = ml - 5
-    img[mt:h - mb, left] = OUTLINE
-    for yv in np.arange(math.ceil(yb / step - 1e-9) * step, ya + 1e-9, step):
-        rr = int(round((raster.y1 - yv) / mpp))
-        if 0 <= rr < h:
-            img[rr, left - 5:left] = OUTLINE
-            texts.append((left - 8, rr + 4, _fmt_tick(round(yv, 6)),
-                          {"align": "right", "size": 11}))
-    texts.append((ml + (w - ml - mr) // 2, h - 4, "x (m)", {"align": "center", "size": 11}))
-    texts.append((left, mt - 9, "y (m)", {"size": 11, "align": "center"}))
-    return draw_text(img, texts)
-
-
-def _wrap(text, width, size):
-    lines, line = [], ""
-    for word in str(text).split(" "):
-        trial = f"{line} {word}".strip()
-        if line and text_width(trial, size) > width:
-            lines.append(line)
-            line = word
-        else:
-            line = trial
-    if line:
-        lines.append(line)
-    return lines
-
-
-def compose(title, parts, subtitle=None, pad=10):
-    """Stack a title line, images (each centred) and an optional subtitle (wrapped)."""
-    width = max(p.shape[1] for p in parts) + 2 * pad
-    rows = [np.full((30, width, 3), BACKGROUND, np.uint8)]
-    for p in parts:
-        row = np.full((p.shape[0] + 6, width, 3), BACKGROUND, np.uint8)
-        left = (width - p.shape[1]) // 2
-        row[3:3 + p.shape[0], left:left + p.shape[1]] = p
-        rows.append(row)
-    img = np.concatenate(rows, axis=0)
-    texts = [(pad, 21, title, {"size": 15})]
-    if subtitle:
-        lines = _wrap(subtitle, width - 2 * pad, 11)
-        y = img.shape[0] + 12
-        img = np.concatenate([img, np.full((15 * len(lines) + 6, width, 3), BACKGROUND,
-                                           np.uint8)], axis=0)
-        for k, line in enumerate(lines):
-            texts.append((pad, y + 15 * k, line, {"size": 11, "colour": (90, 90, 90)}))
-    return draw_text(img, texts)
 
 
 # ---------------------------------------------------------------------------- files
