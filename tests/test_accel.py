@@ -58,6 +58,23 @@ def _form_factors():
     return args, {}, same
 
 
+def _patch_form_factors():
+    from invrad_wb.core.forward.radiosity import RadiosityModel
+    # the L-shaped room: a re-entrant corner, so visibility rows matter
+    m = RadiosityModel(g.l_room(), backend="numpy", patch_size=0.5)
+    room = m.rooms[0]
+    ps, par = room.patches, room.sample_parent
+    args = (room.sample_point, ps.normal[par], ps, par, room.sample_weight, room.vis)
+
+    def same(a, b):
+        assert a.shape == (ps.n, ps.n) and b.shape == a.shape
+        # rows sum to the fraction of the hemisphere the room's other patches cover
+        assert 0.5 < np.median(a[ps.emits].sum(axis=1)) < 1.05
+        np.testing.assert_allclose(b, a, rtol=2e-3, atol=2e-5)
+        np.testing.assert_allclose(b.sum(axis=1), a.sum(axis=1), rtol=1e-3, atol=1e-5)
+    return args, {"centre": room.centre}, same
+
+
 def _votes():
     from invrad_wb.core.forward.render import render
     from invrad_wb.core.inverse.locate import occluding_faces
@@ -83,7 +100,8 @@ def _votes():
 
 #: one small deterministic case per registered pair: () -> (args, kwargs, same(numpy, opencl))
 CASES = {"direct_illuminance": _direct, "segments_occluded": _occlusion,
-         "form_factors": _form_factors, "votes_exact": _votes, "votes_ellipse": _votes}
+         "form_factors": _form_factors, "patch_form_factors": _patch_form_factors,
+         "votes_exact": _votes, "votes_ellipse": _votes}
 
 
 def test_every_pair_has_a_case():
