@@ -132,6 +132,28 @@ def test_the_switch_turns_opencl_off():
     assert out.stdout.split() == ["False", "numpy", "True"], out.stderr
 
 
+@pytest.mark.opencl
+def test_compiler_messages_stay_off_the_terminal_and_in_the_build_log(tmp_path):
+    # a kernel the compiler warns about; a fresh -D value so that no cache answers
+    (tmp_path / "noisy.cl").write_text("__kernel void noisy(__global int *o)\n"
+                                       "{\n    int x = 3.7;\n    o[get_global_id(0)] = x;\n}\n")
+    code = ("import sys, time; from invrad_wb import constants as C;"
+            f"C.KERNELS_DIR = {str(tmp_path)!r};"
+            "from invrad_wb.core.accel import device;"
+            "env = device.get_env(); env.program('noisy', (f'-D RUN={time.time_ns()}',));"
+            "env.program('noisy', (f'-D RUN=0',)); n = len(device.builds);"
+            "env.program('noisy', (f'-D RUN=0',));"
+            "print(n, len(device.builds), repr(device.builds[0]['log']))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=300, cwd=os.path.dirname(os.path.dirname(
+                             os.path.abspath(__file__))))
+    assert out.returncode == 0, out.stderr
+    assert out.stderr == ""                                  # nothing on the terminal
+    built, after, log = out.stdout.split(" ", 2)
+    assert built == after == "2"                             # built once per process
+    assert "3.7" in log or "warning" in log.lower()          # the message is kept
+
+
 # ------------------------------------------------------------------ one dispatch, one policy
 def test_the_backend_is_resolved_in_one_place(monkeypatch):
     from invrad_wb.core.accel import device
