@@ -62,7 +62,8 @@ def run_floor(path, workers, dask):
                       "found": m["found"], "true": m["true"], "spurious": m["spurious"],
                       "max_err_cm": m["max_error_cm"], "timings": r.timings, "rss_mb": own,
                       "worker_rss_mb": kids,
-                      "cpu_main": (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime),
+                      "cpu_main": (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+                      - peaks.cpu,
                       "cpu_workers": kids_cpu.ru_utime + kids_cpu.ru_stime}))
 
 
@@ -77,6 +78,7 @@ class _PeakRss:
         self.me = psutil.Process()
         self.kids = 0.0
         self.done = threading.Event()
+        self.cpu = 0.0
         self.thread = threading.Thread(target=self._watch, daemon=True)
         self.thread.start()
 
@@ -87,6 +89,8 @@ class _PeakRss:
                     self.kids = max(self.kids, c.memory_info().rss / 2**20)
                 except Exception:
                     pass
+        #: this sampler's own CPU seconds (psutil reads /proc: not locate's work)
+        self.cpu = time.thread_time()
 
     def stop(self):
         self.done.set()
