@@ -38,6 +38,8 @@ Method
   over ``q x q`` sub-patch sample points ``s`` of patch ``i`` (``q =
   RADIOSITY_RECEIVER_SUBDIV``; each sample is the representative point of a sub-cell of the
   patch's grid cell). With ``q = 1`` this is the form factor from the representative point.
+  With OpenCL the samples' sum is taken on the device (:func:`patch_form_factors`): the host
+  receives the P x P matrix, not q^2 P rows.
 * **Solve** ``B = rho (E + F B)`` per room (``B`` patch exitance, lm/m^2; ``E`` mean direct
   illuminance on the patch, lux) by Jacobi iteration to a relative change below
   ``RADIOSITY_TOL`` (at most ``RADIOSITY_MAX_ITER`` sweeps), for one or many right-hand
