@@ -131,11 +131,17 @@ def _stderr_captured():
     said = _Said()
     try:
         sys.stderr.flush()
-        saved = os.dup(2)
-    except (OSError, ValueError, AttributeError):      # no real fd 2 (embedded): as is
+        tmp = tempfile.TemporaryFile()
+    except (OSError, ValueError, AttributeError):      # nowhere to put it: as it is
         yield said
         return
-    with tempfile.TemporaryFile() as tmp:
+    try:
+        saved = os.dup(2)
+    except OSError:                                     # no fd 2 (embedded): as it is
+        tmp.close()
+        yield said
+        return
+    with tmp:
         try:
             os.dup2(tmp.fileno(), 2)
             yield said
