@@ -57,6 +57,7 @@ bench: setup
 	$(PY) bench/bench_design.py
 	$(PY) bench/bench_memory.py
 	$(PY) bench/bench_parallel.py
+	$(PY) bench/bench_stages.py
 
 examples: setup
 	$(PY) examples/make_examples.py

@@ -49,15 +49,22 @@ def run_floor(path, workers, dask):
     read_s = time.perf_counter() - t
     true = load_luminaires(path[:-4] + "_true.json")
     peaks = _PeakRss()
+    import resource
+    r0 = resource.getrusage(resource.RUSAGE_SELF)
     t = time.perf_counter()
     r = locate(scene, 3000.0, workers=workers, dask=dask)
     wall = time.perf_counter() - t
+    r1 = resource.getrusage(resource.RUSAGE_SELF)
+    kids_cpu = resource.getrusage(resource.RUSAGE_CHILDREN)      # the joined workers
     own, kids = peaks.stop()
     m = match(r.luminaires, true, radius=0.3)
     print(json.dumps({"rooms": len(scene.rooms), "seconds": wall, "read_s": read_s,
                       "found": m["found"], "true": m["true"], "spurious": m["spurious"],
                       "max_err_cm": m["max_error_cm"], "timings": r.timings, "rss_mb": own,
-                      "worker_rss_mb": kids}))
+                      "worker_rss_mb": kids,
+                      "cpu_main": (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+                      - peaks.cpu,
+                      "cpu_workers": kids_cpu.ru_utime + kids_cpu.ru_stime}))
 
 
 class _PeakRss:
@@ -71,6 +78,7 @@ class _PeakRss:
         self.me = psutil.Process()
         self.kids = 0.0
         self.done = threading.Event()
+        self.cpu = 0.0
         self.thread = threading.Thread(target=self._watch, daemon=True)
         self.thread.start()
 
@@ -81,6 +89,8 @@ class _PeakRss:
                     self.kids = max(self.kids, c.memory_info().rss / 2**20)
                 except Exception:
                     pass
+        #: this sampler's own CPU seconds (psutil reads /proc: not locate's work)
+        self.cpu = time.thread_time()
 
     def stop(self):
         self.done.set()
@@ -117,8 +127,11 @@ def _child(n, workers, dask, tmp):
 def floors(n, quick, tmp):
     print(f"\n== A floor of {n} rooms (one or two 3000 lm downlights each, rho 0.5,"
           " interreflection), locate with the flux given")
+    print("  (CPU s: this process / its workers, all threads; on a shared machine the wall"
+          " seconds depend on what else runs, the CPU seconds hardly: 2 workers can reach"
+          " 2x only if their CPU sum stays near one process's)")
     print(f"{'how':22s} {'seconds':>8s} {'rooms/s':>8s} {'found':>7s} {'spur':>4s}"
-          f" {'max cm':>7s} {'peak MB':>8s} {'child MB':>9s}")
+          f" {'max cm':>7s} {'peak MB':>8s} {'child MB':>9s} {'CPU s':>13s}")
     configs = [("1 process", 1, None), ("2 local workers", 2, None)]
     if not quick:
         configs.append(("local Dask, 2 workers", 2, "local"))
@@ -128,10 +141,14 @@ def floors(n, quick, tmp):
         rows[name] = r
         print(f"{name:22s} {r['seconds']:8.2f} {n / r['seconds']:8.2f}"
               f" {r['found']:>3d}/{r['true']:<3d} {r['spurious']:4d} {r['max_err_cm'] or 0:7.2f}"
-              f" {r['rss_mb']:8.0f} {r['worker_rss_mb']:9.0f}")
+              f" {r['rss_mb']:8.0f} {r['worker_rss_mb']:9.0f}"
+              f" {r['cpu_main']:6.1f}/{r['cpu_workers']:<6.1f}")
     base = rows["1 process"]["seconds"]
+    cpu1 = rows["1 process"]["cpu_main"] + rows["1 process"]["cpu_workers"]
     for name, r in rows.items():
-        print(f"  speed-up {name}: {base / r['seconds']:.2f}x")
+        cpu = r["cpu_main"] + r["cpu_workers"]
+        print(f"  speed-up {name}: {base / r['seconds']:.2f}x; CPU {cpu:.1f} s ="
+              f" {cpu / cpu1:.2f} x one process's")
     t = rows["1 process"]["timings"]
     print("  per room, 1 process: " + ", ".join(
         f"{k} {1000 * t[k] / n:.0f} ms" for k in ("sampling", "maps", "votes", "postprocess",

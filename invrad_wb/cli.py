@@ -425,6 +425,16 @@ def main(argv=None):
     warnings.showwarning = show     # before parsing: deprecated options warn there
     ap = build_parser()
     args = ap.parse_args(argv)
+    if getattr(args, "verbose", False):
+        # -v: also the OpenCL compiler's messages and build times (silent otherwise)
+        import logging
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter("invrad: %(message)s"))
+        handler.name = "invrad-cli"
+        log = logging.getLogger("invrad_wb.opencl")
+        if not any(h.name == handler.name for h in log.handlers):
+            log.addHandler(handler)
+        log.setLevel(logging.INFO)
     try:
         rc = args.func(args)
     except InvradError as exc:

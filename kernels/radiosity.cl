@@ -1,9 +1,9 @@
-/* Point-to-patch form factors for the radiosity model (invrad_wb/core/radiosity.py).
+/* Point-to-patch form factors for the radiosity model (invrad_wb/core/forward/radiosity.py).
  *
  * out[i, j] = F(receiver i -> patch j) * V(patch of receiver i, j), float32, for receivers
  * (points with unit normals) and the patches of one room. Coordinates are relative to a
  * room centre (so float32 keeps ~1e-7 m resolution). Numpy twin (float64):
- * invrad_wb.core.radiosity._form_factors_numpy.
+ * invrad_wb.core.forward.radiosity._form_factors_numpy.
  *
  *  - far field (|c_j - p| >= blend_r_j): A_j cos_i cos_j / (pi r^2) to the patch centroid,
  *    16 patches per work-item as float16 lanes (PoCL vectorises explicit vectors only);
@@ -21,6 +21,10 @@
  * tris (nb8, 9) float8 rows
  * v0xyz v1xyz v2xyz (triangles counter-clockwise seen from the front of the patch;
  * padding triangles are degenerate and contribute 0).
+ *
+ * Kernels: form_factors (receiver rows) and patch_form_factors (the patch-to-patch matrix:
+ * rows summed over each patch's sub-patch samples on the device; numpy twin
+ * invrad_wb.core.forward.radiosity._patch_form_factors_numpy).
  *
  * Build options: -D VIS=0/1 (multiply by the patch-to-patch visibility vis[P, ppad]).
  */
@@ -109,21 +113,14 @@ inline float patch_near(float3 p, const float3 m, const int j, __global const fl
     return -(s4.x + s4.y + s4.z + s4.w) * INV_TWO_PI;
 }
 
-/* One work-item: receiver i x 16 patches of block b. Global size (n rounded, nblk). */
-__kernel void form_factors(const int n, const int ppad,
-                           __global const float4 *pts, __global const float4 *nrm,
-                           __global const int2 *rinfo /* plane, patch (visibility row) */,
-                           __global const float16 *pblk, __global const int16 *pplane,
-                           __global const int *tstart, __global const float8 *tris,
-                           __global const uchar *vis, const float eps,
-                           const float inner /* (near radius / blend radius)^2 */,
-                           __global float *out)
+/* Form factors from receiver (p, m) with info ri (plane, visibility row) to the 16
+ * patches of block b (visibility applied with VIS=1). */
+inline float16 block_form_factors(const float3 p, const float3 m, const int2 ri, const int b,
+                                  const int ppad, __global const float16 *pblk,
+                                  __global const int16 *pplane, __global const int *tstart,
+                                  __global const float8 *tris, __global const uchar *vis,
+                                  const float eps, const float inner)
 {
-    const int i = get_global_id(0);
-    const int b = get_global_id(1);
-    if (i >= n) return;
-    const float3 p = pts[i].xyz, m = nrm[i].xyz;
-    const int2 ri = rinfo[i];
     __global const float16 *B = pblk + 8 * b;
     const float16 dx = B[0] - p.x, dy = B[1] - p.y, dz = B[2] - p.z;
     const float16 d2 = fmax(dx * dx + dy * dy + dz * dz, 1e-12f);
@@ -154,5 +151,46 @@ __kernel void form_factors(const int n, const int ppad,
 #if VIS
     f *= convert_float16(vload16(0, vis + (size_t)ri.y * ppad + 16 * b));
 #endif
+    return f;
+}
+
+/* One work-item: receiver i x 16 patches of block b. Global size (n rounded, nblk). */
+__kernel void form_factors(const int n, const int ppad,
+                           __global const float4 *pts, __global const float4 *nrm,
+                           __global const int2 *rinfo /* plane, patch (visibility row) */,
+                           __global const float16 *pblk, __global const int16 *pplane,
+                           __global const int *tstart, __global const float8 *tris,
+                           __global const uchar *vis, const float eps,
+                           const float inner /* (near radius / blend radius)^2 */,
+                           __global float *out)
+{
+    const int i = get_global_id(0);
+    const int b = get_global_id(1);
+    if (i >= n) return;
+    const float16 f = block_form_factors(pts[i].xyz, nrm[i].xyz, rinfo[i], b, ppad, pblk,
+                                         pplane, tstart, tris, vis, eps, inner);
     vstore16(f, 0, out + (size_t)i * ppad + 16 * b);
+}
+
+/* Patch-to-patch form factors: row r (a receiving patch) x 16 patches of block b, the
+ * weighted sum over its sub-patch samples sstart[r] .. sstart[r+1]-1 (samples sorted by
+ * row; weight = sample area / patch area). The samples' sum stays on the device: the host
+ * gets P x P values instead of q^2 P x P. Global size (rows rounded, nblk). */
+__kernel void patch_form_factors(const int nrows, const int ppad,
+                                 __global const float4 *pts, __global const float4 *nrm,
+                                 __global const int2 *rinfo, __global const float *weight,
+                                 __global const int *sstart,
+                                 __global const float16 *pblk, __global const int16 *pplane,
+                                 __global const int *tstart, __global const float8 *tris,
+                                 __global const uchar *vis, const float eps,
+                                 const float inner, __global float *out)
+{
+    const int r = get_global_id(0);
+    const int b = get_global_id(1);
+    if (r >= nrows) return;
+    float16 acc = (float16)(0.0f);
+    for (int s = sstart[r]; s < sstart[r + 1]; ++s)
+        acc += weight[s] * block_form_factors(pts[s].xyz, nrm[s].xyz, rinfo[s], b, ppad,
+                                              pblk, pplane, tstart, tris, vis, eps, inner);
+    vstore16(acc, 0, out + (size_t)r * ppad + 16 * b);
 }

@@ -58,6 +58,23 @@ def _form_factors():
     return args, {}, same
 
 
+def _patch_form_factors():
+    from invrad_wb.core.forward.radiosity import RadiosityModel
+    # the L-shaped room: a re-entrant corner, so visibility rows matter
+    m = RadiosityModel(g.l_room(), backend="numpy", patch_size=0.5)
+    room = m.rooms[0]
+    ps, par = room.patches, room.sample_parent
+    args = (room.sample_point, ps.normal[par], ps, par, room.sample_weight, room.vis)
+
+    def same(a, b):
+        assert a.shape == (ps.n, ps.n) and b.shape == a.shape
+        # rows sum to the fraction of the hemisphere the room's other patches cover
+        assert 0.5 < np.median(a[ps.emits].sum(axis=1)) < 1.05
+        np.testing.assert_allclose(b, a, rtol=2e-3, atol=2e-5)
+        np.testing.assert_allclose(b.sum(axis=1), a.sum(axis=1), rtol=1e-3, atol=1e-5)
+    return args, {"centre": room.centre}, same
+
+
 def _votes():
     from invrad_wb.core.forward.render import render
     from invrad_wb.core.inverse.locate import occluding_faces
@@ -83,7 +100,8 @@ def _votes():
 
 #: one small deterministic case per registered pair: () -> (args, kwargs, same(numpy, opencl))
 CASES = {"direct_illuminance": _direct, "segments_occluded": _occlusion,
-         "form_factors": _form_factors, "votes_exact": _votes, "votes_ellipse": _votes}
+         "form_factors": _form_factors, "patch_form_factors": _patch_form_factors,
+         "votes_exact": _votes, "votes_ellipse": _votes}
 
 
 def test_every_pair_has_a_case():
@@ -112,6 +130,28 @@ def test_the_switch_turns_opencl_off():
                          text=True, timeout=120, cwd=os.path.dirname(os.path.dirname(
                              os.path.abspath(__file__))))
     assert out.stdout.split() == ["False", "numpy", "True"], out.stderr
+
+
+@pytest.mark.opencl
+def test_compiler_messages_stay_off_the_terminal_and_in_the_build_log(tmp_path):
+    # a kernel the compiler warns about; a fresh -D value so that no cache answers
+    (tmp_path / "noisy.cl").write_text("__kernel void noisy(__global int *o)\n"
+                                       "{\n    int x = 3.7;\n    o[get_global_id(0)] = x;\n}\n")
+    code = ("import sys, time; from invrad_wb import constants as C;"
+            f"C.KERNELS_DIR = {str(tmp_path)!r};"
+            "from invrad_wb.core.accel import device;"
+            "env = device.get_env(); env.program('noisy', (f'-D RUN={time.time_ns()}',));"
+            "env.program('noisy', (f'-D RUN=0',)); n = len(device.builds);"
+            "env.program('noisy', (f'-D RUN=0',));"
+            "print(n, len(device.builds), repr(device.builds[0]['log']))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=300, cwd=os.path.dirname(os.path.dirname(
+                             os.path.abspath(__file__))))
+    assert out.returncode == 0, out.stderr
+    assert out.stderr == ""                                  # nothing on the terminal
+    built, after, log = out.stdout.split(" ", 2)
+    assert built == after == "2"                             # built once per process
+    assert "3.7" in log or "warning" in log.lower()          # the message is kept
 
 
 # ------------------------------------------------------------------ one dispatch, one policy

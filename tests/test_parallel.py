@@ -234,6 +234,23 @@ def test_workers_share_the_memory_budget(monkeypatch):
     assert "POCL_MAX_PTHREAD_COUNT" not in os.environ
 
 
+def _blas_threads():
+    from threadpoolctl import threadpool_info
+    import numpy.linalg  # noqa: F401  (numpy's BLAS is loaded)
+    return sorted({d["num_threads"] for d in threadpool_info() if d["user_api"] == "blas"})
+
+
+def test_rooms_run_blas_on_one_thread_in_process_and_on_workers():
+    pytest.importorskip("threadpoolctl")
+    before = _blas_threads()
+    assert W.map_rooms(_blas_threads, [()] * 2, workers=1) == [[1], [1]]
+    assert W.map_rooms(_blas_threads, [()] * 2, workers=2) == [[1], [1]]
+    # and with fine-grained progress (the in-process path that passes report=)
+    got = W.map_rooms(lambda report: _blas_threads(), [()], report=lambda i, n: None)
+    assert got == [[1]]
+    assert _blas_threads() == before                              # restored afterwards
+
+
 def test_cli_design_batch_same_as_one_by_one(tmp_path):
     from invrad_wb.core.io.sceneio import write_scene
     proj = tmp_path / "project"

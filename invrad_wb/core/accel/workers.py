@@ -8,9 +8,10 @@ same answer as a serial one.
 * ``workers=1`` (default): in this process, one room after another; ``fn`` gets the
   caller's fine-grained progress (``report=``).
 * ``workers=N`` or ``"auto"`` (all usable cores): a pool of ``N`` local worker processes,
-  started with ``spawn`` (a fork would copy an OpenCL context and its threads). At most
-  ``N`` rooms are in flight, and tasks are built only when a worker is free, so memory is
-  bounded by the largest rooms, not the building.
+  started with ``spawn`` (a fork would copy an OpenCL context and its threads). Each
+  worker computes one room with its next one queued (at most ``2 N`` in flight), and
+  tasks are built only then, so memory is bounded by the largest rooms, not the
+  building.
 * ``dask="tcp://host:8786"``: the rooms go to that Dask scheduler's workers
   (``dask.distributed``); ``dask="local"``: a local Dask cluster of ``N`` worker processes.
 
@@ -29,8 +30,12 @@ import time
 
 from invrad_wb.errors import Cancelled, InvradError, SettingsError
 
-#: seconds between two looks at finished rooms (and at the progress callback: cancel)
+#: longest wait between two looks at the progress callback (cancel) and at the workers
+#: (one that died); a finished room is taken at once
 POLL_S = 0.05
+#: rooms handed to the local pool per worker (one running, the others queued): the
+#: parent builds and pickles the next room while the workers compute
+QUEUED_PER_WORKER = 2
 
 
 def usable_cores():
@@ -126,8 +131,31 @@ def _environ(values):
                 os.environ[k] = v
 
 
+@contextlib.contextmanager
+def room_threads():
+    """BLAS (OpenBLAS, MKL: numpy's and scipy's) on one thread while a room runs.
+
+    A room's BLAS work is small: the refinement solves systems of a few unknowns and
+    multiplies (k x n) Jacobians of a few columns, the radiosity a matrix by a vector.
+    Several BLAS threads only wait on each other there, and with PoCL's threads, other
+    rooms' workers or other programs on the cores, each small call waits for a time slice:
+    the office example's refinement took 14-15 s with OpenBLAS's 2 threads on a busy
+    2-core machine, 6-9 s with one (CPU time 2.1-2.5 -> 1.3-1.5 s). One thread everywhere
+    also keeps results independent of the number of workers (a thread count can change
+    float rounding). Uses threadpoolctl; without it BLAS keeps its threads.
+    """
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        yield
+        return
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield
+
+
 def _call(fn, task):
-    return fn(*task)
+    with room_threads():
+        return fn(*task)
 
 
 def map_rooms(fn, tasks, labels=None, workers=1, dask=None, progress=None, report=None):
@@ -165,10 +193,11 @@ def map_rooms(fn, tasks, labels=None, workers=1, dask=None, progress=None, repor
     for i, task in enumerate(tasks):
         args = task() if callable(task) else task
         if report is not None:
-            out.append(fn(*args, report=report(i, n)))
+            with room_threads():
+                out.append(fn(*args, report=report(i, n)))
         else:
             _tell(progress, i / n, f"{i}/{n} rooms: {labels[i]}")
-            out.append(fn(*args))
+            out.append(_call(fn, args))
     return out
 
 
@@ -184,21 +213,31 @@ def _map_pool(fn, tasks, labels, nw, progress):
     ctx.set_executable(exe)
     n = len(tasks)
     out = [None] * n
-    # BLAS keeps its thread count: a different one changes float rounding, and the
-    # result must not depend on the number of workers
+    # BLAS runs rooms on one thread here as in the workers (room_threads): a thread
+    # count can change float rounding, and the result must not depend on the workers
     embedded = os.path.realpath(exe) != os.path.realpath(sys.executable or "")
     with _plain_main(embedded), _environ(worker_environ(nw)):
         pool = ctx.Pool(nw)
     started = _worker_pids(pool)
+    import threading
+    woken = threading.Event()                       # a room finished (or failed)
+
+    def wake(_):
+        woken.set()
     try:
         pending, nxt, done = {}, 0, 0
         while done < n:
-            while nxt < n and len(pending) < nw:
+            # each worker has its next room queued (2 N in flight, N running): a worker
+            # that finishes starts the next room at once instead of idling until this
+            # loop has noticed and built it (up to POLL_S a room)
+            while nxt < n and len(pending) < QUEUED_PER_WORKER * nw:
                 task = tasks[nxt]
                 args = task() if callable(task) else task
-                pending[nxt] = pool.apply_async(_call, (fn, args))
+                pending[nxt] = pool.apply_async(_call, (fn, args), callback=wake,
+                                                error_callback=wake)
                 tasks[nxt] = None                   # the parent keeps no copy
                 nxt += 1
+            woken.clear()
             finished = [i for i, r in pending.items() if r.ready()]
             for i in finished:
                 out[i] = pending.pop(i).get()       # re-raises a worker's exception
@@ -209,11 +248,12 @@ def _map_pool(fn, tasks, labels, nw, progress):
                     # the pool replaced a worker that died: its room would never finish
                     raise InvradError(
                         "a worker process stopped unexpectedly (killed, out of memory or"
-                        " crashed) while it ran " + ", ".join(labels[i] for i in sorted(pending))
+                        " crashed) while it ran " + ", ".join(labels[i] for i in
+                                                               sorted(pending)[:nw])
                         + "; run with one worker (--workers 1) to see the room's own error")
                 _tell(progress, done / n, f"{done}/{n} rooms: "
-                      + ", ".join(labels[i] for i in sorted(pending)))
-                time.sleep(POLL_S)
+                      + ", ".join(labels[i] for i in sorted(pending)[:nw]))
+                woken.wait(POLL_S)
         pool.close()
         pool.join()
     finally:

@@ -38,6 +38,8 @@ Method
   over ``q x q`` sub-patch sample points ``s`` of patch ``i`` (``q =
   RADIOSITY_RECEIVER_SUBDIV``; each sample is the representative point of a sub-cell of the
   patch's grid cell). With ``q = 1`` this is the form factor from the representative point.
+  With OpenCL the samples' sum is taken on the device (:func:`patch_form_factors`): the host
+  receives the P x P matrix, not q^2 P rows.
 * **Solve** ``B = rho (E + F B)`` per room (``B`` patch exitance, lm/m^2; ``E`` mean direct
   illuminance on the patch, lux) by Jacobi iteration to a relative change below
   ``RADIOSITY_TOL`` (at most ``RADIOSITY_MAX_ITER`` sweeps), for one or many right-hand
@@ -478,6 +480,107 @@ register("form_factors", _form_factors_opencl, _form_factors_numpy,
          "point-to-patch form factors, exact near and point far (kernels/radiosity.cl)")
 
 
+def patch_form_factors(points, normals, ps, parent, weight, vis, backend="numpy",
+                       centre=None):
+    """Patch-to-patch form factors: each row the weighted sum over its samples.
+
+    ``F[i, j] = sum_{s: parent_s = i} weight_s F(s -> j) V(i, j)``, with the point-to-patch
+    form factor of :func:`form_factor_matrix` (receivers on their parent's plane).
+
+    Parameters
+    ----------
+    points : (S, 3) float64, metres
+        Sub-patch sample points, sorted by ``parent``.
+    normals : (S, 3) float64, unit
+    ps : PatchSet
+    parent : (S,) int, non-decreasing
+        The patch each sample belongs to (its row).
+    weight : (S,) float64
+        Sample area / parent patch area.
+    vis : (P, P) uint8 or None
+    backend : {'numpy', 'opencl', 'auto'}
+    centre : (3,) float64, optional
+        Origin of the device's float32 coordinates.
+
+    Returns
+    -------
+    (P, P) float64, dimensionless (rows without samples are 0).
+    """
+    parent = np.asarray(parent, dtype=np.int64).reshape(-1)
+    if len(parent) > 1 and np.any(np.diff(parent) < 0):
+        raise ValueError("patch_form_factors: samples must be sorted by parent")
+    fn = implementation("patch_form_factors", backend)
+    return fn(np.asarray(points, dtype=np.float64).reshape(-1, 3),
+              np.asarray(normals, dtype=np.float64).reshape(-1, 3), ps, parent,
+              np.asarray(weight, dtype=np.float64).reshape(-1), vis, centre)
+
+
+def _patch_form_factors_numpy(points, normals, ps, parent, weight, vis, centre=None):
+    """Numpy twin of ``patch_form_factors`` in ``kernels/radiosity.cl`` (float64): the
+    samples' rows of :func:`_form_factors_numpy`, weighted and summed per parent."""
+    n = ps.n
+    F = np.zeros((n, n))
+    if n == 0 or len(parent) == 0:
+        return F
+    step = max(1, (C.RADIOSITY_CL_CHUNK_MB << 20) // (8 * n))
+    for s in range(0, len(parent), step):
+        p = parent[s:s + step]
+        fs = _form_factors_numpy(points[s:s + step], normals[s:s + step], ps.plane[p], ps,
+                                 p, vis, centre)
+        fs *= weight[s:s + step, None]
+        # samples are sorted by parent: one segment per parent in this chunk
+        starts = np.flatnonzero(np.r_[True, p[1:] != p[:-1]])
+        F[p[starts]] += np.add.reduceat(fs, starts, axis=0)
+    return F
+
+
+def _patch_form_factors_opencl(points, normals, ps, parent, weight, vis, centre=None):
+    """``patch_form_factors`` of ``kernels/radiosity.cl`` (float32 on the device, the sum
+    over a row's samples included); see :func:`patch_form_factors`."""
+    n = ps.n
+    F = np.zeros((n, n))
+    if n == 0 or len(parent) == 0:
+        return F
+    env = get_env()
+    if centre is None:
+        centre = ps.centroid.mean(axis=0)
+    centre = np.asarray(centre, dtype=np.float64)
+    nblk = -(-n // PATCH_LANES)
+    ppad = nblk * PATCH_LANES
+    pblk, pplane, tstart, tris = ps.cl_buffers(env, centre)
+    knl = env.kernel("radiosity", "patch_form_factors", [f"-D VIS={0 if vis is None else 1}"])
+    if vis is None:
+        d_vis = device_buffer(env, np.zeros(16, np.uint8))     # not read with VIS=0
+    else:
+        vpad = np.zeros((n, ppad), np.uint8)
+        vpad[:, :n] = vis
+        d_vis = device_buffer(env, vpad)
+    info = np.stack([ps.plane[parent], parent], axis=1).astype(np.int32)
+    # sstart[r] = first sample of row r (rows without samples: empty ranges)
+    sstart = np.searchsorted(parent, np.arange(n + 1)).astype(np.int32)
+    d_pts = device_buffer(env, float4(points - centre))
+    d_nrm = device_buffer(env, float4(normals))
+    d_inf = device_buffer(env, info)
+    d_w = device_buffer(env, weight.astype(np.float32))
+    rows = max(1, min(n, (C.RADIOSITY_CL_CHUNK_MB << 20) // (4 * ppad)))
+    host = np.empty((rows, ppad), np.float32)
+    d_out = device_buffer(env, host, "write")
+    for r0 in range(0, n, rows):
+        r1 = min(n, r0 + rows)
+        c = r1 - r0
+        d_st = device_buffer(env, sstart[r0:r1 + 1])
+        knl(env.queue, (round_up(c, 8), nblk), None, np.int32(c), np.int32(ppad),
+            d_pts, d_nrm, d_inf, d_w, d_st, pblk, pplane, tstart, tris, d_vis,
+            np.float32(C.RAY_EPS_M), np.float32(_inner_ratio()), d_out)
+        env.cl.enqueue_copy(env.queue, host[:c], d_out)
+        F[r0:r1] = host[:c, :n]
+    return F
+
+
+register("patch_form_factors", _patch_form_factors_opencl, _patch_form_factors_numpy,
+         "patch-to-patch form factors summed over sub-patch samples (kernels/radiosity.cl)")
+
+
 # ---------------------------------------------------------------------------- visibility
 def _segments_occluded(bvh, p, q, backend):
     """(k,) bool: is the segment p -> q blocked by the scene (see :mod:`.bvh`)?"""
@@ -844,15 +947,8 @@ class RadiosityModel:
         if ps.n == 0:
             return np.zeros((0, 0))
         par = room.sample_parent
-        F = np.zeros((ps.n, ps.n))
-        step = max(1, (C.RADIOSITY_CL_CHUNK_MB << 20) // (8 * ps.n))
-        for s in range(0, len(par), step):
-            p = par[s:s + step]
-            fs = self._form_factors(room, room.sample_point[s:s + step], ps.normal[p], p)
-            fs = np.asarray(fs, dtype=np.float64) * room.sample_weight[s:s + step, None]
-            # samples are sorted by parent: one segment per parent in this chunk
-            starts = np.flatnonzero(np.r_[True, p[1:] != p[:-1]])
-            F[p[starts]] += np.add.reduceat(fs, starts, axis=0)
+        F = patch_form_factors(room.sample_point, ps.normal[par], ps, par,
+                               room.sample_weight, room.vis, self.backend, room.centre)
         F[:, ~ps.emits] = 0.0
         return F
 

@@ -149,14 +149,45 @@ class RefineProblem:
             self.indirect = np.zeros(len(self.target))
         self.w_area = self.area / self.area.sum()
         self._s_dot_m = np.einsum("ij,ij->i", self.positions, self.normals)
+        # (3, k) contiguous coordinate rows: the forward model works on (K, k) planes of
+        # one component each (no (K, k, 3) temporaries, no einsum)
+        self._pT = np.ascontiguousarray(self.positions.T)
+        self._nT = np.ascontiguousarray(self.normals.T)
         self.log_target = np.log(self.target + self.eps_lux)
         self.stats.setdefault("visibility_rays", 0)
+        self.stats.setdefault("visibility_reused", 0)
         self.stats.setdefault("evaluations", 0)
+        self._vis_cache = {}
+
+    #: visibility masks kept per problem (by exact luminaire position and normal): greedy
+    #: selection, pruning and scoring ask again and again for luminaires that have not
+    #: moved (each mask is k booleans, so 512 of 3000 points take 1.5 MB)
+    VIS_CACHE_SIZE = 512
 
     # ------------------------------------------------------------------ forward model
     def visibility(self, light):
+        """(k,) bool: which points see ``light`` (front-facing both ways, unoccluded).
+
+        Masks are remembered by the luminaire's exact position and normal (bit for bit), so
+        asking again for a luminaire that has not moved casts no rays; a returned mask is
+        shared, read-only.
+        """
         if self.bvh is None:
             return np.ones(len(self.positions), dtype=bool)
+        key = (np.asarray(light.position, np.float64).tobytes(),
+               np.asarray(light.normal, np.float64).tobytes())
+        vis = self._vis_cache.get(key)
+        if vis is not None:
+            self.stats["visibility_reused"] += 1
+            return vis
+        vis = self._visibility(light)
+        vis.flags.writeable = False
+        if len(self._vis_cache) >= self.VIS_CACHE_SIZE:
+            self._vis_cache.pop(next(iter(self._vis_cache)))     # oldest first
+        self._vis_cache[key] = vis
+        return vis
+
+    def _visibility(self, light):
         d = light.position - self.positions
         front = (d @ light.normal < 0) & (np.einsum("ij,ij->i", d, self.normals) > 0)
         vis = np.zeros(len(self.positions), dtype=bool)
@@ -170,23 +201,10 @@ class RefineProblem:
         return vis
 
     def light_of(self, light, vis, with_grad=False):
-        """Illuminance (k,) of one luminaire at the points, and d E / d position (k, 3)."""
-        if self.photometry is not None:
-            E, dE = self.lights_of([light], [vis], with_grad)
-            return E[0], (None if dE is None else dE[0])
-        d = light.position - self.positions            # c - s
-        A = -(d @ light.normal)
-        B = (light.position @ self.normals.T) - self._s_dot_m
-        r2 = (d * d).sum(axis=1)
-        ok = (A > 1e-9) & (B > 1e-9) & vis
-        Ac, Bc = np.where(ok, A, 1.0), np.where(ok, B, 1.0)
-        E = np.where(ok, light.flux_scale * self.flux * Ac * Bc / (np.pi * r2 * r2), 0.0)
-        self.stats["evaluations"] += 1
-        if not with_grad:
-            return E, None
-        g = (-light.normal[None, :] / Ac[:, None] + self.normals / Bc[:, None]
-             - 4.0 * d / r2[:, None])
-        return E, E[:, None] * g
+        """Illuminance (k,) of one luminaire at the points, and d E / d position (k, 3)
+        (the one-luminaire case of :meth:`lights_of`)."""
+        E, dE = self.lights_of([light], [vis], with_grad)
+        return E[0], (None if dE is None else dE[0])
 
     def with_indirect(self, L):
         """L with its interreflected light attached (an estimate if it has none).
@@ -275,23 +293,30 @@ class RefineProblem:
             scale = np.array([L.flux_scale for L in lights])
             self.stats["evaluations"] += len(lights)
             return self._photometric_lights(C, N, scale, V, with_grad)
-        C = np.array([L.position for L in lights])                  # (K, 3)
-        N = np.array([L.normal for L in lights])                    # (K, 3)
+        C = np.array([L.position for L in lights], dtype=np.float64)   # (K, 3)
+        N = np.array([L.normal for L in lights], dtype=np.float64)     # (K, 3)
         V = np.array(vis_list, dtype=bool).reshape(len(lights), -1)
-        d = C[:, None, :] - self.positions[None, :, :]              # c - s, (K, k, 3)
-        A = -np.einsum("Kkc,Kc->Kk", d, N)
-        B = C @ self.normals.T - self._s_dot_m[None, :]
-        r2 = np.einsum("Kkc,Kkc->Kk", d, d)
+        px, py, pz = self._pT
+        dx = C[:, 0:1] - px                                         # c - s, (K, k) each
+        dy = C[:, 1:2] - py
+        dz = C[:, 2:3] - pz
+        A = -(dx * N[:, 0:1] + dy * N[:, 1:2] + dz * N[:, 2:3])
+        B = C @ self._nT - self._s_dot_m[None, :]
+        r2 = dx * dx + dy * dy + dz * dz
         ok = (A > 1e-9) & (B > 1e-9) & V
         Ac, Bc = np.where(ok, A, 1.0), np.where(ok, B, 1.0)
         scale = np.array([L.flux_scale for L in lights])[:, None]
-        E = np.where(ok, scale * self.flux * Ac * Bc / (np.pi * r2 * r2), 0.0)
+        E = np.where(ok, (scale * (self.flux / np.pi)) * Ac * Bc / (r2 * r2), 0.0)
         self.stats["evaluations"] += len(lights)
         if not with_grad:
             return E, None
-        g = (-N[:, None, :] / Ac[..., None] + self.normals[None] / Bc[..., None]
-             - 4.0 * d / r2[..., None])
-        return E, E[..., None] * g
+        # d E / d c = E (-N / A + n / B - 4 (c - s) / r^2), one component at a time
+        iA, iB, ir2 = 1.0 / Ac, 1.0 / Bc, -4.0 / r2
+        dE = np.empty(E.shape + (3,))
+        for j, (dj, nj) in enumerate(((dx, self._nT[0]), (dy, self._nT[1]),
+                                      (dz, self._nT[2]))):
+            dE[..., j] = E * (iB * nj - N[:, j:j + 1] * iA + dj * ir2)
+        return E, dE
 
     def residuals(self, lights, vis_list, with_jac=False, extra=None):
         E = self.indirect.copy() if extra is None else self.indirect + extra
