@@ -24,9 +24,6 @@ import time
 from invrad_wb.gui import messages, params
 from invrad_wb.gui import progress as P
 
-#: Fixture colour in the 3D view (a light warm yellow), set on new fixtures in the GUI.
-FIXTURE_RGB = (1.0, 0.85, 0.25)
-
 
 @dataclass
 class Stored:
@@ -61,14 +58,16 @@ def _doc(doc):
 
 
 def _colour_fixtures(doc, names):
+    """The fixtures' look (app.fixtures.style_fixture; make_fixture sets it already, this
+    restores it after an undo/redo brought old view objects back)."""
     import FreeCAD
     if not FreeCAD.GuiUp:
         return
+    from invrad_wb.app.fixtures import style_fixture
     for n in names:
         obj = doc.getObject(n)
-        vo = getattr(obj, "ViewObject", None) if obj is not None else None
-        if vo is not None and hasattr(vo, "ShapeColor"):
-            vo.ShapeColor = FIXTURE_RGB
+        if obj is not None:
+            style_fixture(obj)
 
 
 def _room_keys(rooms):

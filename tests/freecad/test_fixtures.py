@@ -60,6 +60,55 @@ class TestFixtures(FreeCADTestCase):
         self.assertAlmostEqual(fx2.Shape.BoundBox.XLength, 600.0, places=6)
         self.assertAlmostEqual(fx2.EmitterRadius.Value, 300.0)
 
+    def test_pendant_hangs_from_the_ceiling_on_a_rod(self):
+        (fx,) = fixtures.insert_fixtures(self.doc, [(self.space, [down(2.0, 1.5, z=2.0)])])
+        bb = fx.Shape.BoundBox
+        self.assertAlmostEqual(bb.ZMin, 1960.0, places=3)       # the body below the point
+        self.assertAlmostEqual(bb.ZMax, 2700.0, places=3)       # the rod reaches the ceiling
+        self.assertEqual(len(fx.Shape.Solids), 1)               # one solid for IFC
+        # the rod is thin: a section half way up is a small disc, not the body
+        mid = fx.Shape.common(__import__("Part").makeBox(
+            1000, 1000, 10, FreeCAD.Vector(1500, 1000, 2300)))
+        self.assertLess(mid.Volume, 3.2 * 6.0 ** 2 * 10)
+        self.assertAlmostEqual(fixtures.ceiling_drop_m(self.space, down(2.0, 1.5, z=2.0)),
+                               0.7, places=6)
+        # on the ceiling (a few cm below it: no rod) and facing sideways: no rod
+        self.assertEqual(fixtures.ceiling_drop_m(self.space, down(2.0, 1.5, z=2.65)), 0.0)
+        self.assertEqual(fixtures.ceiling_drop_m(
+            self.space, Luminaire([0.1, 1.5, 2.0], [1, 0, 0], 900.0)), 0.0)
+        # the mount a locate run found counts even close to the ceiling
+        near = down(2.0, 1.5, z=2.65)
+        near.extra["mount"] = "pendant"
+        self.assertAlmostEqual(fixtures.ceiling_drop_m(self.space, near), 0.05, places=6)
+
+    def test_body_sized_from_the_luminous_area(self):
+        class Phot:
+            luminous_area_m2 = 0.36
+        panel = down(2.0, 1.5)
+        panel.photometry = Phot()
+        self.assertEqual(fixtures.fixture_size(panel), ("panel", 0.6, 0.6))
+        small = down(1.0, 1.0)
+        small.photometry = type("P", (), {"luminous_area_m2": np.pi * 0.075 ** 2})()
+        kind, r = fixtures.fixture_size(small)
+        self.assertEqual(kind, "disc")
+        self.assertAlmostEqual(r, 0.075)
+        self.assertEqual(fixtures.fixture_size(down(1, 1, radius_m=0.2)), ("disc", 0.2))
+        fx = fixtures.insert_fixtures(self.doc, [(self.space, [panel, small])])
+        bb = fx[0].Shape.BoundBox
+        self.assertAlmostEqual(bb.XLength, 600.0, places=3)
+        self.assertAlmostEqual(bb.YLength, 600.0, places=3)
+        self.assertAlmostEqual(fx[1].Shape.BoundBox.XLength, 150.0, places=3)
+
+    def test_label_names_room_and_catalogue_type(self):
+        typed = down(2.0, 1.5)
+        typed.extra["type"] = "DL-2000"
+        objs = fixtures.insert_fixtures(self.doc, [(self.space, [down(1, 1), typed])])
+        self.assertEqual([o.Label for o in objs],
+                         ["Luminaire Office 1", "Luminaire Office 2 (DL-2000)"])
+        self.assertEqual(objs[1].Model, "DL-2000")
+        # listed in the tree under their room
+        self.assertTrue(all(o in self.space.Group for o in objs))
+
     def test_insertion_is_one_undo_step(self):
         before = document.snapshot(self.doc)
         undo0 = self.doc.UndoCount
