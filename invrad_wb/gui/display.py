@@ -10,7 +10,13 @@ What it shows (per vertex of the rooms' sampling meshes, colours interpolated):
   them (:func:`invrad_wb.app.pipeline.prepare`) in viridis like the report's images;
   "no target" is grey and a shade target (0 lx, "must stay dark") near black, so neither
   is mistaken for a low target; the work plane is a translucent layer at its height;
+  along the targets' edges (a painted spot's rim) the mesh is refined and the targets
+  evaluated again (:func:`target_mesh`), so that a round spot looks round, not stair-stepped;
 * **achieved** illuminance after *Verify and report*, on the same meshes.
+
+Both views of a document share ONE lux scale, chosen once from its targets
+(:func:`document_scale`: the largest target and half as much again, rounded up), so
+that the same colour means the same illuminance in both and a met target looks alike.
 
 The overlay sits ``offset_m`` inside the room (no z-fighting with the Space and the wall
 faces), is not pickable (clicks select the faces behind it) and culls back faces, so that
@@ -35,6 +41,13 @@ nice_max = _images.nice_max
 NO_TARGET_RGB = (150 / 255.0, 150 / 255.0, 150 / 255.0)
 SHADE_RGB = (0.02, 0.02, 0.02)
 EDGE_RGB = (0.1, 0.1, 0.1)
+
+#: The lux scale's top over the largest target (:func:`lux_scale`).
+SCALE_HEADROOM = 1.5
+#: Refinement of the target display along target edges (:func:`target_mesh`): levels, and
+#: the value step (fraction of the scale) across a triangle that counts as an edge.
+EDGE_LEVELS = 3
+EDGE_STEP = 0.2
 
 #: Node names, so that a scene graph can be searched for the overlay.
 OVERLAY_NAME = "InvRadFalseColour"
@@ -106,8 +119,15 @@ def boundary_edges(faces, groups):
     return e[once]
 
 
-def overlay_geometry(building, values, offset_m=0.01, targets=True, vmax=None):
+def overlay_geometry(building, values, offset_m=0.01, targets=True, vmax=None, mesh=None):
     """What the overlay draws, in FreeCAD's millimetres.
+
+    Parameters
+    ----------
+    building : BuildingScene
+    values : (n,) float64, lux per vertex of ``building.scene`` (or of ``mesh``)
+    mesh : dict from :func:`target_mesh`, optional: a finer display mesh to draw instead
+        of the building's sampling mesh (``values`` are then per vertex of it)
 
     Returns
     -------
@@ -118,17 +138,152 @@ def overlay_geometry(building, values, offset_m=0.01, targets=True, vmax=None):
       edges : (j, 2) int64, outlines of the room faces and work planes
       vmax : float, top of the scale (lux)
     """
-    sc = building.scene
+    if mesh is None:
+        sc = building.scene
+        mesh = {"vertices": sc.vertices, "normals": sc.vertex_normals, "faces": sc.faces,
+                "groups": face_groups(building),
+                "virtual": np.asarray(sc.face_virtual, dtype=bool)}
     v = np.asarray(values, dtype=np.float64)
     if vmax is None:
         finite = v[np.isfinite(v)]
         vmax = nice_max(finite.max() if finite.size else 1.0)
-    pts = (sc.vertices + offset_m * sc.vertex_normals) * 1000.0
-    groups = face_groups(building)
-    virt = np.asarray(sc.face_virtual, dtype=bool)
-    return {"points": pts, "surfaces": sc.faces[~virt], "work_plane": sc.faces[virt],
-            "rgb": colours(v, vmax, targets), "edges": boundary_edges(sc.faces, groups),
+    pts = (mesh["vertices"] + offset_m * mesh["normals"]) * 1000.0
+    faces, virt = mesh["faces"], mesh["virtual"]
+    return {"points": pts, "surfaces": faces[~virt], "work_plane": faces[virt],
+            "rgb": colours(v, vmax, targets), "edges": boundary_edges(faces, mesh["groups"]),
             "vmax": float(vmax)}
+
+
+def lux_scale(target_lux):
+    """The one lux scale of a document's target and achieved views: the largest target
+    with :data:`SCALE_HEADROOM` above it, rounded up (:func:`nice_max`), so that a target
+    reads the same colour in both views and light up to half again as much stays
+    readable (more takes the top colour, the top tick reads "<top>+")."""
+    t = np.asarray(target_lux, dtype=np.float64) if target_lux is not None else np.zeros(0)
+    t = t[np.isfinite(t)]
+    return nice_max(SCALE_HEADROOM * t.max() if t.size else 1.0)
+
+
+def subdivide(points, tris, mark, *per_vertex):
+    """Conforming refinement: split the ``mark`` ed triangles in four, and their neighbours
+    in two (or in four where two of their edges were split), so that no vertex lies on
+    another triangle's edge (no cracks, no colour seams).
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+    tris : (m, 3) int64
+    mark : (m,) bool
+    per_vertex : (n, ...) arrays interpolated at the new midpoints (e.g. normals)
+
+    Returns
+    -------
+    points (n', 3), tris (m', 3), parent (m',) index of each new triangle's triangle in
+    ``tris``, then the ``per_vertex`` arrays extended to n'.
+    """
+    tris = np.asarray(tris, dtype=np.int64)
+    n = len(points)
+    e = np.stack([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]], axis=1)   # (m, 3, 2)
+    k = np.min(e, axis=2) * n + np.max(e, axis=2)                               # (m, 3)
+    split = np.unique(k[np.asarray(mark, dtype=bool)])
+    while True:
+        s = np.isin(k, split)
+        two = s.sum(axis=1) == 2
+        if not two.any():
+            break
+        split = np.union1d(split, k[two][~s[two]])
+    s = np.isin(k, split)
+    c = s.sum(axis=1)
+    a, b = split // n, split % n
+    pts = np.concatenate([points, 0.5 * (points[a] + points[b])])
+    extra = [np.concatenate([x, 0.5 * (x[a] + x[b])]) for x in per_vertex]
+    mid = np.where(s, n + np.searchsorted(split, k), -1)                        # (m, 3)
+    out, parent = [tris[c == 0]], [np.flatnonzero(c == 0)]
+    one = np.flatnonzero(c == 1)
+    if len(one):
+        r = np.argmax(s[one], axis=1)
+        t0, t1, t2 = (tris[one, (r + j) % 3] for j in range(3))
+        m = mid[one, r]
+        out += [np.stack([t0, m, t2], 1), np.stack([m, t1, t2], 1)]
+        parent += [one, one]
+    four = np.flatnonzero(c == 3)
+    if len(four):
+        t0, t1, t2 = tris[four, 0], tris[four, 1], tris[four, 2]
+        m01, m12, m20 = mid[four, 0], mid[four, 1], mid[four, 2]
+        out += [np.stack(q, 1) for q in ((t0, m01, m20), (m01, t1, m12), (m20, m12, t2),
+                                         (m01, m12, m20))]
+        parent += [four] * 4
+    return (pts, np.concatenate(out), np.concatenate(parent), *extra)
+
+
+def edge_triangles(tri_values, vmax, step=None):
+    """(m,) bool: triangles across a target's edge, given their vertices' values (m, 3)
+    lux: some vertices with a target and some without, or values differing by more than
+    ``step`` (default :data:`EDGE_STEP`) times the top of the scale (a shade disc)."""
+    v = np.asarray(tri_values, dtype=np.float64)
+    fin = np.isfinite(v)
+    mixed = fin.any(axis=1) & ~fin.all(axis=1)
+    rng = np.where(fin, v, -np.inf).max(axis=1) - np.where(fin, v, np.inf).min(axis=1)
+    rng = np.where(fin.any(axis=1), rng, 0.0)
+    return mixed | (rng > (EDGE_STEP if step is None else step) * vmax)
+
+
+def target_mesh(building, vmax, levels=None, base_dir=None):
+    """A display mesh for the targets, finer along their edges, with the targets on it.
+
+    The building's sampling mesh draws a spot's round edge as stair steps one mesh cell
+    high (per-vertex colours between a vertex with a target and one without). Here the
+    triangles across an edge (:func:`edge_triangles`) are split (:func:`subdivide`) and
+    the room's targets evaluated again on the new vertices, ``levels`` times (default
+    :data:`EDGE_LEVELS`: steps 8 times smaller); the rest of the mesh is unchanged.
+
+    Returns
+    -------
+    dict: vertices (n, 3) m, normals (n, 3), faces (k, 3), groups (k,) as
+    :func:`face_groups`, virtual (k,) bool (work planes), values (n,) lux
+    """
+    from invrad_wb.core.model import targets as CT
+    sc = building.scene
+    levels = EDGE_LEVELS if levels is None else int(levels)
+    groups_all = face_groups(building)
+    virt_all = np.asarray(sc.face_virtual, dtype=bool)
+    V, N, F, G, W, L = [], [], [], [], [], []
+    nv = 0
+    for p in building.rooms:
+        n_surf = len(p.mesh.triangles)
+        s0 = p.faces.start
+        for part, rows in (("surf", slice(s0, s0 + n_surf)), ("wp", slice(s0 + n_surf,
+                                                                           p.faces.stop))):
+            tri = sc.faces[rows]
+            if not len(tri):
+                continue
+            uniq, inv = np.unique(tri, return_inverse=True)
+            v, nrm = sc.vertices[uniq], sc.vertex_normals[uniq]
+            t = np.asarray(inv).reshape(-1, 3)
+            groups = groups_all[rows]
+            vals = sc.vertex_lux[uniq] if sc.vertex_lux is not None else np.full(len(v),
+                                                                                  np.nan)
+            if part == "surf" and p.targets:
+                tf = np.asarray(p.mesh.triangle_face)
+                for _ in range(levels):
+                    mark = edge_triangles(vals[t], vmax)
+                    if not mark.any():
+                        break
+                    v, t, parent, nrm = subdivide(v, t, mark, nrm)
+                    tf, groups = tf[parent], groups[parent]
+                    vals = CT.evaluate(v, t, tf, p.targets, source=p.space.Label,
+                                       label=p.mesh.face_label, base_dir=base_dir)
+                nrm = nrm / np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-12)
+            V.append(v)
+            N.append(nrm)
+            F.append(t + nv)
+            G.append(groups)
+            W.append(np.full(len(t), part == "wp") & virt_all[rows][0])
+            L.append(vals)
+            nv += len(v)
+    return {"vertices": np.concatenate(V), "normals": np.concatenate(N),
+            "faces": np.concatenate(F), "groups": np.concatenate(G),
+            "virtual": np.concatenate(W), "values": np.concatenate(L)}
 
 
 def room_labels(building, height_m=0.9):
@@ -481,17 +636,34 @@ def hide(doc):
 
 
 def target_scale(building):
-    """Top of the scale for a building's targets (lux): the largest target, rounded up."""
-    t = building.scene.vertex_lux
-    t = t[np.isfinite(t)] if t is not None else np.zeros(0)
-    return nice_max(t.max() if t.size else 1.0)
+    """Top of the scale for a building's targets (lux): :func:`lux_scale` of them."""
+    return lux_scale(building.scene.vertex_lux)
 
 
-def show(doc, building, values, title, mode_name, targets=True, vmax=None):
-    """Show per-vertex ``values`` (lux) of ``building`` in false colour; replaces any
-    overlay of ``doc``. ``vmax``: top of the scale (default: the largest value, rounded
-    up); larger values take the top colour and the top tick reads "<vmax>+". Returns the
-    top of the scale (lux)."""
+_SCALES = {}        # doc name -> the lux scale its views share
+
+
+def document_scale(doc, target_lux):
+    """The lux scale of ``doc``'s target and achieved views, chosen once: by
+    :func:`lux_scale` on the first view, then kept while the largest target still fits
+    under it with its headroom (5 % slack: meshes of other resolutions sample a spot's
+    peak a little differently); new only when the targets changed that much."""
+    t = np.asarray(target_lux, dtype=np.float64) if target_lux is not None else np.zeros(0)
+    t = t[np.isfinite(t)]
+    need = SCALE_HEADROOM * (t.max() if t.size else 0.0)
+    old = _SCALES.get(doc.Name)
+    new = lux_scale(t)
+    if old is not None and need <= old * 1.05 and new >= old / 2:
+        return old
+    _SCALES[doc.Name] = new
+    return new
+
+
+def show(doc, building, values, title, mode_name, targets=True, vmax=None, mesh=None):
+    """Show per-vertex ``values`` (lux) of ``building`` (or of the display ``mesh``, see
+    :func:`target_mesh`) in false colour; replaces any overlay of ``doc``. ``vmax``: top
+    of the scale (default: the largest value, rounded up); larger values take the top
+    colour and the top tick reads "<vmax>+". Returns the top of the scale (lux)."""
     import FreeCAD
     from invrad_wb.gui import params
     if not FreeCAD.GuiUp:
@@ -499,7 +671,7 @@ def show(doc, building, values, title, mode_name, targets=True, vmax=None):
     opts = params.load_display()
     hide(doc)
     geom = overlay_geometry(building, values, offset_m=opts["offset_m"], targets=targets,
-                            vmax=vmax)
+                            vmax=vmax, mesh=mesh)
     coin = _coin()
     node = coin.SoSeparator()
     node.setName(OVERLAY_NAME + "Root")
@@ -532,22 +704,25 @@ def show(doc, building, values, title, mode_name, targets=True, vmax=None):
 
 
 def show_targets(doc, rooms=None):
-    """Evaluate the rooms' targets on fine display meshes and show them."""
+    """Evaluate the rooms' targets on fine display meshes (finer still along target
+    edges: :func:`target_mesh`) and show them on the document's scale."""
     from invrad_wb.app.pipeline import PipelineSettings, prepare
     from invrad_wb.gui import params
     opts = params.load_display()
-    building = prepare(doc, PipelineSettings(flux_lm=1.0, resolution_m=opts["resolution_m"],
-                                             rooms=rooms))
-    return show(doc, building, building.scene.vertex_lux, "Target\nilluminance (lx)",
-                "targets", targets=True)
+    settings = PipelineSettings(flux_lm=1.0, resolution_m=opts["resolution_m"], rooms=rooms)
+    building = prepare(doc, settings)
+    vmax = document_scale(doc, building.scene.vertex_lux)
+    mesh = target_mesh(building, vmax, base_dir=settings.base_dir)
+    return show(doc, building, mesh["values"], "Target\nilluminance (lx)", "targets",
+                targets=True, vmax=vmax, mesh=mesh)
 
 
 def show_achieved(doc, building, achieved, vmax=None):
-    """The achieved illuminance; ``vmax`` the top of the scale (the report's, so that the
-    view and the report's images read the same), by default the targets' (same colour =
-    on target)."""
+    """The achieved illuminance on the document's scale (:func:`document_scale`, the
+    targets' view's: same colour = on target); ``vmax`` overrides it."""
+    vmax = vmax or document_scale(doc, building.scene.vertex_lux)
     return show(doc, building, achieved, "Achieved\nilluminance (lx)", "achieved",
-                targets=False, vmax=vmax or target_scale(building))
+                targets=False, vmax=vmax)
 
 
 def toggle_targets(doc=None):
@@ -594,3 +769,4 @@ def state(doc):
 
 def forget(doc_name):
     _STATE.pop(doc_name, None)
+    _SCALES.pop(doc_name, None)

@@ -321,8 +321,7 @@ def verify(doc=None, rooms=None, report_dir=None, show=True):
     if show:
         try:
             from invrad_wb.gui import display
-            scale = getattr(vr.report, "scale", None) or {}
-            display.show_achieved(doc, vr.building, vr.achieved, scale.get("lux_max"))
+            display.show_achieved(doc, vr.building, vr.achieved)
         except Exception as exc:               # the display is a nicety, not the result
             messages.warning(title, f"could not show the result in false colour: {exc}")
     lines = [f"{len(vr.luminaires)} luminaire(s) in {len(vr.building.rooms)} room(s);"
