@@ -23,7 +23,9 @@ faces), is not pickable (clicks select the faces behind it) and culls back faces
 from outside a room one looks into it like into a doll's house: the near walls and the
 ceiling vanish while the floor and the far walls stay. The legend (colour bar, ticks in
 lux, swatches) is drawn in screen space at the left of the view; each room's name is
-written above the middle of its floor.
+written over its floor, clear of its walls, fixtures and the objects standing in it; a
+name cut away by a clipping plane, or under a storey above that hides its room, is not
+drawn (:func:`label_visibility`), so that one storey's names never print over another's.
 
 The numpy part (colour map, ticks, overlay geometry) needs no GUI and is tested
 headless; the coin part runs only with FreeCAD's GUI.
@@ -48,6 +50,16 @@ SCALE_HEADROOM = 1.5
 #: the value step (fraction of the scale) across a triangle that counts as an edge.
 EDGE_LEVELS = 3
 EDGE_STEP = 0.2
+
+#: Room names: the height above a room's floor that objects standing in it must reach
+#: into to count as obstacles for its name, and the floor step that makes another storey.
+LABEL_CLEAR_HEIGHT_M = 2.0
+STOREY_STEP_M = 1.0
+#: Objects that are never obstacles for a room's name (the envelope, the rooms, fixtures).
+_NOT_OBSTACLES = {"Space", "Wall", "Structure", "Window", "Door", "Floor", "Building",
+                  "Site", "BuildingPart", "Equipment", "Roof", "Covering", "InvRadTarget"}
+_NOT_OBSTACLE_IFC = {"Slab", "Wall", "Window", "Door", "Roof", "Covering", "Beam", "Column",
+                     "Light Fixture", "Building Storey", "Building", "Site", "Space"}
 
 #: Node names, so that a scene graph can be searched for the overlay.
 OVERLAY_NAME = "InvRadFalseColour"
@@ -289,8 +301,9 @@ def target_mesh(building, vmax, levels=None, base_dir=None):
 def room_labels(building, height_m=0.9):
     """``[(room label, (x, y, z) mm)]``: where each room's name is written, ``height_m``
     above its floor (over a work plane at 0.75 m): inside the floor's outline as far as
-    possible from the walls and from the room's light fixtures, so that the name covers
-    neither (as on the design report's plans)."""
+    possible from the walls, from the room's light fixtures and from other objects
+    standing in the room (a stair, furniture), so that the name covers none of them (as
+    on the design report's plans)."""
     from invrad_wb.core.output.design_report import label_point
     # the names are screen text (about 7 x 13 px a character); seen whole, a building of
     # extent X metres spans about 500 px: a character is about X / 70 m wide
@@ -307,9 +320,103 @@ def room_labels(building, height_m=0.9):
         edges = _outline_edges(corners) if m.floor_triangles.any() else []
         if len(edges):
             half = (0.5 * char_m * max(len(p.space.Label), 1) + 0.1, char_m + 0.1)
-            c = label_point(edges, _fixture_xy(p.space), half_size=half)
+            avoid = _fixture_xy(p.space) + _obstacle_xy(p.space, edges, lo[2],
+                                                        lo[2] + LABEL_CLEAR_HEIGHT_M)
+            c = label_point(edges, avoid, half_size=half)
         out.append((p.space.Label, (1000.0 * c[0], 1000.0 * c[1],
                                     1000.0 * (lo[2] + height_m))))
+    return out
+
+
+def label_visibility(building, labels, planes=()):
+    """(k,) bool: which room names to draw, one storey's over another's.
+
+    A name is hidden when a clipping plane cuts its point away (the room is cut off the
+    view), or when a room of a storey above (floor at least :data:`STOREY_STEP_M` higher)
+    that the planes keep covers the name's point in plan: its floor hides the room below
+    from above, and the name would be printed over the room upstairs (the FZK-Haus
+    Galerie's name over the Flur below it).
+
+    Parameters
+    ----------
+    building : BuildingScene
+    labels : list from :func:`room_labels` (one per room, in order)
+    planes : list of ((3,) normal, distance mm): coin clip planes, which keep the points
+        with ``normal . p >= distance``
+    """
+    def kept(pts_mm):
+        ok = np.ones(len(pts_mm), dtype=bool)
+        for n, d in planes:
+            ok &= pts_mm @ np.asarray(n, dtype=np.float64) >= d - 1e-6
+        return ok
+    pts = np.array([xyz for _, xyz in labels], dtype=np.float64).reshape(-1, 3)
+    vis = kept(pts)
+    floors = []
+    for p in building.rooms:
+        m = p.mesh
+        tri = m.triangles[m.floor_triangles] if m.floor_triangles.any() else m.triangles
+        corners = m.vertices[tri]
+        z = float(corners[:, :, 2].min()) if len(corners) else 0.0
+        floors.append((z, corners[:, :, :2],
+                       bool(kept(1000.0 * corners.reshape(-1, 3)).any()) if len(corners)
+                       else False))
+    for i, (zi, _, _) in enumerate(floors):
+        if not vis[i]:
+            continue
+        for j, (zj, tri, shown) in enumerate(floors):
+            if j != i and shown and zj >= zi + STOREY_STEP_M and \
+                    _in_triangles(pts[i, :2] / 1000.0, tri):
+                vis[i] = False
+                break
+    return vis
+
+
+def _in_triangles(p, tri):
+    """Is the plan point ``p`` (2,) inside any of the triangles ``tri`` (t, 3, 2)?"""
+    if not len(tri):
+        return False
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+
+    def cross(u, v):
+        return u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+    d1, d2, d3 = cross(b - a, p - a), cross(c - b, p - b), cross(a - c, p - c)
+    neg = (d1 < 0) | (d2 < 0) | (d3 < 0)
+    pos = (d1 > 0) | (d2 > 0) | (d3 > 0)
+    return bool(np.any(~(neg & pos)))
+
+
+def _obstacle_xy(space, edges, z0, z1):
+    """Plan points (metres) of objects standing in a room between heights ``z0`` and
+    ``z1`` (a stair, furniture, a railing): vertices of their shapes inside the floor's
+    outline ``edges``. The building's envelope (walls, slabs, doors, windows, the rooms
+    themselves) and the light fixtures (counted apart) are not obstacles."""
+    from invrad_wb.app.document import object_type
+    from invrad_wb.core.output.design_report import _inside
+    doc = getattr(space, "Document", None)
+    if doc is None:
+        return []
+    lo = edges.reshape(-1, 2).min(axis=0) * 1000.0
+    hi = edges.reshape(-1, 2).max(axis=0) * 1000.0
+    out = []
+    for obj in doc.Objects:
+        try:
+            if object_type(obj) in _NOT_OBSTACLES or getattr(obj, "IfcType", "") in \
+                    _NOT_OBSTACLE_IFC or not getattr(obj, "Visibility", True):
+                continue
+            shape = getattr(obj, "Shape", None)
+            if shape is None or shape.isNull() or not shape.Vertexes:
+                continue
+            bb = shape.BoundBox
+            if (bb.XMax < lo[0] or bb.XMin > hi[0] or bb.YMax < lo[1] or bb.YMin > hi[1]
+                    or bb.ZMax < 1000.0 * z0 or bb.ZMin > 1000.0 * z1
+                    or bb.XLength > 0.9 * (hi[0] - lo[0]) and bb.YLength > 0.9 * (hi[1] - lo[1])):
+                continue
+            xy = np.array([[v.Point.x, v.Point.y] for v in shape.Vertexes
+                           if 1000.0 * z0 - 1.0 <= v.Point.z <= 1000.0 * z1]) / 1000.0
+        except Exception:          # an object without readable geometry is no obstacle
+            continue
+        if len(xy):
+            out += list(xy[_inside(edges, xy)])
     return out
 
 
@@ -625,6 +732,11 @@ def hide(doc):
     st = _STATE.pop(doc.Name, None)
     if st is None:
         return False
+    for sensor in st.get("sensors", []):
+        try:
+            sensor.detach()
+        except Exception:
+            pass
     for sg in st["graphs"]:
         for node in (st["node"], st["legend"]):
             try:
@@ -687,7 +799,8 @@ def show(doc, building, values, title, mode_name, targets=True, vmax=None, mesh=
     legend = coin.SoSeparator()
     legend.setName(LEGEND_NAME + "Root")
     legend.addChild(build_legend(title, geom["vmax"], swatches, over=over))
-    legend.addChild(build_labels(room_labels(building)))
+    label_node = coin.SoSeparator()
+    legend.addChild(label_node)
     graphs = _graphs(doc)
     for sg in graphs:
         # the surfaces go last, where clipping planes (Std_ToggleClipPlane, inserted
@@ -699,8 +812,76 @@ def show(doc, building, values, title, mode_name, targets=True, vmax=None, mesh=
     _STATE[doc.Name] = {"node": node, "legend": legend, "graphs": graphs,
                         "mode": mode_name,
                         "building": building, "vmax": geom["vmax"],
-                        "triangles": len(geom["surfaces"]) + len(geom["work_plane"])}
+                        "triangles": len(geom["surfaces"]) + len(geom["work_plane"]),
+                        "labels": room_labels(building), "label_node": label_node,
+                        "label_vis": None, "sensors": []}
+    update_labels(doc)
+    # a clipping plane toggled or moved later shows and hides the names again
+    for sg in graphs:
+        try:
+            sensor = coin.SoNodeSensor(_graph_changed, doc.Name)
+            sensor.attach(sg)
+            _STATE[doc.Name]["sensors"].append(sensor)
+        except Exception:          # without the sensor the names follow at the next show
+            pass
     return geom["vmax"]
+
+
+def clip_planes(graphs):
+    """The active clipping planes (Std_ToggleClipPlane, section views) in scene graphs:
+    ``[((3,) normal, distance mm)]``; coin keeps ``normal . p >= distance``."""
+    coin = _coin()
+    out = []
+    for sg in graphs:
+        sa = coin.SoSearchAction()
+        sa.setType(coin.SoClipPlane.getClassTypeId(), True)
+        sa.setInterest(coin.SoSearchAction.ALL)
+        sa.apply(sg)
+        paths = sa.getPaths()
+        for i in range(paths.getLength()):
+            node = paths[i].getTail()
+            if hasattr(node, "on") and not node.on.getValue():
+                continue
+            pl = node.plane.getValue()
+            n = pl.getNormal()
+            out.append(((float(n[0]), float(n[1]), float(n[2])),
+                        float(pl.getDistanceFromOrigin())))
+    return out
+
+
+def update_labels(doc):
+    """Draw the room names that :func:`label_visibility` keeps for the clipping planes of
+    the document's views now; True if the drawn set changed."""
+    st = _STATE.get(doc if isinstance(doc, str) else doc.Name)
+    if st is None:
+        return False
+    try:
+        planes = clip_planes(st["graphs"])
+    except Exception:
+        planes = []
+    vis = tuple(bool(v) for v in label_visibility(st["building"], st["labels"], planes))
+    if vis == st["label_vis"]:
+        return False
+    st["label_vis"] = vis
+    node = st["label_node"]
+    node.removeAllChildren()
+    node.addChild(build_labels([lab for lab, v in zip(st["labels"], vis) if v]))
+    return True
+
+
+def shown_labels(doc):
+    """The room names drawn now in ``doc``'s overlay: [(label, (x, y, z) mm)]."""
+    st = _STATE.get(doc.Name)
+    if st is None or st["label_vis"] is None:
+        return []
+    return [lab for lab, v in zip(st["labels"], st["label_vis"]) if v]
+
+
+def _graph_changed(name, sensor=None):
+    try:
+        update_labels(name)
+    except Exception:              # a document closing under the sensor
+        pass
 
 
 def show_targets(doc, rooms=None):
@@ -768,5 +949,10 @@ def state(doc):
 
 
 def forget(doc_name):
-    _STATE.pop(doc_name, None)
+    st = _STATE.pop(doc_name, None)
+    for sensor in (st or {}).get("sensors", []):
+        try:
+            sensor.detach()
+        except Exception:
+            pass
     _SCALES.pop(doc_name, None)

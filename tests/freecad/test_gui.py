@@ -367,6 +367,37 @@ class TestDisplayNumpy(FreeCADTestCase):
         self.assertGreater(len(m["faces"]), len(sc.faces))
         self.assertLess(len(m["faces"]), 3 * len(sc.faces))    # refined along the rim only
 
+    def test_room_names_per_storey_and_clear_of_objects(self):
+        import Part
+        down_ = make_walled_room(self.doc, size=(4.0, 3.0, 2.7), label="Flur")
+        up = make_walled_room(self.doc, size=(4.0, 3.0, 2.7), origin=(0.0, 0.0, 3.0),
+                              label="Galerie")
+        for sp in (down_, up):
+            targets.set_work_plane(sp, 200.0)
+        # a stair in the middle of the room below
+        stair = self.doc.addObject("Part::Feature", "Stair")
+        stair.Shape = Part.makeBox(800, 800, 2500, FreeCAD.Vector(1600, 1100, 0))
+        self.doc.recompute()
+        b = pipeline.prepare(self.doc, PipelineSettings(flux_lm=1.0, resolution_m=0.25))
+        labels = display.room_labels(b)
+        self.assertEqual([n for n, _ in labels], ["Flur", "Galerie"])
+        (_, (x0, y0, z0)), (_, (x1, y1, z1)) = labels
+        self.assertAlmostEqual(z0, 900.0)
+        self.assertAlmostEqual(z1, 3900.0)
+        # the name below keeps clear of the stair (its box is 1.6..2.4 x 1.1..1.9 m)
+        self.assertFalse(1500 < x0 < 2500 and 1000 < y0 < 2000, (x0, y0))
+        self.assertTrue(100 < x0 < 3900 and 100 < y0 < 2900)
+        self.assertAlmostEqual(x1, 2000.0, delta=1e-6)     # nothing in the room above
+        # seen whole (no clipping plane): the storey above hides the room below and
+        # only its name is drawn, not both on top of each other
+        self.assertEqual(display.label_visibility(b, labels).tolist(), [False, True])
+        # a plan cut below the upper storey (keeps z <= 2480 mm): only the name below
+        cut = [((0.0, 0.0, -1.0), -2480.0)]
+        self.assertEqual(display.label_visibility(b, labels, cut).tolist(), [True, False])
+        # a cut above both storeys keeps both rooms; the upper one still covers the lower
+        high = [((0.0, 0.0, -1.0), -9000.0)]
+        self.assertEqual(display.label_visibility(b, labels, high).tolist(), [False, True])
+
     def test_one_lux_scale_for_target_and_achieved_views(self):
         doc = types.SimpleNamespace(Name="ScaleTest")
         try:
