@@ -12,7 +12,9 @@ What it shows (per vertex of the rooms' sampling meshes, colours interpolated):
   is mistaken for a low target; the work plane is a translucent layer at its height;
   along the targets' edges (a painted spot's rim) the mesh is refined and the targets
   evaluated again (:func:`target_mesh`), so that a round spot looks round, not stair-stepped;
-* **achieved** illuminance after *Verify and report*, on the same meshes.
+* **achieved** illuminance after *Verify and report* or *Design*, on the same meshes;
+* its **deviation** from the targets (*Show/hide deviation*), -50 % .. +50 % in the
+  report's blue-white-red.
 
 Both views of a document share ONE lux scale, chosen once from its targets
 (:func:`document_scale`: the largest target and half as much again, rounded up), so
@@ -44,6 +46,8 @@ NO_TARGET_RGB = (150 / 255.0, 150 / 255.0, 150 / 255.0)
 SHADE_RGB = (0.02, 0.02, 0.02)
 EDGE_RGB = (0.1, 0.1, 0.1)
 
+#: The deviation view's scale: -50 % .. +50 % (the report's).
+DEVIATION_LIMIT = _images.DEVIATION_LIMIT
 #: The lux scale's top over the largest target (:func:`lux_scale`).
 SCALE_HEADROOM = 1.5
 #: Refinement of the target display along target edges (:func:`target_mesh`): levels, and
@@ -131,7 +135,8 @@ def boundary_edges(faces, groups):
     return e[once]
 
 
-def overlay_geometry(building, values, offset_m=0.01, targets=True, vmax=None, mesh=None):
+def overlay_geometry(building, values, offset_m=0.01, targets=True, vmax=None, mesh=None,
+                     rgb=None):
     """What the overlay draws, in FreeCAD's millimetres.
 
     Parameters
@@ -140,6 +145,8 @@ def overlay_geometry(building, values, offset_m=0.01, targets=True, vmax=None, m
     values : (n,) float64, lux per vertex of ``building.scene`` (or of ``mesh``)
     mesh : dict from :func:`target_mesh`, optional: a finer display mesh to draw instead
         of the building's sampling mesh (``values`` are then per vertex of it)
+    rgb : (n, 3) float64, optional: the vertices' colours (default :func:`colours` of the
+        values, lux)
 
     Returns
     -------
@@ -162,7 +169,8 @@ def overlay_geometry(building, values, offset_m=0.01, targets=True, vmax=None, m
     pts = (mesh["vertices"] + offset_m * mesh["normals"]) * 1000.0
     faces, virt = mesh["faces"], mesh["virtual"]
     return {"points": pts, "surfaces": faces[~virt], "work_plane": faces[virt],
-            "rgb": colours(v, vmax, targets), "edges": boundary_edges(faces, mesh["groups"]),
+            "rgb": colours(v, vmax, targets) if rgb is None else np.asarray(rgb),
+            "edges": boundary_edges(faces, mesh["groups"]),
             "vmax": float(vmax)}
 
 
@@ -590,17 +598,23 @@ def _quad(coin, x0, y0, x1, y1, rgb, z=0.0):
     return sep
 
 
-def legend_layout(title, vmax, swatches, over=False):
+def legend_layout(title, vmax, swatches, over=False, vmin=0.0, fmt=None):
     """Positions of the legend's parts in normalised view coordinates ([-1, 1]^2).
+
+    The bar runs from ``vmin`` (0 lx, or -limit for deviations) to ``vmax``; ``fmt``
+    writes a tick value (default :func:`label`).
 
     Returns a dict of plain numbers and strings (tested headless): the panel, the colour
     bar, the ticks ``[(y, text)]`` and the swatches ``[(y, rgb, text)]``.
     """
+    fmt = fmt or label
     x0, x1 = -0.985, -0.70
     bar = (-0.965, -0.915)
     y_bar0 = -0.55 + 0.09 * (2 - len(swatches))
     y_bar1 = 0.5
-    tick_list = [(y_bar0 + (y_bar1 - y_bar0) * t / vmax, label(t)) for t in ticks(vmax)]
+    span = float(vmax) - float(vmin)
+    tick_list = [(y_bar0 + (y_bar1 - y_bar0) * t / span, fmt(vmin + t))
+                 for t in ticks(span)]
     if over:                       # values above the scale take its top colour
         tick_list[-1] = (tick_list[-1][0], tick_list[-1][1] + "+")
     sw = []
@@ -617,10 +631,11 @@ def legend_layout(title, vmax, swatches, over=False):
                       for i, s in enumerate(title_lines)]}
 
 
-def build_legend(title, vmax, swatches=(), over=False):
-    """Screen-space legend: colour bar 0..vmax lx with ticks, swatches, title."""
+def build_legend(title, vmax, swatches=(), over=False, vmin=0.0, cmap=None, fmt=None):
+    """Screen-space legend: colour bar ``vmin``..``vmax`` (lux by default; ``cmap`` maps
+    values to (n, 3) RGB, default viridis over 0..vmax) with ticks, swatches, title."""
     coin = _coin()
-    lay = legend_layout(title, vmax, list(swatches), over)
+    lay = legend_layout(title, vmax, list(swatches), over, vmin=vmin, fmt=fmt)
     skip = coin.SoType.fromName("SoSkipBoundingGroup").createInstance()
     skip.setName(LEGEND_NAME)
     ann = coin.SoAnnotation()
@@ -646,7 +661,8 @@ def build_legend(title, vmax, swatches=(), over=False):
     bx0, by0, bx1, by1 = lay["bar"]
     n = 48
     ys = np.linspace(by0, by1, n + 1)
-    cols = colours(np.linspace(0.0, vmax, n + 1), vmax, targets=False)
+    vals = np.linspace(vmin, vmax, n + 1)
+    cols = cmap(vals) if cmap is not None else colours(vals, vmax, targets=False)
     bar = coin.SoSeparator()
     bind = coin.SoMaterialBinding()
     bind.value = coin.SoMaterialBinding.PER_VERTEX_INDEXED
@@ -759,46 +775,57 @@ def document_scale(doc, target_lux):
     """The lux scale of ``doc``'s target and achieved views, chosen once: by
     :func:`lux_scale` on the first view, then kept while the largest target still fits
     under it with its headroom (5 % slack: meshes of other resolutions sample a spot's
-    peak a little differently); new only when the targets changed that much."""
+    peak a little differently, one step of the rounding); new when the targets changed
+    more (a brighter target, or one a step lower as after an undo)."""
     t = np.asarray(target_lux, dtype=np.float64) if target_lux is not None else np.zeros(0)
     t = t[np.isfinite(t)]
     need = SCALE_HEADROOM * (t.max() if t.size else 0.0)
     old = _SCALES.get(doc.Name)
     new = lux_scale(t)
-    if old is not None and need <= old * 1.05 and new >= old / 2:
+    if old is not None and need <= old * 1.05 and new >= 0.75 * old:
         return old
     _SCALES[doc.Name] = new
     return new
 
 
-def show(doc, building, values, title, mode_name, targets=True, vmax=None, mesh=None):
+def show(doc, building, values, title, mode_name, targets=True, vmax=None, mesh=None,
+         deviation=False):
     """Show per-vertex ``values`` (lux) of ``building`` (or of the display ``mesh``, see
     :func:`target_mesh`) in false colour; replaces any overlay of ``doc``. ``vmax``: top
     of the scale (default: the largest value, rounded up); larger values take the top
-    colour and the top tick reads "<vmax>+". Returns the top of the scale (lux)."""
+    colour and the top tick reads "<vmax>+". With ``deviation`` the values are relative
+    deviations from the target, drawn -vmax..+vmax in the report's blue-white-red.
+    Returns the top of the scale (lux, or the deviation fraction)."""
     import FreeCAD
     from invrad_wb.gui import params
     if not FreeCAD.GuiUp:
         return None
     opts = params.load_display()
     hide(doc)
+    rgb = deviation_colours(values, vmax) if deviation else None
     geom = overlay_geometry(building, values, offset_m=opts["offset_m"], targets=targets,
-                            vmax=vmax, mesh=mesh)
+                            vmax=vmax, mesh=mesh, rgb=rgb)
     coin = _coin()
     node = coin.SoSeparator()
     node.setName(OVERLAY_NAME + "Root")
     node.addChild(build_overlay(geom, opts["work_plane_transparency"]))
     v = np.asarray(values, dtype=np.float64)
-    over = bool(np.any(v[np.isfinite(v)] > geom["vmax"] * (1 + 1e-9)))
+    over = not deviation and bool(np.any(v[np.isfinite(v)] > geom["vmax"] * (1 + 1e-9)))
     swatches = []
-    if targets:
+    scale = {}
+    if deviation:
+        scale = {"vmin": -geom["vmax"], "fmt": _percent,
+                 "cmap": lambda x: deviation_colours(x, geom["vmax"])}
+        if np.any(~np.isfinite(v)):
+            swatches.append((tuple(np.asarray(_images.NAN_GREY) / 255.0), "no target"))
+    elif targets:
         if np.any(np.isfinite(v) & (v == 0)):
             swatches.append((SHADE_RGB, "0 (shade)"))
         if np.any(~np.isfinite(v)):
             swatches.append((NO_TARGET_RGB, "no target"))
     legend = coin.SoSeparator()
     legend.setName(LEGEND_NAME + "Root")
-    legend.addChild(build_legend(title, geom["vmax"], swatches, over=over))
+    legend.addChild(build_legend(title, geom["vmax"], swatches, over=over, **scale))
     label_node = coin.SoSeparator()
     legend.addChild(label_node)
     graphs = _graphs(doc)
@@ -900,10 +927,76 @@ def show_targets(doc, rooms=None):
 
 def show_achieved(doc, building, achieved, vmax=None):
     """The achieved illuminance on the document's scale (:func:`document_scale`, the
-    targets' view's: same colour = on target); ``vmax`` overrides it."""
+    targets' view's: same colour = on target); ``vmax`` overrides it. The result is kept
+    for :func:`show_deviation`."""
+    _ACHIEVED[doc.Name] = (building, np.asarray(achieved, dtype=np.float64))
     vmax = vmax or document_scale(doc, building.scene.vertex_lux)
     return show(doc, building, achieved, "Achieved\nilluminance (lx)", "achieved",
                 targets=False, vmax=vmax)
+
+
+_ACHIEVED = {}      # doc name -> (building, achieved lux) of the last achieved view
+
+
+def deviation(target, achieved):
+    """Relative deviation per vertex, (E - T) / T, as the report computes it (shade
+    points: E over the mean positive target); NaN where there is no target."""
+    from invrad_wb.core.output.report import relative_deviation
+    t = np.asarray(target, dtype=np.float64)
+    pos = t[np.isfinite(t) & (t > 0)]
+    return relative_deviation(t, achieved, float(pos.mean()) if pos.size else np.nan)
+
+
+def deviation_colours(values, limit=DEVIATION_LIMIT):
+    """The report's deviation colours, RGB in [0, 1]: blue too dark, white on target, red
+    too bright, full at +-``limit``; NaN (no target) grey."""
+    return _images.diverging(values, limit).astype(np.float64) / 255.0
+
+
+def _percent(x):
+    return f"{100.0 * x:+.0f} %" if abs(x) > 1e-9 else "0 %"
+
+
+def has_achieved(doc):
+    return doc is not None and doc.Name in _ACHIEVED
+
+
+def drop_achieved(doc):
+    """Forget the achieved result (the fixtures changed: its deviation would be stale)."""
+    _ACHIEVED.pop(doc.Name, None)
+
+
+def show_deviation(doc, limit=DEVIATION_LIMIT):
+    """The last achieved view's deviation from the targets, -limit..+limit (the report's
+    scale and colours). Returns the limit, or None without an achieved result."""
+    got = _ACHIEVED.get(doc.Name)
+    if got is None:
+        return None
+    building, achieved = got
+    dev = deviation(building.scene.vertex_lux, achieved)
+    return show(doc, building, dev, "Deviation from\ntarget", "deviation", targets=False,
+                vmax=float(limit), deviation=True)
+
+
+def toggle_deviation(doc=None):
+    """Switch between the achieved illuminance and its deviation from the targets; True
+    if the deviation is shown afterwards."""
+    import FreeCAD
+    from invrad_wb.gui import messages
+    doc = doc or FreeCAD.ActiveDocument
+    if doc is None or not has_achieved(doc):
+        return False
+    try:
+        if is_shown(doc, "deviation"):
+            building, achieved = _ACHIEVED[doc.Name]
+            show_achieved(doc, building, achieved)
+            return False
+        show_deviation(doc)
+    except Exception as exc:
+        hide(doc)
+        messages.exception("Show deviation", exc)
+        return False
+    return True
 
 
 def toggle_targets(doc=None):
@@ -956,3 +1049,4 @@ def forget(doc_name):
         except Exception:
             pass
     _SCALES.pop(doc_name, None)
+    _ACHIEVED.pop(doc_name, None)

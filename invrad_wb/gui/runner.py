@@ -70,6 +70,12 @@ def _colour_fixtures(doc, names):
             style_fixture(obj)
 
 
+def _drop_achieved(doc):
+    """New fixtures: the last achieved light (and its deviation view) is out of date."""
+    from invrad_wb.gui import display
+    display.drop_achieved(doc)
+
+
 def _room_keys(rooms):
     if not rooms:
         return None
@@ -110,6 +116,7 @@ def locate(doc=None, rooms=None, run=None, locate=None):
         return None
     res.fixtures = [o.Name for o in new]
     _colour_fixtures(doc, res.fixtures)
+    _drop_achieved(doc)
     _RESULTS[doc.Name] = Stored(res, settings, when=time.time())
     rooms_txt = ", ".join(res.building.room_names)
     lines = [f"{len(res.luminaires)} luminaire(s) of {settings.flux_lm:.0f} lm in"
@@ -265,6 +272,7 @@ def repeak(doc=None, threshold=None, neighbourhood_m=None):
     st.result.fixtures = [o.Name for o in new]
     st.verified = None
     _colour_fixtures(doc, st.result.fixtures)
+    _drop_achieved(doc)
     keep = {}
     if threshold is not None:
         keep["threshold"] = float(threshold)

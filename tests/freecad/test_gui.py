@@ -398,6 +398,26 @@ class TestDisplayNumpy(FreeCADTestCase):
         high = [((0.0, 0.0, -1.0), -9000.0)]
         self.assertEqual(display.label_visibility(b, labels, high).tolist(), [False, True])
 
+    def test_deviation_view_numbers_colours_and_legend(self):
+        from invrad_wb.core.output import images
+        dev = display.deviation([500.0, 0.0, np.nan, 250.0], [600.0, 75.0, 10.0, 125.0])
+        np.testing.assert_allclose(dev, [0.2, 75.0 / 375.0, np.nan, -0.5])
+        rgb = display.deviation_colours(np.array([-0.5, 0.0, 0.5, np.nan, -2.0]), 0.5)
+        np.testing.assert_allclose(rgb[0], images.diverging(np.array([-0.5]))[0] / 255.0)
+        self.assertTrue(np.all(rgb[1] > 0.9))                  # on target: near white
+        self.assertGreater(rgb[2, 0], rgb[2, 2])               # too bright: red
+        self.assertGreater(rgb[0, 2], rgb[0, 0])               # too dark: blue
+        np.testing.assert_allclose(rgb[4], rgb[0])             # beyond the scale: its end
+        np.testing.assert_allclose(rgb[3], np.array(images.NAN_GREY) / 255.0)
+        lay = display.legend_layout("Deviation from\ntarget", 0.5, [], vmin=-0.5,
+                                    fmt=display._percent)
+        self.assertEqual([t for _, t in lay["ticks"]],
+                         ["-50 %", "-25 %", "0 %", "+25 %", "+50 %"])
+        ys = [y for y, _ in lay["ticks"]]
+        self.assertEqual(ys, sorted(ys))
+        self.assertAlmostEqual(ys[0], lay["bar"][1])
+        self.assertAlmostEqual(ys[-1], lay["bar"][3])
+
     def test_one_lux_scale_for_target_and_achieved_views(self):
         doc = types.SimpleNamespace(Name="ScaleTest")
         try:
@@ -407,6 +427,7 @@ class TestDisplayNumpy(FreeCADTestCase):
             self.assertEqual(display.document_scale(doc, [480.0]), 800.0)
             # a brighter target than the scale can show with headroom: a new scale
             self.assertEqual(display.document_scale(doc, [900.0]), 1500.0)
+            self.assertEqual(display.document_scale(doc, [500.0]), 800.0)     # an undo
             self.assertEqual(display.document_scale(doc, [100.0]), 150.0)
         finally:
             display.forget(doc.Name)
