@@ -3,7 +3,7 @@ import numpy as np
 
 import FreeCAD
 
-from fctest import FreeCADTestCase, make_walled_room
+from fctest import FZK, FreeCADTestCase, make_walled_room, needs_fzk, needs_locate
 from invrad_wb.app import document, fixtures
 from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.errors import LuminaireError, SceneError
@@ -192,3 +192,54 @@ class TestFixtures(FreeCADTestCase):
         doc.recompute()
         self.assertEqual(len(fixtures.room_fixtures(space)), 2)
         self.doc = doc
+
+
+def wall_clearance_m(fx):
+    """Plan distance (m) from a fixture's centre to the nearest wall face of its room, and
+    whether the centre lies inside the room (1 mm along its light, off its surface)."""
+    import Part
+    lum = fixtures.fixture_luminaire(fx)
+    shape = fx.Room.Shape
+    p = FreeCAD.Vector(*(1000.0 * (lum.position + 0.001 * lum.normal)))
+    inside = shape.isInside(p, 1e-3, True)
+    walls = [f for f in shape.Faces if abs(f.normalAt(0.5, 0.5).z) < 0.1]
+    v = Part.Vertex(p)
+    return min(f.distToShape(v)[0] for f in walls) / 1000.0, inside
+
+
+class TestFixturesInTheirRooms(FreeCADTestCase):
+    """Located fixtures lie inside their rooms and clear of the walls; rooms do not overlap."""
+
+    @needs_locate
+    def test_located_ceiling_lights_keep_clear_of_the_walls(self):
+        # a work plane reaching the walls pulled ceiling lights onto the ceiling's edge
+        # (FZK-Haus: centres on the wall lines, bodies in the walls)
+        from invrad_wb.app import pipeline, targets
+        from invrad_wb.core.inverse.locate import MOUNT_CLEARANCE_M
+        space = make_walled_room(self.doc)
+        targets.set_work_plane(space, 500.0)
+        pipeline.run(self.doc, pipeline.PipelineSettings(
+            flux_lm=1500.0, resolution_m=0.3, interreflection=False, workers=1))
+        fx = fixtures.room_fixtures(space)
+        self.assertGreaterEqual(len(fx), 4)
+        for f in fx:
+            clear, inside = wall_clearance_m(f)
+            self.assertTrue(inside, f.Label)
+            if f.LightDirection.z < -0.99:                 # on the ceiling or hanging
+                self.assertGreaterEqual(clear, MOUNT_CLEARANCE_M - 0.002, f.Label)
+
+    @needs_fzk
+    def test_fzk_rooms_do_not_overlap(self):
+        from invrad_wb.app import ifcimport, rooms
+        doc = ifcimport.open(FZK)
+        spaces = rooms.find_spaces(doc)
+        self.assertEqual(len(spaces), 7)
+        touching = 0
+        for i, a in enumerate(spaces):
+            for b in spaces[i + 1:]:
+                if not a.Shape.BoundBox.intersect(b.Shape.BoundBox):
+                    continue
+                common = a.Shape.common(b.Shape).Volume / 1e9
+                self.assertLess(common, 1e-6, f"{a.Label} and {b.Label} share {common} m3")
+                touching += a.Shape.distToShape(b.Shape)[0] < 1.0
+        self.assertGreaterEqual(touching, 2)   # Küche, Wohnen and Flur share open borders
