@@ -328,11 +328,23 @@ def room_labels(building, height_m=0.9):
         edges = _outline_edges(corners) if m.floor_triangles.any() else []
         if len(edges):
             half = (0.5 * char_m * max(len(p.space.Label), 1) + 0.1, char_m + 0.1)
-            avoid = _fixture_xy(p.space) + _obstacle_xy(p.space, edges, lo[2],
-                                                        lo[2] + LABEL_CLEAR_HEIGHT_M)
+            # the walls count as points too, in label boxes: a long name keeps further
+            # from the walls beside it than from those above and below it
+            avoid = (_fixture_xy(p.space) + _edge_points(edges, 0.5 * char_m)
+                     + _obstacle_xy(p.space, edges, lo[2], lo[2] + LABEL_CLEAR_HEIGHT_M))
             c = label_point(edges, avoid, half_size=half)
         out.append((p.space.Label, (1000.0 * c[0], 1000.0 * c[1],
                                     1000.0 * (lo[2] + height_m))))
+    return out
+
+
+def _edge_points(edges, step):
+    """Points (metres) every ``step`` along plan edges (e, 2, 2)."""
+    out = []
+    for a, b in edges:
+        n = max(int(np.ceil(np.linalg.norm(b - a) / max(step, 1e-3))), 1)
+        t = np.linspace(0.0, 1.0, n + 1)[:, None]
+        out += list(a + t * (b - a))
     return out
 
 
