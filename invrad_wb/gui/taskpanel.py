@@ -489,8 +489,19 @@ class DesignPanel:
         self.widget("entry_watts").valueChanged.connect(self._entry_edited)
         self.widget("entry_dim").valueChanged.connect(self._entry_edited)
         self.widget("entry_photometry").textChanged.connect(self._entry_edited)
-        # the numbers first, the long room-type names last (visual order only)
-        self.widget("requirements").horizontalHeader().moveSection(1, 3)
+        # the numbers first, the long room-type names last (visual order only); the
+        # names take the width left (elided when narrow), the numbers their own
+        from PySide import QtGui
+        fit, stretch = QtGui.QHeaderView.ResizeToContents, QtGui.QHeaderView.Stretch
+        head = self.widget("requirements").horizontalHeader()
+        head.moveSection(1, 3)
+        head.setStretchLastSection(False)
+        for col, mode in ((0, stretch), (1, stretch), (2, fit), (3, fit)):
+            head.setSectionResizeMode(col, mode)
+        head = cat.horizontalHeader()
+        head.setStretchLastSection(False)
+        head.setSectionResizeMode(0, stretch)
+        head.setSectionResizeMode(1, fit)
         self.show_spec(params.load_design())
         self._run_toggle(run)
 
