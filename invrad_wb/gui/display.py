@@ -58,6 +58,10 @@ EDGE_STEP = 0.2
 #: Room names: the height above a room's floor that objects standing in it must reach
 #: into to count as obstacles for its name, and the floor step that makes another storey.
 LABEL_CLEAR_HEIGHT_M = 2.0
+#: Where a room's name is written: this far below its lowest ceiling, at least this high
+#: above its floor (over a work plane).
+LABEL_BELOW_CEILING_M = 0.3
+LABEL_MIN_HEIGHT_M = 0.9
 STOREY_STEP_M = 1.0
 #: Objects that are never obstacles for a room's name (the envelope, the rooms, fixtures).
 _NOT_OBSTACLES = {"Space", "Wall", "Structure", "Window", "Door", "Floor", "Building",
@@ -306,12 +310,14 @@ def target_mesh(building, vmax, levels=None, base_dir=None):
             "virtual": np.concatenate(W), "values": np.concatenate(L)}
 
 
-def room_labels(building, height_m=0.9):
-    """``[(room label, (x, y, z) mm)]``: where each room's name is written, ``height_m``
-    above its floor (over a work plane at 0.75 m): inside the floor's outline as far as
-    possible from the walls, from the room's light fixtures and from other objects
-    standing in the room (a stair, furniture), so that the name covers none of them (as
-    on the design report's plans)."""
+def room_labels(building, height_m=None):
+    """``[(room label, (x, y, z) mm)]``: where each room's name is written: inside the
+    floor's outline as far as possible from the walls, from the room's light fixtures and
+    from other objects standing in the room (a stair, furniture), so that the name covers
+    none of them (as on the design report's plans); :data:`LABEL_BELOW_CEILING_M` below
+    the room's lowest ceiling (at least :data:`LABEL_MIN_HEIGHT_M` above its floor), or
+    ``height_m`` above its floor: seen from above at an angle the name then stands in
+    the room's open top, not on the wall in front of it."""
     from invrad_wb.core.output.design_report import label_point
     # the names are screen text (about 7 x 13 px a character); seen whole, a building of
     # extent X metres spans about 500 px: a character is about X / 70 m wide
@@ -333,8 +339,15 @@ def room_labels(building, height_m=0.9):
             avoid = (_fixture_xy(p.space) + _edge_points(edges, 0.5 * char_m)
                      + _obstacle_xy(p.space, edges, lo[2], lo[2] + LABEL_CLEAR_HEIGHT_M))
             c = label_point(edges, avoid, half_size=half)
-        out.append((p.space.Label, (1000.0 * c[0], 1000.0 * c[1],
-                                    1000.0 * (lo[2] + height_m))))
+        if height_m is not None:
+            z = lo[2] + height_m
+        else:
+            ceil = [i for i, k in enumerate(m.face_kind) if k == "ceiling"]
+            top = m.vertices[np.unique(m.triangles[np.isin(m.triangle_face, ceil)])] \
+                if ceil else m.vertices
+            z = max(lo[2] + LABEL_MIN_HEIGHT_M,
+                    float(top[:, 2].min()) - LABEL_BELOW_CEILING_M)
+        out.append((p.space.Label, (1000.0 * c[0], 1000.0 * c[1], 1000.0 * z)))
     return out
 
 
@@ -351,8 +364,8 @@ def _edge_points(edges, step):
 def label_visibility(building, labels, planes=()):
     """(k,) bool: which room names to draw, one storey's over another's.
 
-    A name is hidden when a clipping plane cuts its point away (the room is cut off the
-    view), or when a room of a storey above (floor at least :data:`STOREY_STEP_M` higher)
+    A name is hidden when a clipping plane cuts its room away (the point under the name
+    :data:`LABEL_MIN_HEIGHT_M` above the floor), or when a room of a storey above (floor at least :data:`STOREY_STEP_M` higher)
     that the planes keep covers the name's point in plan: its floor hides the room below
     from above, and the name would be printed over the room upstairs (the FZK-Haus
     Galerie's name over the Flur below it).
@@ -370,7 +383,6 @@ def label_visibility(building, labels, planes=()):
             ok &= pts_mm @ np.asarray(n, dtype=np.float64) >= d - 1e-6
         return ok
     pts = np.array([xyz for _, xyz in labels], dtype=np.float64).reshape(-1, 3)
-    vis = kept(pts)
     floors = []
     for p in building.rooms:
         m = p.mesh
@@ -380,6 +392,11 @@ def label_visibility(building, labels, planes=()):
         floors.append((z, corners[:, :, :2],
                        bool(kept(1000.0 * corners.reshape(-1, 3)).any()) if len(corners)
                        else False))
+    # a room is seen when its name's spot LABEL_MIN_HEIGHT_M over the floor is kept (a
+    # plan cut below the ceilings keeps the rooms under it)
+    probe = pts.copy()
+    probe[:, 2] = [1000.0 * (f[0] + LABEL_MIN_HEIGHT_M) for f in floors[:len(pts)]]
+    vis = kept(probe)
     for i, (zi, _, _) in enumerate(floors):
         if not vis[i]:
             continue
