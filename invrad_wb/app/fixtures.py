@@ -6,10 +6,20 @@ Each luminaire becomes an Arch Equipment with ``IfcType = "Light Fixture"``:
   the mounting surface); its **local -Z axis is the light direction**, i.e. the found
   normal pointing into the room (a ceiling luminaire has the identity rotation; a wall
   washer's -Z is horizontal). ``LightDirection`` repeats it as a global unit vector.
-* **Body**: a disk of the luminaire's radius (``settings.FIXTURE_RADIUS_M`` for point
-  emitters) and ``settings.FIXTURE_THICKNESS_M`` thick, from local z = -thickness to 0,
-  i.e. hanging from the mounting surface into the room. The shape is the Equipment's own
-  (no base object), so a document stays light with hundreds of fixtures.
+* **Body** (:func:`fixture_size`, :func:`fixture_shape`): sized from the luminaire's
+  luminous area: a downlight disc of its emitter radius, or of its photometry file's
+  luminous opening (a square panel when that opening is 0.09 m2 or more); a point emitter
+  without photometry gets a ``settings.FIXTURE_RADIUS_M`` disc. It is
+  ``settings.FIXTURE_THICKNESS_M`` thick, from local z = -thickness to 0, i.e. just below
+  the mounting surface, in the room. A **pendant** (facing down, more than
+  ``settings.PENDANT_MIN_DROP_M`` below the ceiling above it, or ``extra['mount'] ==
+  'pendant'``) hangs from the ceiling on a rod with a canopy (:func:`ceiling_drop_m`). The
+  shape is the Equipment's own (no base object), so a document stays light with hundreds
+  of fixtures; it is one solid (the IFC exporter writes it as the fixture's body).
+* **View** (:func:`style_fixture`, in the GUI): a warm light colour that glows (emissive),
+  so fixtures stand out from the building and the false colours; selectable as usual.
+* **Label**: ``Luminaire <room> <n>``, with the catalogue type a design chose in
+  parentheses (the fixtures are listed under their Space in the tree).
 * **Photometry**: ``LuminousFlux`` (lm), ``EmitterRadius`` (0 = point emitter) and the
   locate ``Score`` as properties, mirrored in ``IfcProperties`` so that FreeCAD's IFC
   exporter writes them as the custom property set ``InvRad_Luminaire`` (IFC has no
@@ -31,6 +41,18 @@ from invrad_wb.app.document import describe, object_type, transaction
 from invrad_wb.app.units import direction, m_to_mm, mm_to_m, vector_mm
 
 LIGHT_FIXTURE = "Light Fixture"
+#: A luminous opening this large (m2) or larger is drawn as a square panel, not a disc.
+PANEL_MIN_AREA_M2 = 0.09
+#: Smallest disc radius drawn (metres), so that a small spot stays visible.
+MIN_RADIUS_M = 0.05
+#: A pendant's rod and the canopy where it meets the ceiling (metres).
+ROD_RADIUS_M = 0.006
+CANOPY_RADIUS_M = 0.04
+CANOPY_THICKNESS_M = 0.015
+#: Colours in the 3D view (RGB in [0, 1]): a warm white body that glows, dark outlines.
+FIXTURE_RGB = (1.0, 0.93, 0.55)
+FIXTURE_EMISSIVE_RGB = (0.75, 0.62, 0.15)
+FIXTURE_LINE_RGB = (0.25, 0.2, 0.05)
 
 
 def new_guid():
@@ -54,13 +76,109 @@ def fixture_rotation(normal):
     return FreeCAD.Rotation(FreeCAD.Vector(0, 0, -1), direction(n))
 
 
-def fixture_shape(radius_m, thickness_m=S.FIXTURE_THICKNESS_M):
-    """The fixture body in local coordinates (mm): a disk from z = -thickness to 0."""
+def fixture_size(lum):
+    """The body's plan size from the luminaire's luminous area.
+
+    Returns
+    -------
+    ("disc", radius_m) or ("panel", side_m, side_m)
+    """
+    if lum.radius_m > 0:
+        return ("disc", float(lum.radius_m))
+    area = getattr(getattr(lum, "photometry", None), "luminous_area_m2", None)
+    if area and area > 0:
+        if area >= PANEL_MIN_AREA_M2:
+            side = float(np.sqrt(area))
+            return ("panel", side, side)
+        return ("disc", max(float(np.sqrt(area / np.pi)), MIN_RADIUS_M))
+    return ("disc", S.FIXTURE_RADIUS_M)
+
+
+def fixture_shape(size, drop_m=0.0, thickness_m=S.FIXTURE_THICKNESS_M):
+    """The fixture body in local coordinates (mm); the light leaves along local -Z.
+
+    Parameters
+    ----------
+    size : tuple from :func:`fixture_size`, or a radius in metres (a disc)
+    drop_m : float, metres between the luminaire and the ceiling above it; > 0 adds a rod
+        from the body up to the ceiling and a canopy there (a pendant)
+    thickness_m : float, metres
+
+    Returns
+    -------
+    Part.Solid: the body from local z = -thickness to 0 (a disc or a square panel), fused
+    with the rod and canopy of a pendant (local z = 0 .. drop).
+    """
     import FreeCAD
     import Part
-    r = m_to_mm(radius_m if radius_m > 0 else S.FIXTURE_RADIUS_M)
+    if not isinstance(size, tuple):
+        size = ("disc", float(size) if size > 0 else S.FIXTURE_RADIUS_M)
     t = m_to_mm(thickness_m)
-    return Part.makeCylinder(r, t, FreeCAD.Vector(0, 0, -t), FreeCAD.Vector(0, 0, 1))
+    V = FreeCAD.Vector
+    if size[0] == "panel":
+        a, b = m_to_mm(size[1]), m_to_mm(size[2])
+        body = Part.makeBox(a, b, t, V(-a / 2, -b / 2, -t))
+    else:
+        body = Part.makeCylinder(m_to_mm(size[1]), t, V(0, 0, -t), V(0, 0, 1))
+    if drop_m <= 0:
+        return body
+    d = m_to_mm(drop_m)
+    ct = min(m_to_mm(CANOPY_THICKNESS_M), 0.5 * d)
+    rod = Part.makeCylinder(m_to_mm(ROD_RADIUS_M), d, V(0, 0, 0), V(0, 0, 1))
+    canopy = Part.makeCylinder(m_to_mm(CANOPY_RADIUS_M), ct, V(0, 0, d - ct), V(0, 0, 1))
+    solid = body.fuse([rod, canopy]).removeSplitter()
+    return solid.Solids[0] if len(solid.Solids) == 1 else solid
+
+
+def ceiling_drop_m(space, lum):
+    """How far a downward-facing luminaire hangs below the room's ceiling (metres).
+
+    The vertical line up from the luminaire meets the Space's shape; 0 when the luminaire
+    does not face down, sits on the ceiling (less than ``settings.PENDANT_MIN_DROP_M``
+    below it, unless ``extra['mount'] == 'pendant'``) or nothing is found above it.
+    """
+    if lum.normal[2] > -0.99:
+        return 0.0
+    try:
+        import FreeCAD
+        import Part
+        shape = space.Shape
+        p = vector_mm(lum.position)
+        seg = Part.LineSegment(p, p + FreeCAD.Vector(0, 0, 1e5)).toShape()
+        dist = [v.Point.z - p.z for v in seg.section(shape).Vertexes if v.Point.z > p.z + 1.0]
+    except Exception:          # no shape, a broken solid: no rod (the body still shows)
+        return 0.0
+    if not dist:
+        return 0.0
+    drop = mm_to_m(min(dist))
+    pendant = lum.extra.get("mount") == "pendant" or drop >= S.PENDANT_MIN_DROP_M
+    return float(drop) if pendant else 0.0
+
+
+def fixture_label(space, i, lum):
+    """``Luminaire <room> <i + 1>``, with the catalogue type in parentheses if known."""
+    kind = lum.extra.get("type")
+    return f"Luminaire {space.Label} {i + 1}" + (f" ({kind})" if kind else "")
+
+
+def style_fixture(obj):
+    """The fixture's look in the 3D view: a light colour that glows (emissive), dark
+    outlines; no-op without the GUI."""
+    import FreeCAD
+    if not FreeCAD.GuiUp:
+        return
+    vo = getattr(obj, "ViewObject", None)
+    if vo is None or not hasattr(vo, "ShapeColor"):
+        return
+    vo.ShapeColor = FIXTURE_RGB
+    vo.LineColor = FIXTURE_LINE_RGB
+    try:
+        mat = vo.ShapeMaterial
+        mat.DiffuseColor = FIXTURE_RGB
+        mat.EmissiveColor = FIXTURE_EMISSIVE_RGB
+        vo.ShapeMaterial = mat
+    except Exception:          # a FreeCAD without ShapeMaterial: the colour alone
+        pass
 
 
 def is_fixture(obj, generated_only=False):
@@ -129,13 +247,16 @@ def check_luminaire(lum, where):
 
 
 def make_fixture(space, lum, label):
-    """Create one fixture (no transaction of its own: use :func:`insert_fixtures`)."""
+    """Create one fixture (no transaction of its own: use :func:`insert_fixtures`).
+
+    The body is sized from the luminaire (:func:`fixture_size`) and hangs on a rod when
+    it is a pendant in ``space`` (:func:`ceiling_drop_m`)."""
     import Arch
     obj = Arch.makeEquipment(name=label)
     obj.Label = label
     obj.IfcType = LIGHT_FIXTURE
     _add_properties(obj)
-    obj.Shape = fixture_shape(lum.radius_m)
+    obj.Shape = fixture_shape(fixture_size(lum), ceiling_drop_m(space, lum))
     obj.Placement = _placement(lum)
     obj.LuminousFlux = float(lum.flux_lm)
     obj.EmitterRadius = m_to_mm(lum.radius_m)
@@ -157,6 +278,7 @@ def make_fixture(space, lum, label):
         obj.IfcData = data
     obj.Room = space
     space.Proxy.addObject(space, obj)
+    style_fixture(obj)
     return obj
 
 
@@ -206,7 +328,7 @@ def insert_fixtures(doc, per_room, replace=True, name="Insert luminaires"):
                     doc.removeObject(old.Name)
             _ensure_space_uid(space)
             for i, lum in enumerate(lums):
-                out.append(make_fixture(space, lum, f"Luminaire {space.Label} {i + 1}"))
+                out.append(make_fixture(space, lum, fixture_label(space, i, lum)))
     return out
 
 

@@ -29,6 +29,7 @@ from invrad_wb.core.model import targets as CT
 from invrad_wb.errors import Cancelled, SceneError
 from invrad_wb.app import settings as S
 from invrad_wb.app.document import describe
+from invrad_wb.app.fixtures import fixture_label
 from invrad_wb.app.rooms import find_spaces, get_space, mesh_room, room_shape
 from invrad_wb.app.targets import has_targets, room_specs
 
@@ -354,7 +355,7 @@ def _summary(doc, flux, settings, building, target, achieved, per_room):
         for i, lum in enumerate(per_room[p.room_id]):
             d = lum.to_dict()
             d["room_name"] = p.space.Label
-            d["fixture"] = f"Luminaire {p.space.Label} {i + 1}"
+            d["fixture"] = fixture_label(p.space, i, lum)
             summary["luminaires"].append(d)
     return summary
 

@@ -25,9 +25,12 @@ WORK_PLANE_MARGIN_M = 0.0
 TESSELLATION_TOL_MM = 1.0
 
 #: Body of an inserted light fixture: a disk of the luminaire's radius (this radius if the
-#: luminaire is a point emitter) and this thickness, hanging from the mounting surface.
+#: luminaire is a point emitter without a luminous area) and this thickness, hanging from
+#: the mounting surface; a downward luminaire at least PENDANT_MIN_DROP_M below the ceiling
+#: above it hangs from it on a rod (app/fixtures.py).
 FIXTURE_RADIUS_M = 0.15
 FIXTURE_THICKNESS_M = 0.04
+PENDANT_MIN_DROP_M = 0.1
 
 #: IFC property set (custom, hence no "Pset_" prefix) holding the photometric data of
 #: inserted fixtures, and the tag that marks fixtures made by invrad.

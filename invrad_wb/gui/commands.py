@@ -10,6 +10,8 @@ InvRad_SetTarget            target on the selected faces of a room (task panel: 
                             spot, illuminance image, shade, work plane)
 InvRad_MarkShade            the selected faces must stay dark (0 lx)
 InvRad_ToggleTargets        show/hide the targets in false colour (a view overlay)
+InvRad_ToggleDeviation      switch the achieved illuminance to its deviation from the
+                            targets and back
 InvRad_Locate               locate luminaires for the selected rooms or all rooms with
                             targets (task panel with every setting, then progress)
 InvRad_Repeak               new threshold/neighbourhood on the stored votes
@@ -135,6 +137,26 @@ class ToggleTargets(_Command):
                    f"invrad_wb.gui.display.toggle_targets(App.getDocument({doc.Name!r}))")
 
 
+class ToggleDeviation(_Command):
+    NAME = "InvRad_ToggleDeviation"
+    PIXMAP = "toggle_deviation.svg"
+    MENU = "Show/hide deviation"
+    TIP = ("Switch the achieved illuminance (after Verify and report or Design) to its"
+           " deviation from the targets, -50 % (blue, too dark) to +50 % (red, too"
+           " bright), and back")
+
+    def Activated(self):
+        from invrad_wb.gui.taskpanel import do_command
+        doc = _active_doc()
+        do_command("import invrad_wb.gui.display",
+                   f"invrad_wb.gui.display.toggle_deviation(App.getDocument({doc.Name!r}))")
+
+    def IsActive(self):
+        from invrad_wb.gui import display
+        doc = _active_doc()
+        return doc is not None and not _busy() and display.has_achieved(doc)
+
+
 class Locate(_Command):
     NAME = "InvRad_Locate"
     PIXMAP = "locate.svg"
@@ -232,9 +254,11 @@ class Settings(_Command):
         return _no_task_dialog() and not _busy()
 
 
-COMMANDS = [SetTarget, MarkShade, ToggleTargets, Locate, Design, Repeak, Verify, Settings]
+COMMANDS = [SetTarget, MarkShade, ToggleTargets, ToggleDeviation, Locate, Design, Repeak,
+            Verify, Settings]
 #: Toolbar and menu layout ("Separator" between groups).
-TOOLBAR = ["InvRad_SetTarget", "InvRad_MarkShade", "InvRad_ToggleTargets", "Separator",
+TOOLBAR = ["InvRad_SetTarget", "InvRad_MarkShade", "InvRad_ToggleTargets",
+           "InvRad_ToggleDeviation", "Separator",
            "InvRad_Locate", "InvRad_Design", "InvRad_Repeak", "InvRad_Verify"]
 MENU = TOOLBAR + ["Separator", "InvRad_Settings"]
 CONTEXT = ["InvRad_SetTarget", "InvRad_MarkShade", "InvRad_Locate", "InvRad_Design"]

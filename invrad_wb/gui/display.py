@@ -10,14 +10,24 @@ What it shows (per vertex of the rooms' sampling meshes, colours interpolated):
   them (:func:`invrad_wb.app.pipeline.prepare`) in viridis like the report's images;
   "no target" is grey and a shade target (0 lx, "must stay dark") near black, so neither
   is mistaken for a low target; the work plane is a translucent layer at its height;
-* **achieved** illuminance after *Verify and report*, on the same meshes.
+  along the targets' edges (a painted spot's rim) the mesh is refined and the targets
+  evaluated again (:func:`target_mesh`), so that a round spot looks round, not stair-stepped;
+* **achieved** illuminance after *Verify and report* or *Design*, on the same meshes;
+* its **deviation** from the targets (*Show/hide deviation*), -50 % .. +50 % in the
+  report's blue-white-red.
+
+Both views of a document share ONE lux scale, chosen once from its targets
+(:func:`document_scale`: the largest target and half as much again, rounded up), so
+that the same colour means the same illuminance in both and a met target looks alike.
 
 The overlay sits ``offset_m`` inside the room (no z-fighting with the Space and the wall
 faces), is not pickable (clicks select the faces behind it) and culls back faces, so that
 from outside a room one looks into it like into a doll's house: the near walls and the
 ceiling vanish while the floor and the far walls stay. The legend (colour bar, ticks in
 lux, swatches) is drawn in screen space at the left of the view; each room's name is
-written above the middle of its floor.
+written over its floor, clear of its walls, fixtures and the objects standing in it; a
+name cut away by a clipping plane, or under a storey above that hides its room, is not
+drawn (:func:`label_visibility`), so that one storey's names never print over another's.
 
 The numpy part (colour map, ticks, overlay geometry) needs no GUI and is tested
 headless; the coin part runs only with FreeCAD's GUI.
@@ -35,6 +45,29 @@ nice_max = _images.nice_max
 NO_TARGET_RGB = (150 / 255.0, 150 / 255.0, 150 / 255.0)
 SHADE_RGB = (0.02, 0.02, 0.02)
 EDGE_RGB = (0.1, 0.1, 0.1)
+
+#: The deviation view's scale: -50 % .. +50 % (the report's).
+DEVIATION_LIMIT = _images.DEVIATION_LIMIT
+#: The lux scale's top over the largest target (:func:`lux_scale`).
+SCALE_HEADROOM = 1.5
+#: Refinement of the target display along target edges (:func:`target_mesh`): levels, and
+#: the value step (fraction of the scale) across a triangle that counts as an edge.
+EDGE_LEVELS = 3
+EDGE_STEP = 0.2
+
+#: Room names: the height above a room's floor that objects standing in it must reach
+#: into to count as obstacles for its name, and the floor step that makes another storey.
+LABEL_CLEAR_HEIGHT_M = 2.0
+#: Where a room's name is written: this far below its lowest ceiling, at least this high
+#: above its floor (over a work plane).
+LABEL_BELOW_CEILING_M = 0.3
+LABEL_MIN_HEIGHT_M = 0.9
+STOREY_STEP_M = 1.0
+#: Objects that are never obstacles for a room's name (the envelope, the rooms, fixtures).
+_NOT_OBSTACLES = {"Space", "Wall", "Structure", "Window", "Door", "Floor", "Building",
+                  "Site", "BuildingPart", "Equipment", "Roof", "Covering", "InvRadTarget"}
+_NOT_OBSTACLE_IFC = {"Slab", "Wall", "Window", "Door", "Roof", "Covering", "Beam", "Column",
+                     "Light Fixture", "Building Storey", "Building", "Site", "Space"}
 
 #: Node names, so that a scene graph can be searched for the overlay.
 OVERLAY_NAME = "InvRadFalseColour"
@@ -106,8 +139,18 @@ def boundary_edges(faces, groups):
     return e[once]
 
 
-def overlay_geometry(building, values, offset_m=0.01, targets=True, vmax=None):
+def overlay_geometry(building, values, offset_m=0.01, targets=True, vmax=None, mesh=None,
+                     rgb=None):
     """What the overlay draws, in FreeCAD's millimetres.
+
+    Parameters
+    ----------
+    building : BuildingScene
+    values : (n,) float64, lux per vertex of ``building.scene`` (or of ``mesh``)
+    mesh : dict from :func:`target_mesh`, optional: a finer display mesh to draw instead
+        of the building's sampling mesh (``values`` are then per vertex of it)
+    rgb : (n, 3) float64, optional: the vertices' colours (default :func:`colours` of the
+        values, lux)
 
     Returns
     -------
@@ -118,24 +161,163 @@ def overlay_geometry(building, values, offset_m=0.01, targets=True, vmax=None):
       edges : (j, 2) int64, outlines of the room faces and work planes
       vmax : float, top of the scale (lux)
     """
-    sc = building.scene
+    if mesh is None:
+        sc = building.scene
+        mesh = {"vertices": sc.vertices, "normals": sc.vertex_normals, "faces": sc.faces,
+                "groups": face_groups(building),
+                "virtual": np.asarray(sc.face_virtual, dtype=bool)}
     v = np.asarray(values, dtype=np.float64)
     if vmax is None:
         finite = v[np.isfinite(v)]
         vmax = nice_max(finite.max() if finite.size else 1.0)
-    pts = (sc.vertices + offset_m * sc.vertex_normals) * 1000.0
-    groups = face_groups(building)
-    virt = np.asarray(sc.face_virtual, dtype=bool)
-    return {"points": pts, "surfaces": sc.faces[~virt], "work_plane": sc.faces[virt],
-            "rgb": colours(v, vmax, targets), "edges": boundary_edges(sc.faces, groups),
+    pts = (mesh["vertices"] + offset_m * mesh["normals"]) * 1000.0
+    faces, virt = mesh["faces"], mesh["virtual"]
+    return {"points": pts, "surfaces": faces[~virt], "work_plane": faces[virt],
+            "rgb": colours(v, vmax, targets) if rgb is None else np.asarray(rgb),
+            "edges": boundary_edges(faces, mesh["groups"]),
             "vmax": float(vmax)}
 
 
-def room_labels(building, height_m=0.9):
-    """``[(room label, (x, y, z) mm)]``: where each room's name is written, ``height_m``
-    above its floor (over a work plane at 0.75 m): inside the floor's outline as far as
-    possible from the walls and from the room's light fixtures, so that the name covers
-    neither (as on the design report's plans)."""
+def lux_scale(target_lux):
+    """The one lux scale of a document's target and achieved views: the largest target
+    with :data:`SCALE_HEADROOM` above it, rounded up (:func:`nice_max`), so that a target
+    reads the same colour in both views and light up to half again as much stays
+    readable (more takes the top colour, the top tick reads "<top>+")."""
+    t = np.asarray(target_lux, dtype=np.float64) if target_lux is not None else np.zeros(0)
+    t = t[np.isfinite(t)]
+    return nice_max(SCALE_HEADROOM * t.max() if t.size else 1.0)
+
+
+def subdivide(points, tris, mark, *per_vertex):
+    """Conforming refinement: split the ``mark`` ed triangles in four, and their neighbours
+    in two (or in four where two of their edges were split), so that no vertex lies on
+    another triangle's edge (no cracks, no colour seams).
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+    tris : (m, 3) int64
+    mark : (m,) bool
+    per_vertex : (n, ...) arrays interpolated at the new midpoints (e.g. normals)
+
+    Returns
+    -------
+    points (n', 3), tris (m', 3), parent (m',) index of each new triangle's triangle in
+    ``tris``, then the ``per_vertex`` arrays extended to n'.
+    """
+    tris = np.asarray(tris, dtype=np.int64)
+    n = len(points)
+    e = np.stack([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]], axis=1)   # (m, 3, 2)
+    k = np.min(e, axis=2) * n + np.max(e, axis=2)                               # (m, 3)
+    split = np.unique(k[np.asarray(mark, dtype=bool)])
+    while True:
+        s = np.isin(k, split)
+        two = s.sum(axis=1) == 2
+        if not two.any():
+            break
+        split = np.union1d(split, k[two][~s[two]])
+    s = np.isin(k, split)
+    c = s.sum(axis=1)
+    a, b = split // n, split % n
+    pts = np.concatenate([points, 0.5 * (points[a] + points[b])])
+    extra = [np.concatenate([x, 0.5 * (x[a] + x[b])]) for x in per_vertex]
+    mid = np.where(s, n + np.searchsorted(split, k), -1)                        # (m, 3)
+    out, parent = [tris[c == 0]], [np.flatnonzero(c == 0)]
+    one = np.flatnonzero(c == 1)
+    if len(one):
+        r = np.argmax(s[one], axis=1)
+        t0, t1, t2 = (tris[one, (r + j) % 3] for j in range(3))
+        m = mid[one, r]
+        out += [np.stack([t0, m, t2], 1), np.stack([m, t1, t2], 1)]
+        parent += [one, one]
+    four = np.flatnonzero(c == 3)
+    if len(four):
+        t0, t1, t2 = tris[four, 0], tris[four, 1], tris[four, 2]
+        m01, m12, m20 = mid[four, 0], mid[four, 1], mid[four, 2]
+        out += [np.stack(q, 1) for q in ((t0, m01, m20), (m01, t1, m12), (m20, m12, t2),
+                                         (m01, m12, m20))]
+        parent += [four] * 4
+    return (pts, np.concatenate(out), np.concatenate(parent), *extra)
+
+
+def edge_triangles(tri_values, vmax, step=None):
+    """(m,) bool: triangles across a target's edge, given their vertices' values (m, 3)
+    lux: some vertices with a target and some without, or values differing by more than
+    ``step`` (default :data:`EDGE_STEP`) times the top of the scale (a shade disc)."""
+    v = np.asarray(tri_values, dtype=np.float64)
+    fin = np.isfinite(v)
+    mixed = fin.any(axis=1) & ~fin.all(axis=1)
+    rng = np.where(fin, v, -np.inf).max(axis=1) - np.where(fin, v, np.inf).min(axis=1)
+    rng = np.where(fin.any(axis=1), rng, 0.0)
+    return mixed | (rng > (EDGE_STEP if step is None else step) * vmax)
+
+
+def target_mesh(building, vmax, levels=None, base_dir=None):
+    """A display mesh for the targets, finer along their edges, with the targets on it.
+
+    The building's sampling mesh draws a spot's round edge as stair steps one mesh cell
+    high (per-vertex colours between a vertex with a target and one without). Here the
+    triangles across an edge (:func:`edge_triangles`) are split (:func:`subdivide`) and
+    the room's targets evaluated again on the new vertices, ``levels`` times (default
+    :data:`EDGE_LEVELS`: steps 8 times smaller); the rest of the mesh is unchanged.
+
+    Returns
+    -------
+    dict: vertices (n, 3) m, normals (n, 3), faces (k, 3), groups (k,) as
+    :func:`face_groups`, virtual (k,) bool (work planes), values (n,) lux
+    """
+    from invrad_wb.core.model import targets as CT
+    sc = building.scene
+    levels = EDGE_LEVELS if levels is None else int(levels)
+    groups_all = face_groups(building)
+    virt_all = np.asarray(sc.face_virtual, dtype=bool)
+    V, N, F, G, W, L = [], [], [], [], [], []
+    nv = 0
+    for p in building.rooms:
+        n_surf = len(p.mesh.triangles)
+        s0 = p.faces.start
+        for part, rows in (("surf", slice(s0, s0 + n_surf)), ("wp", slice(s0 + n_surf,
+                                                                           p.faces.stop))):
+            tri = sc.faces[rows]
+            if not len(tri):
+                continue
+            uniq, inv = np.unique(tri, return_inverse=True)
+            v, nrm = sc.vertices[uniq], sc.vertex_normals[uniq]
+            t = np.asarray(inv).reshape(-1, 3)
+            groups = groups_all[rows]
+            vals = sc.vertex_lux[uniq] if sc.vertex_lux is not None else np.full(len(v),
+                                                                                  np.nan)
+            if part == "surf" and p.targets:
+                tf = np.asarray(p.mesh.triangle_face)
+                for _ in range(levels):
+                    mark = edge_triangles(vals[t], vmax)
+                    if not mark.any():
+                        break
+                    v, t, parent, nrm = subdivide(v, t, mark, nrm)
+                    tf, groups = tf[parent], groups[parent]
+                    vals = CT.evaluate(v, t, tf, p.targets, source=p.space.Label,
+                                       label=p.mesh.face_label, base_dir=base_dir)
+                nrm = nrm / np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-12)
+            V.append(v)
+            N.append(nrm)
+            F.append(t + nv)
+            G.append(groups)
+            W.append(np.full(len(t), part == "wp") & virt_all[rows][0])
+            L.append(vals)
+            nv += len(v)
+    return {"vertices": np.concatenate(V), "normals": np.concatenate(N),
+            "faces": np.concatenate(F), "groups": np.concatenate(G),
+            "virtual": np.concatenate(W), "values": np.concatenate(L)}
+
+
+def room_labels(building, height_m=None):
+    """``[(room label, (x, y, z) mm)]``: where each room's name is written: inside the
+    floor's outline as far as possible from the walls, from the room's light fixtures and
+    from other objects standing in the room (a stair, furniture), so that the name covers
+    none of them (as on the design report's plans); :data:`LABEL_BELOW_CEILING_M` below
+    the room's lowest ceiling (at least :data:`LABEL_MIN_HEIGHT_M` above its floor), or
+    ``height_m`` above its floor: seen from above at an angle the name then stands in
+    the room's open top, not on the wall in front of it."""
     from invrad_wb.core.output.design_report import label_point
     # the names are screen text (about 7 x 13 px a character); seen whole, a building of
     # extent X metres spans about 500 px: a character is about X / 70 m wide
@@ -152,9 +334,126 @@ def room_labels(building, height_m=0.9):
         edges = _outline_edges(corners) if m.floor_triangles.any() else []
         if len(edges):
             half = (0.5 * char_m * max(len(p.space.Label), 1) + 0.1, char_m + 0.1)
-            c = label_point(edges, _fixture_xy(p.space), half_size=half)
-        out.append((p.space.Label, (1000.0 * c[0], 1000.0 * c[1],
-                                    1000.0 * (lo[2] + height_m))))
+            # the walls count as points too, in label boxes: a long name keeps further
+            # from the walls beside it than from those above and below it
+            avoid = (_fixture_xy(p.space) + _edge_points(edges, 0.5 * char_m)
+                     + _obstacle_xy(p.space, edges, lo[2], lo[2] + LABEL_CLEAR_HEIGHT_M))
+            c = label_point(edges, avoid, half_size=half)
+        if height_m is not None:
+            z = lo[2] + height_m
+        else:
+            ceil = [i for i, k in enumerate(m.face_kind) if k == "ceiling"]
+            top = m.vertices[np.unique(m.triangles[np.isin(m.triangle_face, ceil)])] \
+                if ceil else m.vertices
+            z = max(lo[2] + LABEL_MIN_HEIGHT_M,
+                    float(top[:, 2].min()) - LABEL_BELOW_CEILING_M)
+        out.append((p.space.Label, (1000.0 * c[0], 1000.0 * c[1], 1000.0 * z)))
+    return out
+
+
+def _edge_points(edges, step):
+    """Points (metres) every ``step`` along plan edges (e, 2, 2)."""
+    out = []
+    for a, b in edges:
+        n = max(int(np.ceil(np.linalg.norm(b - a) / max(step, 1e-3))), 1)
+        t = np.linspace(0.0, 1.0, n + 1)[:, None]
+        out += list(a + t * (b - a))
+    return out
+
+
+def label_visibility(building, labels, planes=()):
+    """(k,) bool: which room names to draw, one storey's over another's.
+
+    A name is hidden when a clipping plane cuts its room away (the point under the name
+    :data:`LABEL_MIN_HEIGHT_M` above the floor), or when a room of a storey above (floor at least :data:`STOREY_STEP_M` higher)
+    that the planes keep covers the name's point in plan: its floor hides the room below
+    from above, and the name would be printed over the room upstairs (the FZK-Haus
+    Galerie's name over the Flur below it).
+
+    Parameters
+    ----------
+    building : BuildingScene
+    labels : list from :func:`room_labels` (one per room, in order)
+    planes : list of ((3,) normal, distance mm): coin clip planes, which keep the points
+        with ``normal . p >= distance``
+    """
+    def kept(pts_mm):
+        ok = np.ones(len(pts_mm), dtype=bool)
+        for n, d in planes:
+            ok &= pts_mm @ np.asarray(n, dtype=np.float64) >= d - 1e-6
+        return ok
+    pts = np.array([xyz for _, xyz in labels], dtype=np.float64).reshape(-1, 3)
+    floors = []
+    for p in building.rooms:
+        m = p.mesh
+        tri = m.triangles[m.floor_triangles] if m.floor_triangles.any() else m.triangles
+        corners = m.vertices[tri]
+        z = float(corners[:, :, 2].min()) if len(corners) else 0.0
+        floors.append((z, corners[:, :, :2],
+                       bool(kept(1000.0 * corners.reshape(-1, 3)).any()) if len(corners)
+                       else False))
+    # a room is seen when its name's spot LABEL_MIN_HEIGHT_M over the floor is kept (a
+    # plan cut below the ceilings keeps the rooms under it)
+    probe = pts.copy()
+    probe[:, 2] = [1000.0 * (f[0] + LABEL_MIN_HEIGHT_M) for f in floors[:len(pts)]]
+    vis = kept(probe)
+    for i, (zi, _, _) in enumerate(floors):
+        if not vis[i]:
+            continue
+        for j, (zj, tri, shown) in enumerate(floors):
+            if j != i and shown and zj >= zi + STOREY_STEP_M and \
+                    _in_triangles(pts[i, :2] / 1000.0, tri):
+                vis[i] = False
+                break
+    return vis
+
+
+def _in_triangles(p, tri):
+    """Is the plan point ``p`` (2,) inside any of the triangles ``tri`` (t, 3, 2)?"""
+    if not len(tri):
+        return False
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+
+    def cross(u, v):
+        return u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+    d1, d2, d3 = cross(b - a, p - a), cross(c - b, p - b), cross(a - c, p - c)
+    neg = (d1 < 0) | (d2 < 0) | (d3 < 0)
+    pos = (d1 > 0) | (d2 > 0) | (d3 > 0)
+    return bool(np.any(~(neg & pos)))
+
+
+def _obstacle_xy(space, edges, z0, z1):
+    """Plan points (metres) of objects standing in a room between heights ``z0`` and
+    ``z1`` (a stair, furniture, a railing): vertices of their shapes inside the floor's
+    outline ``edges``. The building's envelope (walls, slabs, doors, windows, the rooms
+    themselves) and the light fixtures (counted apart) are not obstacles."""
+    from invrad_wb.app.document import object_type
+    from invrad_wb.core.output.design_report import _inside
+    doc = getattr(space, "Document", None)
+    if doc is None:
+        return []
+    lo = edges.reshape(-1, 2).min(axis=0) * 1000.0
+    hi = edges.reshape(-1, 2).max(axis=0) * 1000.0
+    out = []
+    for obj in doc.Objects:
+        try:
+            if object_type(obj) in _NOT_OBSTACLES or getattr(obj, "IfcType", "") in \
+                    _NOT_OBSTACLE_IFC or not getattr(obj, "Visibility", True):
+                continue
+            shape = getattr(obj, "Shape", None)
+            if shape is None or shape.isNull() or not shape.Vertexes:
+                continue
+            bb = shape.BoundBox
+            if (bb.XMax < lo[0] or bb.XMin > hi[0] or bb.YMax < lo[1] or bb.YMin > hi[1]
+                    or bb.ZMax < 1000.0 * z0 or bb.ZMin > 1000.0 * z1
+                    or bb.XLength > 0.9 * (hi[0] - lo[0]) and bb.YLength > 0.9 * (hi[1] - lo[1])):
+                continue
+            xy = np.array([[v.Point.x, v.Point.y] for v in shape.Vertexes
+                           if 1000.0 * z0 - 1.0 <= v.Point.z <= 1000.0 * z1]) / 1000.0
+        except Exception:          # an object without readable geometry is no obstacle
+            continue
+        if len(xy):
+            out += list(xy[_inside(edges, xy)])
     return out
 
 
@@ -328,17 +627,23 @@ def _quad(coin, x0, y0, x1, y1, rgb, z=0.0):
     return sep
 
 
-def legend_layout(title, vmax, swatches, over=False):
+def legend_layout(title, vmax, swatches, over=False, vmin=0.0, fmt=None):
     """Positions of the legend's parts in normalised view coordinates ([-1, 1]^2).
+
+    The bar runs from ``vmin`` (0 lx, or -limit for deviations) to ``vmax``; ``fmt``
+    writes a tick value (default :func:`label`).
 
     Returns a dict of plain numbers and strings (tested headless): the panel, the colour
     bar, the ticks ``[(y, text)]`` and the swatches ``[(y, rgb, text)]``.
     """
+    fmt = fmt or label
     x0, x1 = -0.985, -0.70
     bar = (-0.965, -0.915)
     y_bar0 = -0.55 + 0.09 * (2 - len(swatches))
     y_bar1 = 0.5
-    tick_list = [(y_bar0 + (y_bar1 - y_bar0) * t / vmax, label(t)) for t in ticks(vmax)]
+    span = float(vmax) - float(vmin)
+    tick_list = [(y_bar0 + (y_bar1 - y_bar0) * t / span, fmt(vmin + t))
+                 for t in ticks(span)]
     if over:                       # values above the scale take its top colour
         tick_list[-1] = (tick_list[-1][0], tick_list[-1][1] + "+")
     sw = []
@@ -355,10 +660,11 @@ def legend_layout(title, vmax, swatches, over=False):
                       for i, s in enumerate(title_lines)]}
 
 
-def build_legend(title, vmax, swatches=(), over=False):
-    """Screen-space legend: colour bar 0..vmax lx with ticks, swatches, title."""
+def build_legend(title, vmax, swatches=(), over=False, vmin=0.0, cmap=None, fmt=None):
+    """Screen-space legend: colour bar ``vmin``..``vmax`` (lux by default; ``cmap`` maps
+    values to (n, 3) RGB, default viridis over 0..vmax) with ticks, swatches, title."""
     coin = _coin()
-    lay = legend_layout(title, vmax, list(swatches), over)
+    lay = legend_layout(title, vmax, list(swatches), over, vmin=vmin, fmt=fmt)
     skip = coin.SoType.fromName("SoSkipBoundingGroup").createInstance()
     skip.setName(LEGEND_NAME)
     ann = coin.SoAnnotation()
@@ -384,7 +690,8 @@ def build_legend(title, vmax, swatches=(), over=False):
     bx0, by0, bx1, by1 = lay["bar"]
     n = 48
     ys = np.linspace(by0, by1, n + 1)
-    cols = colours(np.linspace(0.0, vmax, n + 1), vmax, targets=False)
+    vals = np.linspace(vmin, vmax, n + 1)
+    cols = cmap(vals) if cmap is not None else colours(vals, vmax, targets=False)
     bar = coin.SoSeparator()
     bind = coin.SoMaterialBinding()
     bind.value = coin.SoMaterialBinding.PER_VERTEX_INDEXED
@@ -470,6 +777,11 @@ def hide(doc):
     st = _STATE.pop(doc.Name, None)
     if st is None:
         return False
+    for sensor in st.get("sensors", []):
+        try:
+            sensor.detach()
+        except Exception:
+            pass
     for sg in st["graphs"]:
         for node in (st["node"], st["legend"]):
             try:
@@ -481,41 +793,70 @@ def hide(doc):
 
 
 def target_scale(building):
-    """Top of the scale for a building's targets (lux): the largest target, rounded up."""
-    t = building.scene.vertex_lux
-    t = t[np.isfinite(t)] if t is not None else np.zeros(0)
-    return nice_max(t.max() if t.size else 1.0)
+    """Top of the scale for a building's targets (lux): :func:`lux_scale` of them."""
+    return lux_scale(building.scene.vertex_lux)
 
 
-def show(doc, building, values, title, mode_name, targets=True, vmax=None):
-    """Show per-vertex ``values`` (lux) of ``building`` in false colour; replaces any
-    overlay of ``doc``. ``vmax``: top of the scale (default: the largest value, rounded
-    up); larger values take the top colour and the top tick reads "<vmax>+". Returns the
-    top of the scale (lux)."""
+_SCALES = {}        # doc name -> the lux scale its views share
+
+
+def document_scale(doc, target_lux):
+    """The lux scale of ``doc``'s target and achieved views, chosen once: by
+    :func:`lux_scale` on the first view, then kept while the largest target still fits
+    under it with its headroom (5 % slack: meshes of other resolutions sample a spot's
+    peak a little differently, one step of the rounding); new when the targets changed
+    more (a brighter target, or one a step lower as after an undo)."""
+    t = np.asarray(target_lux, dtype=np.float64) if target_lux is not None else np.zeros(0)
+    t = t[np.isfinite(t)]
+    need = SCALE_HEADROOM * (t.max() if t.size else 0.0)
+    old = _SCALES.get(doc.Name)
+    new = lux_scale(t)
+    if old is not None and need <= old * 1.05 and new >= 0.75 * old:
+        return old
+    _SCALES[doc.Name] = new
+    return new
+
+
+def show(doc, building, values, title, mode_name, targets=True, vmax=None, mesh=None,
+         deviation=False):
+    """Show per-vertex ``values`` (lux) of ``building`` (or of the display ``mesh``, see
+    :func:`target_mesh`) in false colour; replaces any overlay of ``doc``. ``vmax``: top
+    of the scale (default: the largest value, rounded up); larger values take the top
+    colour and the top tick reads "<vmax>+". With ``deviation`` the values are relative
+    deviations from the target, drawn -vmax..+vmax in the report's blue-white-red.
+    Returns the top of the scale (lux, or the deviation fraction)."""
     import FreeCAD
     from invrad_wb.gui import params
     if not FreeCAD.GuiUp:
         return None
     opts = params.load_display()
     hide(doc)
+    rgb = deviation_colours(values, vmax) if deviation else None
     geom = overlay_geometry(building, values, offset_m=opts["offset_m"], targets=targets,
-                            vmax=vmax)
+                            vmax=vmax, mesh=mesh, rgb=rgb)
     coin = _coin()
     node = coin.SoSeparator()
     node.setName(OVERLAY_NAME + "Root")
     node.addChild(build_overlay(geom, opts["work_plane_transparency"]))
     v = np.asarray(values, dtype=np.float64)
-    over = bool(np.any(v[np.isfinite(v)] > geom["vmax"] * (1 + 1e-9)))
+    over = not deviation and bool(np.any(v[np.isfinite(v)] > geom["vmax"] * (1 + 1e-9)))
     swatches = []
-    if targets:
+    scale = {}
+    if deviation:
+        scale = {"vmin": -geom["vmax"], "fmt": _percent,
+                 "cmap": lambda x: deviation_colours(x, geom["vmax"])}
+        if np.any(~np.isfinite(v)):
+            swatches.append((tuple(np.asarray(_images.NAN_GREY) / 255.0), "no target"))
+    elif targets:
         if np.any(np.isfinite(v) & (v == 0)):
             swatches.append((SHADE_RGB, "0 (shade)"))
         if np.any(~np.isfinite(v)):
             swatches.append((NO_TARGET_RGB, "no target"))
     legend = coin.SoSeparator()
     legend.setName(LEGEND_NAME + "Root")
-    legend.addChild(build_legend(title, geom["vmax"], swatches, over=over))
-    legend.addChild(build_labels(room_labels(building)))
+    legend.addChild(build_legend(title, geom["vmax"], swatches, over=over, **scale))
+    label_node = coin.SoSeparator()
+    legend.addChild(label_node)
     graphs = _graphs(doc)
     for sg in graphs:
         # the surfaces go last, where clipping planes (Std_ToggleClipPlane, inserted
@@ -527,27 +868,164 @@ def show(doc, building, values, title, mode_name, targets=True, vmax=None):
     _STATE[doc.Name] = {"node": node, "legend": legend, "graphs": graphs,
                         "mode": mode_name,
                         "building": building, "vmax": geom["vmax"],
-                        "triangles": len(geom["surfaces"]) + len(geom["work_plane"])}
+                        "triangles": len(geom["surfaces"]) + len(geom["work_plane"]),
+                        "labels": room_labels(building), "label_node": label_node,
+                        "label_vis": None, "sensors": []}
+    update_labels(doc)
+    # a clipping plane toggled or moved later shows and hides the names again
+    for sg in graphs:
+        try:
+            sensor = coin.SoNodeSensor(_graph_changed, doc.Name)
+            sensor.attach(sg)
+            _STATE[doc.Name]["sensors"].append(sensor)
+        except Exception:          # without the sensor the names follow at the next show
+            pass
     return geom["vmax"]
 
 
+def clip_planes(graphs):
+    """The active clipping planes (Std_ToggleClipPlane, section views) in scene graphs:
+    ``[((3,) normal, distance mm)]``; coin keeps ``normal . p >= distance``."""
+    coin = _coin()
+    out = []
+    for sg in graphs:
+        sa = coin.SoSearchAction()
+        sa.setType(coin.SoClipPlane.getClassTypeId(), True)
+        sa.setInterest(coin.SoSearchAction.ALL)
+        sa.apply(sg)
+        paths = sa.getPaths()
+        for i in range(paths.getLength()):
+            node = paths[i].getTail()
+            if hasattr(node, "on") and not node.on.getValue():
+                continue
+            pl = node.plane.getValue()
+            n = pl.getNormal()
+            out.append(((float(n[0]), float(n[1]), float(n[2])),
+                        float(pl.getDistanceFromOrigin())))
+    return out
+
+
+def update_labels(doc):
+    """Draw the room names that :func:`label_visibility` keeps for the clipping planes of
+    the document's views now; True if the drawn set changed."""
+    st = _STATE.get(doc if isinstance(doc, str) else doc.Name)
+    if st is None:
+        return False
+    try:
+        planes = clip_planes(st["graphs"])
+    except Exception:
+        planes = []
+    vis = tuple(bool(v) for v in label_visibility(st["building"], st["labels"], planes))
+    if vis == st["label_vis"]:
+        return False
+    st["label_vis"] = vis
+    node = st["label_node"]
+    node.removeAllChildren()
+    node.addChild(build_labels([lab for lab, v in zip(st["labels"], vis) if v]))
+    return True
+
+
+def shown_labels(doc):
+    """The room names drawn now in ``doc``'s overlay: [(label, (x, y, z) mm)]."""
+    st = _STATE.get(doc.Name)
+    if st is None or st["label_vis"] is None:
+        return []
+    return [lab for lab, v in zip(st["labels"], st["label_vis"]) if v]
+
+
+def _graph_changed(name, sensor=None):
+    try:
+        update_labels(name)
+    except Exception:              # a document closing under the sensor
+        pass
+
+
 def show_targets(doc, rooms=None):
-    """Evaluate the rooms' targets on fine display meshes and show them."""
+    """Evaluate the rooms' targets on fine display meshes (finer still along target
+    edges: :func:`target_mesh`) and show them on the document's scale."""
     from invrad_wb.app.pipeline import PipelineSettings, prepare
     from invrad_wb.gui import params
     opts = params.load_display()
-    building = prepare(doc, PipelineSettings(flux_lm=1.0, resolution_m=opts["resolution_m"],
-                                             rooms=rooms))
-    return show(doc, building, building.scene.vertex_lux, "Target\nilluminance (lx)",
-                "targets", targets=True)
+    settings = PipelineSettings(flux_lm=1.0, resolution_m=opts["resolution_m"], rooms=rooms)
+    building = prepare(doc, settings)
+    vmax = document_scale(doc, building.scene.vertex_lux)
+    mesh = target_mesh(building, vmax, base_dir=settings.base_dir)
+    return show(doc, building, mesh["values"], "Target\nilluminance (lx)", "targets",
+                targets=True, vmax=vmax, mesh=mesh)
 
 
 def show_achieved(doc, building, achieved, vmax=None):
-    """The achieved illuminance; ``vmax`` the top of the scale (the report's, so that the
-    view and the report's images read the same), by default the targets' (same colour =
-    on target)."""
+    """The achieved illuminance on the document's scale (:func:`document_scale`, the
+    targets' view's: same colour = on target); ``vmax`` overrides it. The result is kept
+    for :func:`show_deviation`."""
+    _ACHIEVED[doc.Name] = (building, np.asarray(achieved, dtype=np.float64))
+    vmax = vmax or document_scale(doc, building.scene.vertex_lux)
     return show(doc, building, achieved, "Achieved\nilluminance (lx)", "achieved",
-                targets=False, vmax=vmax or target_scale(building))
+                targets=False, vmax=vmax)
+
+
+_ACHIEVED = {}      # doc name -> (building, achieved lux) of the last achieved view
+
+
+def deviation(target, achieved):
+    """Relative deviation per vertex, (E - T) / T, as the report computes it (shade
+    points: E over the mean positive target); NaN where there is no target."""
+    from invrad_wb.core.output.report import relative_deviation
+    t = np.asarray(target, dtype=np.float64)
+    pos = t[np.isfinite(t) & (t > 0)]
+    return relative_deviation(t, achieved, float(pos.mean()) if pos.size else np.nan)
+
+
+def deviation_colours(values, limit=DEVIATION_LIMIT):
+    """The report's deviation colours, RGB in [0, 1]: blue too dark, white on target, red
+    too bright, full at +-``limit``; NaN (no target) grey."""
+    return _images.diverging(values, limit).astype(np.float64) / 255.0
+
+
+def _percent(x):
+    return f"{100.0 * x:+.0f} %" if abs(x) > 1e-9 else "0 %"
+
+
+def has_achieved(doc):
+    return doc is not None and doc.Name in _ACHIEVED
+
+
+def drop_achieved(doc):
+    """Forget the achieved result (the fixtures changed: its deviation would be stale)."""
+    _ACHIEVED.pop(doc.Name, None)
+
+
+def show_deviation(doc, limit=DEVIATION_LIMIT):
+    """The last achieved view's deviation from the targets, -limit..+limit (the report's
+    scale and colours). Returns the limit, or None without an achieved result."""
+    got = _ACHIEVED.get(doc.Name)
+    if got is None:
+        return None
+    building, achieved = got
+    dev = deviation(building.scene.vertex_lux, achieved)
+    return show(doc, building, dev, "Deviation from\ntarget", "deviation", targets=False,
+                vmax=float(limit), deviation=True)
+
+
+def toggle_deviation(doc=None):
+    """Switch between the achieved illuminance and its deviation from the targets; True
+    if the deviation is shown afterwards."""
+    import FreeCAD
+    from invrad_wb.gui import messages
+    doc = doc or FreeCAD.ActiveDocument
+    if doc is None or not has_achieved(doc):
+        return False
+    try:
+        if is_shown(doc, "deviation"):
+            building, achieved = _ACHIEVED[doc.Name]
+            show_achieved(doc, building, achieved)
+            return False
+        show_deviation(doc)
+    except Exception as exc:
+        hide(doc)
+        messages.exception("Show deviation", exc)
+        return False
+    return True
 
 
 def toggle_targets(doc=None):
@@ -593,4 +1071,11 @@ def state(doc):
 
 
 def forget(doc_name):
-    _STATE.pop(doc_name, None)
+    st = _STATE.pop(doc_name, None)
+    for sensor in (st or {}).get("sensors", []):
+        try:
+            sensor.detach()
+        except Exception:
+            pass
+    _SCALES.pop(doc_name, None)
+    _ACHIEVED.pop(doc_name, None)

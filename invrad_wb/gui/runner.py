@@ -24,9 +24,6 @@ import time
 from invrad_wb.gui import messages, params
 from invrad_wb.gui import progress as P
 
-#: Fixture colour in the 3D view (a light warm yellow), set on new fixtures in the GUI.
-FIXTURE_RGB = (1.0, 0.85, 0.25)
-
 
 @dataclass
 class Stored:
@@ -61,14 +58,22 @@ def _doc(doc):
 
 
 def _colour_fixtures(doc, names):
+    """The fixtures' look (app.fixtures.style_fixture; make_fixture sets it already, this
+    restores it after an undo/redo brought old view objects back)."""
     import FreeCAD
     if not FreeCAD.GuiUp:
         return
+    from invrad_wb.app.fixtures import style_fixture
     for n in names:
         obj = doc.getObject(n)
-        vo = getattr(obj, "ViewObject", None) if obj is not None else None
-        if vo is not None and hasattr(vo, "ShapeColor"):
-            vo.ShapeColor = FIXTURE_RGB
+        if obj is not None:
+            style_fixture(obj)
+
+
+def _drop_achieved(doc):
+    """New fixtures: the last achieved light (and its deviation view) is out of date."""
+    from invrad_wb.gui import display
+    display.drop_achieved(doc)
 
 
 def _room_keys(rooms):
@@ -111,6 +116,7 @@ def locate(doc=None, rooms=None, run=None, locate=None):
         return None
     res.fixtures = [o.Name for o in new]
     _colour_fixtures(doc, res.fixtures)
+    _drop_achieved(doc)
     _RESULTS[doc.Name] = Stored(res, settings, when=time.time())
     rooms_txt = ", ".join(res.building.room_names)
     lines = [f"{len(res.luminaires)} luminaire(s) of {settings.flux_lm:.0f} lm in"
@@ -272,6 +278,7 @@ def repeak(doc=None, threshold=None, neighbourhood_m=None):
     st.result.fixtures = [o.Name for o in new]
     st.verified = None
     _colour_fixtures(doc, st.result.fixtures)
+    _drop_achieved(doc)
     keep = {}
     if threshold is not None:
         keep["threshold"] = float(threshold)
@@ -329,8 +336,7 @@ def verify(doc=None, rooms=None, report_dir=None, show=True):
     if show:
         try:
             from invrad_wb.gui import display
-            scale = getattr(vr.report, "scale", None) or {}
-            display.show_achieved(doc, vr.building, vr.achieved, scale.get("lux_max"))
+            display.show_achieved(doc, vr.building, vr.achieved)
         except Exception as exc:               # the display is a nicety, not the result
             messages.warning(title, f"could not show the result in false colour: {exc}")
     lines = [f"{len(vr.luminaires)} luminaire(s) in {len(vr.building.rooms)} room(s);"

@@ -32,7 +32,30 @@ def load_ui(name, icon=None):
     if icon:
         from PySide import QtGui
         form.setWindowIcon(QtGui.QIcon(os.path.join(C.RESOURCES_DIR, "icons", icon)))
+    fit_narrow(form)
     return form
+
+
+#: The narrowest task view a panel must fit without horizontal scrolling (px): FreeCAD
+#: 1.0's default combo view in a 1280 x 800 window is about 260 px wide, of which the
+#: task box's frame, margins and scroll bar take about 20.
+NARROW_WIDTH_PX = 240
+#: Characters a drop-down keeps visible at its narrowest (its list still shows whole items).
+COMBO_MIN_CHARS = 5
+
+
+def fit_narrow(form):
+    """Let a form shrink to :data:`NARROW_WIDTH_PX`: labels wrap their words, a form
+    layout's field goes under its label when both do not fit side by side, and drop-downs
+    may be narrower than their longest item (the open list shows whole items)."""
+    from PySide import QtGui
+    for w in form.findChildren(QtGui.QLabel):
+        w.setWordWrap(True)
+    for w in form.findChildren(QtGui.QComboBox):
+        w.setSizeAdjustPolicy(QtGui.QComboBox.AdjustToMinimumContentsLengthWithIcon)
+        w.setMinimumContentsLength(COMBO_MIN_CHARS)
+    for lay in form.findChildren(QtGui.QFormLayout):
+        lay.setRowWrapPolicy(QtGui.QFormLayout.WrapLongRows)     # field under its label
 
 
 def _widget(form, name):
@@ -44,6 +67,8 @@ def fill_combo(w, choices):
     w.clear()
     for value, text in choices:
         w.addItem(text, value)
+    # a drop-down narrower than its items (fit_narrow) still lists them whole
+    w.view().setMinimumWidth(w.view().sizeHintForColumn(0) + 8)
 
 
 def set_value(w, value):
@@ -147,9 +172,10 @@ class LocatePanel:
         groups = [g for g in groups if g is not None]
         if not groups:
             return
-        box = QtGui.QCheckBox("Advanced: votes, dummy planes, peaks, refinement")
+        box = QtGui.QCheckBox("Advanced settings")
         box.setObjectName("show_advanced")
-        box.setToolTip("The method's own settings; the defaults suit every room")
+        box.setToolTip("The method's own settings (votes, dummy planes, peaks, refinement);"
+                       " the defaults suit every room")
         lay = self.form.layout()
         lay.insertWidget(lay.indexOf(groups[0]), box)
         box.toggled.connect(lambda on: [g.setVisible(on) for g in groups])
@@ -422,6 +448,11 @@ class DesignPanel:
     """
 
     CAT_COLUMNS = ("name", "flux_lm", "watts", "dim_percent", "photometry")
+    #: Catalogue columns shown in the table; the others are edited in the form below it
+    #: for the selected entry (five columns do not fit a narrow task view).
+    CAT_SHOWN = 2
+    #: The catalogue entry's form: widget -> column.
+    ENTRY_FIELDS = (("entry_watts", 2), ("entry_dim", 3), ("entry_photometry", 4))
     RUN_FIELDS = ("resolution_m", "interreflection", "backend", "replace")
 
     def __init__(self, doc, rooms=None):
@@ -451,13 +482,83 @@ class DesignPanel:
         self.widget("mounting").currentIndexChanged.connect(self._mounting_changed)
         self.widget("requirements").itemSelectionChanged.connect(self._selection_changed)
         self.widget("room_type").currentIndexChanged.connect(self._room_type_chosen)
+        cat = self.widget("catalogue")
+        for col in range(self.CAT_SHOWN, len(self.CAT_COLUMNS)):
+            cat.setColumnHidden(col, True)
+        cat.itemSelectionChanged.connect(self._entry_selected)
+        self.widget("entry_watts").valueChanged.connect(self._entry_edited)
+        self.widget("entry_dim").valueChanged.connect(self._entry_edited)
+        self.widget("entry_photometry").textChanged.connect(self._entry_edited)
+        # the numbers first, the long room-type names last (visual order only); the
+        # names take the width left (elided when narrow), the numbers their own
+        from PySide import QtGui
+        fit, stretch = QtGui.QHeaderView.ResizeToContents, QtGui.QHeaderView.Stretch
+        head = self.widget("requirements").horizontalHeader()
+        head.moveSection(1, 3)
+        head.setStretchLastSection(False)
+        for col, mode in ((0, stretch), (1, stretch), (2, fit), (3, fit)):
+            head.setSectionResizeMode(col, mode)
+        head = cat.horizontalHeader()
+        head.setStretchLastSection(False)
+        head.setSectionResizeMode(0, stretch)
+        head.setSectionResizeMode(1, fit)
         self.show_spec(params.load_design())
+        self._run_toggle(run)
 
     def widget(self, name):
         w = _widget(self.form, name)
         if w is None:
             raise KeyError(f"design.ui has no widget {name!r}")
         return w
+
+    def _run_toggle(self, run):
+        """The run settings start hidden unless one differs from its default."""
+        box, group = self.widget("show_run"), self.widget("group_run")
+        box.toggled.connect(group.setVisible)
+        changed = any(run[k] != params.RUN[k][1] for k in self.RUN_FIELDS)
+        box.setChecked(changed)
+        group.setVisible(changed)
+
+    # ---------------------------------------------------------------- catalogue form
+    def _entry_row(self):
+        rows = sorted({i.row() for i in self.widget("catalogue").selectedIndexes()})
+        return rows[0] if rows else None
+
+    def _entry_selected(self):
+        """Show the selected entry's power, dimming and photometry in the form."""
+        row = self._entry_row()
+        cat = self.widget("catalogue")
+        self._filling = True
+        try:
+            for name, col in self.ENTRY_FIELDS:
+                w = self.widget(name)
+                w.setEnabled(row is not None)
+                item = cat.item(row, col) if row is not None else None
+                text = item.text() if item is not None else ""
+                if name == "entry_photometry":
+                    w.setText(text)
+                else:
+                    try:
+                        w.setValue(float(text))
+                    except ValueError:
+                        w.setValue(w.minimum())
+        finally:
+            self._filling = False
+
+    def _entry_edited(self, *_):
+        """The form's values into the selected entry's (hidden) cells."""
+        from PySide import QtGui
+        row = self._entry_row()
+        if row is None or getattr(self, "_filling", False):
+            return
+        cat = self.widget("catalogue")
+        for name, col in self.ENTRY_FIELDS:
+            w = self.widget(name)
+            text = w.text().strip() if name == "entry_photometry" else f"{w.value():g}"
+            if cat.item(row, col) is None:
+                cat.setItem(row, col, QtGui.QTableWidgetItem(text))
+            else:
+                cat.item(row, col).setText(text)
 
     # ---------------------------------------------------------------- spec <-> widgets
     def show_spec(self, spec):
@@ -487,6 +588,9 @@ class DesignPanel:
         req.resizeColumnsToContents()
         if req.rowCount():
             req.selectRow(0)
+        if cat.rowCount():
+            cat.selectRow(0)
+        self._entry_selected()
 
     def _room_default(self, space, default):
         """A room without its own entry: its work-plane target's lux if it has one (with
@@ -515,6 +619,8 @@ class DesignPanel:
         cat.insertRow(row)
         for col, text in enumerate(cells):
             cat.setItem(row, col, QtGui.QTableWidgetItem(text))
+        if entry is None or not isinstance(entry, dict):     # a new entry: edit it now
+            cat.selectRow(row)
 
     def remove_entries(self):
         cat = self.widget("catalogue")

@@ -3,7 +3,7 @@ import numpy as np
 
 import FreeCAD
 
-from fctest import FreeCADTestCase, make_walled_room
+from fctest import FZK, FreeCADTestCase, make_walled_room, needs_fzk, needs_locate
 from invrad_wb.app import document, fixtures
 from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.errors import LuminaireError, SceneError
@@ -59,6 +59,55 @@ class TestFixtures(FreeCADTestCase):
         (fx2,) = fixtures.insert_fixtures(self.doc, [(self.space, [down(2, 1.5, radius_m=0.3)])])
         self.assertAlmostEqual(fx2.Shape.BoundBox.XLength, 600.0, places=6)
         self.assertAlmostEqual(fx2.EmitterRadius.Value, 300.0)
+
+    def test_pendant_hangs_from_the_ceiling_on_a_rod(self):
+        (fx,) = fixtures.insert_fixtures(self.doc, [(self.space, [down(2.0, 1.5, z=2.0)])])
+        bb = fx.Shape.BoundBox
+        self.assertAlmostEqual(bb.ZMin, 1960.0, places=3)       # the body below the point
+        self.assertAlmostEqual(bb.ZMax, 2700.0, places=3)       # the rod reaches the ceiling
+        self.assertEqual(len(fx.Shape.Solids), 1)               # one solid for IFC
+        # the rod is thin: a section half way up is a small disc, not the body
+        mid = fx.Shape.common(__import__("Part").makeBox(
+            1000, 1000, 10, FreeCAD.Vector(1500, 1000, 2300)))
+        self.assertLess(mid.Volume, 3.2 * 6.0 ** 2 * 10)
+        self.assertAlmostEqual(fixtures.ceiling_drop_m(self.space, down(2.0, 1.5, z=2.0)),
+                               0.7, places=6)
+        # on the ceiling (a few cm below it: no rod) and facing sideways: no rod
+        self.assertEqual(fixtures.ceiling_drop_m(self.space, down(2.0, 1.5, z=2.65)), 0.0)
+        self.assertEqual(fixtures.ceiling_drop_m(
+            self.space, Luminaire([0.1, 1.5, 2.0], [1, 0, 0], 900.0)), 0.0)
+        # the mount a locate run found counts even close to the ceiling
+        near = down(2.0, 1.5, z=2.65)
+        near.extra["mount"] = "pendant"
+        self.assertAlmostEqual(fixtures.ceiling_drop_m(self.space, near), 0.05, places=6)
+
+    def test_body_sized_from_the_luminous_area(self):
+        class Phot:
+            luminous_area_m2 = 0.36
+        panel = down(2.0, 1.5)
+        panel.photometry = Phot()
+        self.assertEqual(fixtures.fixture_size(panel), ("panel", 0.6, 0.6))
+        small = down(1.0, 1.0)
+        small.photometry = type("P", (), {"luminous_area_m2": np.pi * 0.075 ** 2})()
+        kind, r = fixtures.fixture_size(small)
+        self.assertEqual(kind, "disc")
+        self.assertAlmostEqual(r, 0.075)
+        self.assertEqual(fixtures.fixture_size(down(1, 1, radius_m=0.2)), ("disc", 0.2))
+        fx = fixtures.insert_fixtures(self.doc, [(self.space, [panel, small])])
+        bb = fx[0].Shape.BoundBox
+        self.assertAlmostEqual(bb.XLength, 600.0, places=3)
+        self.assertAlmostEqual(bb.YLength, 600.0, places=3)
+        self.assertAlmostEqual(fx[1].Shape.BoundBox.XLength, 150.0, places=3)
+
+    def test_label_names_room_and_catalogue_type(self):
+        typed = down(2.0, 1.5)
+        typed.extra["type"] = "DL-2000"
+        objs = fixtures.insert_fixtures(self.doc, [(self.space, [down(1, 1), typed])])
+        self.assertEqual([o.Label for o in objs],
+                         ["Luminaire Office 1", "Luminaire Office 2 (DL-2000)"])
+        self.assertEqual(objs[1].Model, "DL-2000")
+        # listed in the tree under their room
+        self.assertTrue(all(o in self.space.Group for o in objs))
 
     def test_insertion_is_one_undo_step(self):
         before = document.snapshot(self.doc)
@@ -143,3 +192,54 @@ class TestFixtures(FreeCADTestCase):
         doc.recompute()
         self.assertEqual(len(fixtures.room_fixtures(space)), 2)
         self.doc = doc
+
+
+def wall_clearance_m(fx):
+    """Plan distance (m) from a fixture's centre to the nearest wall face of its room, and
+    whether the centre lies inside the room (1 mm along its light, off its surface)."""
+    import Part
+    lum = fixtures.fixture_luminaire(fx)
+    shape = fx.Room.Shape
+    p = FreeCAD.Vector(*(1000.0 * (lum.position + 0.001 * lum.normal)))
+    inside = shape.isInside(p, 1e-3, True)
+    walls = [f for f in shape.Faces if abs(f.normalAt(0.5, 0.5).z) < 0.1]
+    v = Part.Vertex(p)
+    return min(f.distToShape(v)[0] for f in walls) / 1000.0, inside
+
+
+class TestFixturesInTheirRooms(FreeCADTestCase):
+    """Located fixtures lie inside their rooms and clear of the walls; rooms do not overlap."""
+
+    @needs_locate
+    def test_located_ceiling_lights_keep_clear_of_the_walls(self):
+        # a work plane reaching the walls pulled ceiling lights onto the ceiling's edge
+        # (FZK-Haus: centres on the wall lines, bodies in the walls)
+        from invrad_wb.app import pipeline, targets
+        from invrad_wb.core.inverse.locate import MOUNT_CLEARANCE_M
+        space = make_walled_room(self.doc)
+        targets.set_work_plane(space, 500.0)
+        pipeline.run(self.doc, pipeline.PipelineSettings(
+            flux_lm=1500.0, resolution_m=0.3, interreflection=False, workers=1))
+        fx = fixtures.room_fixtures(space)
+        self.assertGreaterEqual(len(fx), 4)
+        for f in fx:
+            clear, inside = wall_clearance_m(f)
+            self.assertTrue(inside, f.Label)
+            if f.LightDirection.z < -0.99:                 # on the ceiling or hanging
+                self.assertGreaterEqual(clear, MOUNT_CLEARANCE_M - 0.002, f.Label)
+
+    @needs_fzk
+    def test_fzk_rooms_do_not_overlap(self):
+        from invrad_wb.app import ifcimport, rooms
+        doc = ifcimport.open(FZK)
+        spaces = rooms.find_spaces(doc)
+        self.assertEqual(len(spaces), 7)
+        touching = 0
+        for i, a in enumerate(spaces):
+            for b in spaces[i + 1:]:
+                if not a.Shape.BoundBox.intersect(b.Shape.BoundBox):
+                    continue
+                common = a.Shape.common(b.Shape).Volume / 1e9
+                self.assertLess(common, 1e-6, f"{a.Label} and {b.Label} share {common} m3")
+                touching += a.Shape.distToShape(b.Shape)[0] < 1.0
+        self.assertGreaterEqual(touching, 2)   # Küche, Wohnen and Flur share open borders

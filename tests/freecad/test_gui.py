@@ -306,7 +306,132 @@ class TestDisplayNumpy(FreeCADTestCase):
         self.assertEqual(int((groups == groups.max()).sum()), p.n_work_plane)
         ((name, (x, y, z)),) = display.room_labels(b)
         self.assertEqual(name, "Office")
-        np.testing.assert_allclose((x, y, z), (2000.0, 1500.0, 900.0), atol=1e-6)
+        # 0.3 m below the 2.7 m ceiling: in the room's open top seen from above
+        np.testing.assert_allclose((x, y, z), (2000.0, 1500.0, 2400.0), atol=1e-6)
+
+
+    def test_subdivide_is_conforming(self):
+        # two triangles of a unit square; split one: its neighbour is split in two
+        pts = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+        tris = np.array([[0, 1, 2], [0, 2, 3]])
+        nrm = np.tile([0.0, 0.0, 1.0], (4, 1))
+        p2, t2, parent, n2 = display.subdivide(pts, tris, np.array([True, False]), nrm)
+        self.assertEqual(len(t2), 4 + 2)
+        self.assertEqual(sorted(parent.tolist()), [0, 0, 0, 0, 1, 1])
+        np.testing.assert_allclose(n2, np.tile([0.0, 0.0, 1.0], (len(p2), 1)))
+        area = 0.5 * np.linalg.norm(np.cross(p2[t2[:, 1]] - p2[t2[:, 0]],
+                                             p2[t2[:, 2]] - p2[t2[:, 0]]), axis=1)
+        self.assertAlmostEqual(area.sum(), 1.0)
+        self.assertTrue(np.all(np.cross(p2[t2[:, 1]] - p2[t2[:, 0]],
+                                        p2[t2[:, 2]] - p2[t2[:, 0]])[:, 2] > 0))  # winding
+        # no T-junction: every edge is used twice, or once on the square's outline
+        e = np.sort(np.concatenate([t2[:, [0, 1]], t2[:, [1, 2]], t2[:, [2, 0]]]), axis=1)
+        _, cnt = np.unique(e, axis=0, return_counts=True)
+        self.assertEqual(int((cnt == 1).sum()), 6)    # 4 sides, the 2 of the split one halved
+        self.assertTrue(np.all(cnt <= 2))
+
+    def test_spot_edge_is_smooth_on_the_display_mesh(self):
+        space = make_walled_room(self.doc, size=(4.0, 3.0, 2.7))
+        wall = targets._faces_arg(space, "walls")[0]
+        targets.set_work_plane(space, 500.0)
+        b0 = pipeline.prepare(self.doc, PipelineSettings(flux_lm=1.0, resolution_m=0.2))
+        p = b0.rooms[0]
+        face = int(wall[4:]) - 1
+        v = p.mesh.vertices[np.unique(p.mesh.triangles[p.mesh.triangle_face == face])]
+        centre = 0.5 * (v.min(axis=0) + v.max(axis=0))
+        targets.add_spot_target(space, wall, tuple(centre), 0.6, 600.0)
+        b = pipeline.prepare(self.doc, PipelineSettings(flux_lm=1.0, resolution_m=0.2))
+        vmax = display.lux_scale(b.scene.vertex_lux)
+        self.assertEqual(vmax, 1000.0)                         # 1.5 x 600 lx, rounded up
+        m = display.target_mesh(b, vmax)
+
+        def rim(verts, faces, vals):
+            """Largest distance from the spot's circle of a vertex of a triangle that
+            crosses the spot's edge (the height of the stair steps)."""
+            t = faces[display.edge_triangles(vals[faces], vmax)]
+            d = np.linalg.norm(verts[np.unique(t)] - centre, axis=1)
+            return np.max(np.abs(d - 0.6))
+        before = rim(b.scene.vertices, b.scene.faces, b.scene.vertex_lux)
+        after = rim(m["vertices"], m["faces"], m["values"])
+        self.assertGreater(before, 0.1)
+        self.assertLess(after, before / 5)
+        # the same targets where the meshes meet, and the same surface area
+        sc = b.scene
+        def area(vv, ff):
+            return 0.5 * np.linalg.norm(np.cross(vv[ff[:, 1]] - vv[ff[:, 0]],
+                                                 vv[ff[:, 2]] - vv[ff[:, 0]]), axis=1).sum()
+        self.assertAlmostEqual(area(m["vertices"], m["faces"]), area(sc.vertices, sc.faces),
+                               places=6)
+        self.assertEqual(int(m["virtual"].sum()), int(np.sum(sc.face_virtual)))
+        g = display.overlay_geometry(b, m["values"], vmax=vmax, mesh=m)
+        self.assertEqual(len(g["rgb"]), len(m["vertices"]))
+        self.assertGreater(len(m["faces"]), len(sc.faces))
+        self.assertLess(len(m["faces"]), 3 * len(sc.faces))    # refined along the rim only
+
+    def test_room_names_per_storey_and_clear_of_objects(self):
+        import Part
+        down_ = make_walled_room(self.doc, size=(4.0, 3.0, 2.7), label="Flur")
+        up = make_walled_room(self.doc, size=(4.0, 3.0, 2.7), origin=(0.0, 0.0, 3.0),
+                              label="Galerie")
+        for sp in (down_, up):
+            targets.set_work_plane(sp, 200.0)
+        # a stair in the middle of the room below
+        stair = self.doc.addObject("Part::Feature", "Stair")
+        stair.Shape = Part.makeBox(800, 800, 2500, FreeCAD.Vector(1600, 1100, 0))
+        self.doc.recompute()
+        b = pipeline.prepare(self.doc, PipelineSettings(flux_lm=1.0, resolution_m=0.25))
+        labels = display.room_labels(b)
+        self.assertEqual([n for n, _ in labels], ["Flur", "Galerie"])
+        (_, (x0, y0, z0)), (_, (x1, y1, z1)) = labels
+        self.assertAlmostEqual(z0, 2400.0)        # 0.3 m under each storey's ceiling
+        self.assertAlmostEqual(z1, 5400.0)
+        # the name below keeps clear of the stair (its box is 1.6..2.4 x 1.1..1.9 m)
+        self.assertFalse(1500 < x0 < 2500 and 1000 < y0 < 2000, (x0, y0))
+        self.assertTrue(100 < x0 < 3900 and 100 < y0 < 2900)
+        self.assertAlmostEqual(x1, 2000.0, delta=1e-6)     # nothing in the room above
+        # seen whole (no clipping plane): the storey above hides the room below and
+        # only its name is drawn, not both on top of each other
+        self.assertEqual(display.label_visibility(b, labels).tolist(), [False, True])
+        # a plan cut below the upper storey (keeps z <= 2480 mm): only the name below
+        cut = [((0.0, 0.0, -1.0), -2480.0)]
+        self.assertEqual(display.label_visibility(b, labels, cut).tolist(), [True, False])
+        # a cut above both storeys keeps both rooms; the upper one still covers the lower
+        high = [((0.0, 0.0, -1.0), -9000.0)]
+        self.assertEqual(display.label_visibility(b, labels, high).tolist(), [False, True])
+
+    def test_deviation_view_numbers_colours_and_legend(self):
+        from invrad_wb.core.output import images
+        dev = display.deviation([500.0, 0.0, np.nan, 250.0], [600.0, 75.0, 10.0, 125.0])
+        np.testing.assert_allclose(dev, [0.2, 75.0 / 375.0, np.nan, -0.5])
+        rgb = display.deviation_colours(np.array([-0.5, 0.0, 0.5, np.nan, -2.0]), 0.5)
+        np.testing.assert_allclose(rgb[0], images.diverging(np.array([-0.5]))[0] / 255.0)
+        self.assertTrue(np.all(rgb[1] > 0.9))                  # on target: near white
+        self.assertGreater(rgb[2, 0], rgb[2, 2])               # too bright: red
+        self.assertGreater(rgb[0, 2], rgb[0, 0])               # too dark: blue
+        np.testing.assert_allclose(rgb[4], rgb[0])             # beyond the scale: its end
+        np.testing.assert_allclose(rgb[3], np.array(images.NAN_GREY) / 255.0)
+        lay = display.legend_layout("Deviation from\ntarget", 0.5, [], vmin=-0.5,
+                                    fmt=display._percent)
+        self.assertEqual([t for _, t in lay["ticks"]],
+                         ["-50 %", "-25 %", "0 %", "+25 %", "+50 %"])
+        ys = [y for y, _ in lay["ticks"]]
+        self.assertEqual(ys, sorted(ys))
+        self.assertAlmostEqual(ys[0], lay["bar"][1])
+        self.assertAlmostEqual(ys[-1], lay["bar"][3])
+
+    def test_one_lux_scale_for_target_and_achieved_views(self):
+        doc = types.SimpleNamespace(Name="ScaleTest")
+        try:
+            self.assertEqual(display.document_scale(doc, [500.0, np.nan, 150.0]), 800.0)
+            # the achieved view's building samples the same targets a little differently
+            self.assertEqual(display.document_scale(doc, [510.0, 150.0]), 800.0)
+            self.assertEqual(display.document_scale(doc, [480.0]), 800.0)
+            # a brighter target than the scale can show with headroom: a new scale
+            self.assertEqual(display.document_scale(doc, [900.0]), 1500.0)
+            self.assertEqual(display.document_scale(doc, [500.0]), 800.0)     # an undo
+            self.assertEqual(display.document_scale(doc, [100.0]), 150.0)
+        finally:
+            display.forget(doc.Name)
 
 
 class TestSelection(FreeCADTestCase):

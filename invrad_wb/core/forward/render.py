@@ -45,8 +45,7 @@ def render(scene, luminaires, interreflection=True, occlusion=True, backend="aut
     """
     backend = check_backend(backend)
     bvh = scene_bvh(scene)
-    direct = direct_illuminance(scene.vertices, scene.vertex_normals, luminaires, bvh=bvh,
-                                occlusion=occlusion, backend=backend)
+    direct = _direct_by_room(scene, luminaires, bvh, occlusion, backend)
     indirect = np.zeros_like(direct)
     if interreflection:
         from invrad_wb.core.forward.radiosity import RadiosityModel
@@ -55,3 +54,54 @@ def render(scene, luminaires, interreflection=True, occlusion=True, backend="aut
         indirect = model.indirect_at_vertices(direct)
     total = direct + indirect
     return (total, direct, indirect) if return_parts else total
+
+
+def _direct_by_room(scene, luminaires, bvh, occlusion, backend):
+    """Direct light at the scene's vertices; a luminaire with a room lights only the
+    vertices of its room (as locate, design and the interreflection model see rooms).
+
+    Rooms are closed, so walls keep each room's light in; but where two rooms touch
+    without a wall between them (FZK-Haus: Kueche and Wohnen share an open border), the
+    vertices on the shared border lie in the other room's boundary plane, no face stands
+    between them and its luminaires, and they took its light: a saw-tooth strip of the
+    neighbour's light along the border in plans and false colours. Vertices of no room or
+    of several rooms, and luminaires without a room, keep the light of every luminaire.
+    """
+    lums = list(luminaires)
+    vr = _vertex_rooms(scene)
+    roomed = [lum.room for lum in lums if lum.room is not None]
+    used = vr[vr >= 0] if vr is not None else np.zeros(0, dtype=np.int64)
+    if (vr is None or not roomed or not len(used)
+            or (np.all(vr == used[0]) and all(r == used[0] for r in roomed))):
+        return direct_illuminance(scene.vertices, scene.vertex_normals, lums, bvh=bvh,
+                                  occlusion=occlusion, backend=backend)
+    out = np.zeros(len(scene.vertices))
+    shared = [lum for lum in lums if lum.room is None]
+    rest = np.flatnonzero(vr < 0)
+    if len(rest):
+        out[rest] = direct_illuminance(scene.vertices[rest], scene.vertex_normals[rest],
+                                       lums, bvh=bvh, occlusion=occlusion, backend=backend)
+    for r in np.unique(used):
+        idx = np.flatnonzero(vr == r)
+        mine = [lum for lum in lums if lum.room is not None and int(lum.room) == r] + shared
+        if mine:
+            out[idx] = direct_illuminance(scene.vertices[idx], scene.vertex_normals[idx],
+                                          mine, bvh=bvh, occlusion=occlusion,
+                                          backend=backend)
+    return out
+
+
+def _vertex_rooms(scene):
+    """(n,) int room of each vertex (-1: unused or used by faces of several rooms), or
+    None when the scene has no rooms."""
+    fr = getattr(scene, "face_room", None)
+    if fr is None:
+        return None
+    fr = np.asarray(fr, dtype=np.int64)
+    n = len(scene.vertices)
+    lo = np.full(n, np.iinfo(np.int64).max)
+    hi = np.full(n, np.iinfo(np.int64).min)
+    corners = scene.faces.reshape(-1)
+    np.minimum.at(lo, corners, np.repeat(fr, 3))
+    np.maximum.at(hi, corners, np.repeat(fr, 3))
+    return np.where((lo == hi), lo, -1)

@@ -39,6 +39,11 @@ from invrad_wb.core.inverse.votes import vote_weights, cast_exact, vote_profile
 VOTE_MODELS = ("exact", "ellipse")
 #: luminaires stay this far above a work plane (nothing is mounted right above a desk)
 WORK_PLANE_CLEARANCE_M = 0.3
+#: A luminaire mounted on a surface keeps its centre this far inside the border of the
+#: faces it is on (a luminaire has a body: on FZK-Haus the refinement pushed ceiling lights
+#: onto the ceiling's edge, their centres on the wall line, when a work plane reached to
+#: the walls).
+MOUNT_CLEARANCE_M = 0.1
 INDIRECT_MODES = ("radiosity", "ambient", "none")
 
 
@@ -385,6 +390,41 @@ def _exclude_furniture_zone(scene, canvas):
             m.mask[...] = False
 
 
+def _clear_of_border(canvas, light, clearance=MOUNT_CLEARANCE_M, steps=4):
+    """A surface luminaire moved to ``clearance`` inside its faces' border, or None.
+
+    The border is probed along the map's +-u, +-v axes (``steps`` probes each): where it is
+    nearer than ``clearance`` the luminaire moves away from it by the difference (to within
+    ``clearance / steps``); None if it is then still not clear (a face too narrow).
+    """
+    m = canvas.maps[light.map_index]
+    p = light.position
+    if not canvas.map_contains(light.map_index, p):
+        return None
+    shift = np.zeros(3)
+    near = False
+    for d in (m.u, -m.u, m.v, -m.v):
+        if canvas.map_contains(light.map_index, p + clearance * d):
+            continue
+        near = True
+        free = 0.0
+        for k in range(1, steps):
+            if not canvas.map_contains(light.map_index, p + (k / steps) * clearance * d):
+                break
+            free = k / steps * clearance
+        shift -= (clearance - free) * d
+    if not near:
+        return light
+    q = p + shift
+    if not all(canvas.map_contains(light.map_index, q + s * d)
+               for s in (0.0, clearance - clearance / steps)
+               for d in (m.u, -m.u, m.v, -m.v)):
+        return None
+    out = light.copy()
+    out.position = q
+    return out
+
+
 def _make_inside(canvas):
     min_z = getattr(canvas, "min_z", -np.inf)
 
@@ -392,7 +432,7 @@ def _make_inside(canvas):
         if light.position[2] <= min_z:
             return None
         if light.kind == "surface":
-            return light if canvas.map_contains(light.map_index, light.position) else None
+            return _clear_of_border(canvas, light)
         if canvas.grid is None:
             return None
         p = canvas.grid.clamp(light.position)

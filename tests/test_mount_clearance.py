@@ -1,0 +1,47 @@
+"""Surface-mounted luminaires keep their centre clear of the border of the faces they are
+on (locate's ``MOUNT_CLEARANCE_M``): a ceiling light pulled to the ceiling's edge by the
+fit sat in the wall (FZK-Haus)."""
+import numpy as np
+
+from invrad_wb.core.synthetic import generate as g
+from invrad_wb.core.inverse import locate as L
+from invrad_wb.core.inverse.refine import Light
+from invrad_wb.core.inverse.votemaps import build_canvas
+
+
+def _ceiling_light(canvas, xy):
+    k = next(i for i, m in enumerate(canvas.maps)
+             if m.kind == "surface" and m.normal[2] < -0.9)
+    m = canvas.maps[k]
+    return Light("surface", np.array([xy[0], xy[1], 3.0]), np.array([0.0, 0.0, -1.0]), k,
+                 plane=m.plane, origin=m.origin, u=m.u, v=m.v)
+
+
+def test_surface_lights_move_clear_of_the_border():
+    s = g.box_room((4, 3, 3), cell=0.25)
+    canvas = build_canvas(s, 0, pixel=0.05, dummy=False)
+    inside = L._make_inside(canvas)
+    c = L.MOUNT_CLEARANCE_M
+    # well inside: unchanged (the same object)
+    mid = _ceiling_light(canvas, (2.0, 1.5))
+    assert inside(mid) is mid
+    # on the edge, near it, in a corner: moved to the clearance (to a quarter of it)
+    for xy in ((0.0, 1.5), (0.03, 1.5), (3.99, 1.2), (3.95, 2.98), (0.001, 0.002)):
+        got = inside(_ceiling_light(canvas, xy))
+        assert got is not None, xy
+        p = got.position
+        clear = min(p[0], 4.0 - p[0], p[1], 3.0 - p[1])
+        assert c - 1e-9 <= clear <= c + c / 4 + 0.05 + 1e-9, (xy, p)
+        assert p[2] == 3.0                                # still on the ceiling
+        moved = np.abs(p[:2] - np.array(xy))
+        # only away from the near wall(s)
+        assert np.all((moved < 1e-12) | (np.array([min(xy[0], 4 - xy[0]),
+                                                   min(xy[1], 3 - xy[1])]) < c)), (xy, p)
+    # off the ceiling altogether: refused
+    assert inside(_ceiling_light(canvas, (4.5, 1.5))) is None
+
+
+def test_a_face_narrower_than_twice_the_clearance_takes_no_light():
+    s = g.box_room((4, 0.15, 3), cell=0.05)
+    canvas = build_canvas(s, 0, pixel=0.025, dummy=False)
+    assert L._make_inside(canvas)(_ceiling_light(canvas, (2.0, 0.075))) is None
