@@ -48,9 +48,8 @@ def test_model_matches_the_textbook_formula():
     np.testing.assert_allclose(e, p.target, rtol=1e-12)
 
 
-def test_jacobian_matches_finite_differences():
-    p = _problem([_ceiling_light(2.0, 1.5), _ceiling_light(4.2, 2.5)])
-    lights = [_ceiling_light(2.3, 1.2), _ceiling_light(3.9, 2.8)]
+def _check_jacobian(p, lights):
+    """The analytic Jacobian of the residuals against forward differences."""
     vis = [p.visibility(L) for L in lights]
     r, J = p.residuals(lights, vis, with_jac=True)
     h = 1e-6
@@ -63,6 +62,12 @@ def test_jacobian_matches_finite_differences():
             r2, _ = p.residuals(moved, vis)
             np.testing.assert_allclose(J[:, k], (r2 - r) / h, rtol=1e-4, atol=1e-6)
             k += 1
+    assert k == J.shape[1]
+
+
+def test_jacobian_matches_finite_differences():
+    p = _problem([_ceiling_light(2.0, 1.5), _ceiling_light(4.2, 2.5)])
+    _check_jacobian(p, [_ceiling_light(2.3, 1.2), _ceiling_light(3.9, 2.8)])
 
 
 def test_jacobian_with_free_flux_matches_finite_differences():
@@ -74,18 +79,7 @@ def test_jacobian_with_free_flux_matches_finite_differences():
     lights[0].flux_scale, lights[1].flux_scale = 0.6, 1.7
     lights[1].indirect = np.linspace(1.0, 30.0, len(p.positions))
     assert all(len(L.params()) == 3 for L in lights)
-    vis = [p.visibility(L) for L in lights]
-    r, J = p.residuals(lights, vis, with_jac=True)
-    h = 1e-6
-    k = 0
-    for i, L in enumerate(lights):
-        for j in range(len(L.params())):
-            q = L.params().copy()
-            q[j] += h
-            moved = [M if m != i else L.with_params(q) for m, M in enumerate(lights)]
-            r2, _ = p.residuals(moved, vis)
-            np.testing.assert_allclose(J[:, k], (r2 - r) / h, rtol=1e-4, atol=1e-6)
-            k += 1
+    _check_jacobian(p, lights)
 
 
 def test_levenberg_marquardt_fits_each_flux_with_the_position():
