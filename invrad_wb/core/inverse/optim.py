@@ -20,18 +20,21 @@ numpy 1.26, scipy 1.10.1; the figures are in the commit that introduced this mod
   It does not fit the rest: a luminaire's allowed region is a pixel mask of its faces (or
   the room's footprint), not a box, so it can only be checked after the fit (309 of 776
   fits ended with a luminaire outside and had to be reverted), and visibility is refreshed
-  between steps, not inside every evaluation. The 24 locate cases of the scenarios (12 scenes
-  at rho 0 and 0.6, three with free fluxes; both optimisers in one process, least_squares
-  first): 285.7 s against 164.0 s (rho 0.6 alone: 170.4 against 86.9 s), and one wrong
-  answer (two_rooms_two_fluxes at rho 0.6: 2 of 4 luminaires and a spurious one, LM 4/4);
-  two_ceiling at rho 0 came out 0.13 cm off (LM 0.07 cm), the rest as the LM's.
+  between steps, not inside every evaluation. Locating the scenarios' 12 scenes at rho 0.6
+  (three with free fluxes), both optimisers in one process: least_squares took 170.4 s
+  against the LM's 86.9 s when run first, 469.8 s against 284.4 s when run second (a scene's
+  second run is faster); at rho 0 the order decides (fewer residual evaluations with one
+  flux, two_ceiling 84 against 150, about as many Jacobians; with free fluxes up to 4x the
+  Jacobians, wall_and_ceiling 1351 against 347). It gave one wrong answer in both orders
+  (two_rooms_two_fluxes rho 0.6: 2 of 4 luminaires and a spurious one; LM 4 of 4), and
+  two_ceiling rho 0 0.13 cm off (LM 0.07 cm). The LM below keeps the refinement's results.
 * The maximum of the per-lumen distribution by Newton's method (:func:`newton`): scipy's
   ``minimize`` with the analytic gradient and Hessian missed the closed-form maximum by
   more than 1e-9 (relative) at 36 (``trust-exact``, up to 3e-5), 37 (``trust-ncg``) and 103
   (``Newton-CG``) of the 180 table angles, ``gtol`` down to 1e-20: near the optimum the
-  function's values no longer resolve progress and its steps are refused. :func:`newton` takes a full undamped step that
-  changes the value by no more than rounding and stops on the step length: 1e-9 at every
-  angle (:func:`invrad_wb.core.inverse.tablefit.maximum_newton`).
+  function's values no longer resolve progress and its steps are refused. :func:`newton`
+  takes a full undamped step that changes the value by no more than rounding and stops on
+  the step length: 1e-9 at every angle (:func:`invrad_wb.core.inverse.tablefit.maximum_newton`).
 
 Array conventions: ``x`` (N, n) float64; residuals ``r`` (N, m); Jacobians ``J`` (N, m, n).
 """
