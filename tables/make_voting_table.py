@@ -5,7 +5,8 @@ For every angle ``alpha`` between the voting point's normal and the luminaire pl
 and every level ``q = e / e_max`` below the maximum it stores the deformed ellipse
 ``(a, b, d, x_m, y_m)`` of the contour ``e`` at *unit distance*; the distance dimension of
 the thesis' table is exact scaling (``e ~ 1/h^2``, lengths ~ ``h``, see
-``invrad_wb/core/inverse/formfactor.py``), which also lifts its 0.1-10 m limit. Layout, axes and the
+``invrad_wb/core/inverse/formfactor.py``), which also lifts its 0.1-10 m limit. The fits are
+``invrad_wb/core/inverse/tablefit.py``'s. Layout, axes and the
 interpolation the vote kernel must use are documented in ``invrad_wb/core/inverse/table.py`` and
 ``tables/README.md``.
 
@@ -32,6 +33,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
 from invrad_wb.core.inverse import formfactor as ff  # noqa: E402
+from invrad_wb.core.inverse import tablefit  # noqa: E402
 from invrad_wb.core.io.atomic import atomic_path, atomic_write_text  # noqa: E402
 from invrad_wb.core.inverse.table import sha256  # noqa: E402
 
@@ -66,7 +68,7 @@ def build(angles, lam, q, k, k_orth, n_check, progress=True):
     r_eq = np.zeros((A, L))
     t0 = time.time()
     for j in range(1, L):  # j = 0 is q = 1: the contour is the point at the maximum
-        ent = ff.table_entries(angles, q[j], k=k, k_orth=k_orth, n_check=n_check)
+        ent = tablefit.table_entries(angles, q[j], k=k, k_orth=k_orth, n_check=n_check)
         params[:, j] = ent["params"]
         params[:, j, LENGTHS] /= r_max[:, None]
         err_max[:, j] = ent["err_max"]
@@ -123,7 +125,7 @@ def check(npz_path, n, k, k_orth, n_check, seed=7):
     rng = np.random.default_rng(seed)
     ii = np.concatenate([[0, A - 1, A // 2, 0], rng.integers(0, A, n)])
     jj = np.concatenate([[1, L - 1, L // 2, L - 1], rng.integers(1, L, n)])
-    ent = ff.table_entries(angles[ii], q[jj], k=k, k_orth=k_orth, n_check=n_check)
+    ent = tablefit.table_entries(angles[ii], q[jj], k=k, k_orth=k_orth, n_check=n_check)
     r_max = z["r_max"][ii]
     new = ent["params"].copy()
     new[:, LENGTHS] /= r_max[:, None]
@@ -144,7 +146,7 @@ def check(npz_path, n, k, k_orth, n_check, seed=7):
 
 def bench(k):
     """Newton/LM versus (1+1)-ES, one problem at a time (thesis 3.2.4)."""
-    rows = ff.compare_methods(k=k)
+    rows = tablefit.compare_methods(k=k)
     print("\nMaximum (error vs closed form in units of h, seconds per problem):")
     seen = set()
     for r in rows:

@@ -1,10 +1,12 @@
-"""Form-factor distribution of one vote: closed forms, maximum search, contours, fits."""
+"""Form-factor distribution of one vote (formfactor.py): closed forms, contours, the ellipse
+model; and the offline fits of the voting table (tablefit.py): maximum searches, ellipse fits."""
 import math
 
 import numpy as np
 import pytest
 
 from invrad_wb.core.inverse import formfactor as ff
+from invrad_wb.core.inverse import tablefit as tf
 from invrad_wb.errors import InvradError, SettingsError
 
 ALPHAS_DEG = (5.0, 30.0, 60.0, 90.0, 120.0, 135.0, 170.0, 180.0)
@@ -105,8 +107,8 @@ def test_maximum_methods_agree_with_grid_search(alpha_deg, h):
     alpha = math.radians(alpha_deg)
     gx, gy, ge, res = grid_maximum(h, alpha)
     exact = ff.maximum_closed_form(h, alpha)
-    newton = ff.maximum_newton(h, alpha)
-    es = ff.maximum_es(h, alpha, rng=3)
+    newton = tf.maximum_newton(h, alpha)
+    es = tf.maximum_es(h, alpha, rng=3)
     assert abs(gy) <= res
     for mx in (exact, newton, es):
         assert abs(float(mx.x) - gx) <= res + 1e-9 * h
@@ -119,8 +121,8 @@ def test_maximum_methods_agree_with_grid_search(alpha_deg, h):
 
 def test_maximum_at_normal_incidence_is_the_foot_point():
     for h in (0.37, 1.0, 8.9):
-        for mx in (ff.maximum_closed_form(h, np.pi), ff.maximum_newton(h, np.pi),
-                   ff.maximum_es(h, np.pi, rng=0)):
+        for mx in (ff.maximum_closed_form(h, np.pi), tf.maximum_newton(h, np.pi),
+                   tf.maximum_es(h, np.pi, rng=0)):
             assert abs(float(mx.x)) < 1e-6 * h
             assert float(mx.e) == pytest.approx(1.0 / (np.pi * h * h), rel=1e-12)
             assert abs(float(mx.rotation)) < 1e-6
@@ -136,7 +138,7 @@ def test_maximum_closed_form_is_stationary_and_vectorised():
     # 3 s x^2 - 4 c x - s = 0
     resid = 3 * np.sin(alpha) * mx.x ** 2 - 4 * np.cos(alpha) * mx.x - np.sin(alpha)
     assert np.abs(resid / (1 + mx.x ** 2)).max() < 1e-12
-    newton = ff.maximum_newton(1.0, alpha)
+    newton = tf.maximum_newton(1.0, alpha)
     np.testing.assert_allclose(newton.x, mx.x, rtol=1e-9, atol=1e-12)
     # the wall-to-ceiling case: x_max = h / sqrt(3), rotation 60 degrees
     wall = ff.maximum_closed_form(2.0, np.pi / 2)
@@ -238,13 +240,13 @@ def test_jacobian_of_the_implicit_residual():
     rng = np.random.default_rng(6)
     p = np.array([[1.3, 0.9, 0.12, 0.2, 0.05]])
     X, Y = rng.uniform(-2, 2, (2, 1, 15))
-    r, J = ff._resid_jac(p, X, Y)
+    r, J = tf._resid_jac(p, X, Y)
     for i in range(5):
         dp = np.zeros_like(p)
         dp[0, i] = 1e-6
-        num = (ff._resid(p + dp, X, Y) - ff._resid(p - dp, X, Y)) / 2e-6
+        num = (tf._resid(p + dp, X, Y) - tf._resid(p - dp, X, Y)) / 2e-6
         np.testing.assert_allclose(J[..., i], num, rtol=1e-6, atol=1e-8)
-    np.testing.assert_allclose(r, ff._resid(p, X, Y), rtol=1e-14)
+    np.testing.assert_allclose(r, tf._resid(p, X, Y), rtol=1e-14)
 
 
 # --------------------------------------------------------------------------- fits
@@ -255,11 +257,11 @@ def test_fit_at_normal_incidence_is_the_circle(h):
     e = q / (np.pi * h * h)
     rho = circle_radius(h, q)
     for method in ("lm", "orthogonal"):
-        fit = ff.fit_deformed_ellipse(h, np.pi, e, method=method)
+        fit = tf.fit_deformed_ellipse(h, np.pi, e, method=method)
         np.testing.assert_allclose(fit.params[:, 0], rho, rtol=1e-8)
         np.testing.assert_allclose(fit.params[:, 1], rho, rtol=1e-8)
         assert np.abs(fit.params[:, 2:]).max() < 1e-8 * h
-    fit = ff.fit_deformed_ellipse(h, np.pi, e, method="es", rng=1)
+    fit = tf.fit_deformed_ellipse(h, np.pi, e, method="es", rng=1)
     np.testing.assert_allclose(fit.params[:, :2], np.stack([rho, rho], 1), rtol=1e-5)
 
 
@@ -270,13 +272,13 @@ def test_fitted_ellipse_points_lie_near_the_level(alpha, method):
     mx = ff.maximum_closed_form(h, alpha)
     q = np.array([0.8, 0.6, 0.4])
     e = q * float(mx.e)
-    fit = ff.fit_deformed_ellipse(h, alpha, e, method=method, rng=2)
+    fit = tf.fit_deformed_ellipse(h, alpha, e, method=method, rng=2)
     t = np.linspace(0, 2 * np.pi, 90, endpoint=False)
     pts = ff.ellipse_points(fit.params, t, fit.x_max)
     level = ff.illuminance_per_lumen(h, alpha, pts[..., 0], pts[..., 1])
     rel = np.abs(level / e[:, None] - 1)
     assert rel.max() < 0.05
-    gmean, gmax, r_eq = ff.geometric_error(h, alpha, e, fit.params, fit.x_max)
+    gmean, gmax, r_eq = tf.geometric_error(h, alpha, e, fit.params, fit.x_max)
     assert np.all(gmax < 0.01)
     assert np.all(np.abs(fit.params[:, 4]) < (1e-3 if method == "es" else 1e-9) * r_eq)
 
@@ -287,10 +289,10 @@ def test_orthogonal_fit_accuracy_over_the_levels(alpha_deg):
     alpha = math.radians(alpha_deg)
     q = np.array([0.999, 0.9, 0.5, 0.1, 0.01, 1e-3, 1e-4])
     e = q * float(ff.maximum_closed_form(1.0, alpha).e)
-    thesis = ff.fit_deformed_ellipse(1.0, alpha, e, method="lm")
-    orth = ff.fit_deformed_ellipse(1.0, alpha, e, method="orthogonal")
-    _, g_th, _ = ff.geometric_error(1.0, alpha, e, thesis.params, thesis.x_max)
-    gmean, g_or, _ = ff.geometric_error(1.0, alpha, e, orth.params, orth.x_max)
+    thesis = tf.fit_deformed_ellipse(1.0, alpha, e, method="lm")
+    orth = tf.fit_deformed_ellipse(1.0, alpha, e, method="orthogonal")
+    _, g_th, _ = tf.geometric_error(1.0, alpha, e, thesis.params, thesis.x_max)
+    gmean, g_or, _ = tf.geometric_error(1.0, alpha, e, orth.params, orth.x_max)
     assert np.all(g_or < 0.035) and np.all(gmean < 0.015)
     assert np.all(g_th < 0.06)
     assert np.all(g_or <= g_th * 1.15 + 1e-6)
@@ -300,8 +302,8 @@ def test_orthogonal_fit_accuracy_over_the_levels(alpha_deg):
 def test_lm_and_es_reach_the_same_fit():
     alpha, h = math.radians(100), 1.0
     e = 0.2 * float(ff.maximum_closed_form(h, alpha).e)
-    lm = ff.fit_deformed_ellipse(h, alpha, e, method="lm")
-    es = ff.fit_deformed_ellipse(h, alpha, e, method="es", rng=7)
+    lm = tf.fit_deformed_ellipse(h, alpha, e, method="lm")
+    es = tf.fit_deformed_ellipse(h, alpha, e, method="es", rng=7)
     assert float(es.mse) <= float(lm.mse) * 1.01
     np.testing.assert_allclose(es.params[:4], lm.params[:4], rtol=0, atol=2e-3 * lm.params[1])
     assert int(lm.iterations) < int(es.iterations)
@@ -312,9 +314,9 @@ def test_fresh_fits_scale_with_distance(alpha_deg):
     alpha = math.radians(alpha_deg)
     q = np.array([0.7, 0.1, 0.003])
     e1 = q * float(ff.maximum_closed_form(1.0, alpha).e)
-    ref = ff.fit_deformed_ellipse(1.0, alpha, e1, method="orthogonal")
+    ref = tf.fit_deformed_ellipse(1.0, alpha, e1, method="orthogonal")
     for h in (0.37, 3.2, 8.9):
-        fit = ff.fit_deformed_ellipse(h, alpha, e1 / h ** 2, method="orthogonal")
+        fit = tf.fit_deformed_ellipse(h, alpha, e1 / h ** 2, method="orthogonal")
         scaled = ref.params.copy()
         scaled[:, [0, 1, 3, 4]] *= h
         np.testing.assert_allclose(fit.params[:, [0, 1, 3]], scaled[:, [0, 1, 3]],
@@ -329,33 +331,56 @@ def test_geometric_error_sees_a_wrong_ellipse():
     e = q / np.pi
     rho = float(circle_radius(h, q))
     good = np.array([rho, rho, 0, 0, 0])
-    mean0, max0, r_eq = ff.geometric_error(h, np.pi, e, good, 0.0)
+    mean0, max0, r_eq = tf.geometric_error(h, np.pi, e, good, 0.0)
     assert max0 < 1e-10 and float(r_eq) == pytest.approx(rho, rel=1e-10)
     wide = np.array([rho, 1.1 * rho, 0, 0, 0])
-    _, max1, _ = ff.geometric_error(h, np.pi, e, wide, 0.0)
+    _, max1, _ = tf.geometric_error(h, np.pi, e, wide, 0.0)
     assert float(max1) == pytest.approx(0.1, rel=0.02)
     away = np.array([0.1 * rho, 0.1 * rho, 0, 3 * rho, 0])  # does not enclose the maximum
-    _, max2, _ = ff.geometric_error(h, np.pi, e, away, 0.0)
+    _, max2, _ = tf.geometric_error(h, np.pi, e, away, 0.0)
     assert np.isinf(max2)
 
 
 def test_fit_refuses_levels_without_a_contour():
     mx = ff.maximum_closed_form(1.0, 1.0)
     with pytest.raises(SettingsError):
-        ff.fit_deformed_ellipse(1.0, 1.0, 1.01 * float(mx.e))
+        tf.fit_deformed_ellipse(1.0, 1.0, 1.01 * float(mx.e))
     with pytest.raises(SettingsError):
-        ff.fit_deformed_ellipse(1.0, 1.0, 0.0)
+        tf.fit_deformed_ellipse(1.0, 1.0, 0.0)
     with pytest.raises(SettingsError):
-        ff.fit_deformed_ellipse(1.0, 0.0, 1e-3)
+        tf.fit_deformed_ellipse(1.0, 0.0, 1e-3)
     with pytest.raises(SettingsError):
-        ff.fit_deformed_ellipse(1.0, 1.0, 0.5 * float(mx.e), k=18)
+        tf.fit_deformed_ellipse(1.0, 1.0, 0.5 * float(mx.e), k=18)
     with pytest.raises(SettingsError):
-        ff.fit_deformed_ellipse(1.0, 1.0, 0.5 * float(mx.e), method="simplex")
+        tf.fit_deformed_ellipse(1.0, 1.0, 0.5 * float(mx.e), method="simplex")
 
 
 def test_compare_methods_reports_both():
-    rows = ff.compare_methods(alphas_deg=(90.0,), qs=(0.5,), seed=3)
+    rows = tf.compare_methods(alphas_deg=(90.0,), qs=(0.5,), seed=3)
     (row,) = rows
     assert row["max_newton_err"] < 1e-9 and row["max_es_err"] < 1e-6
     assert row["es_mse"] <= row["lm_mse"] * 1.01
     assert row["lm_geo_max"] < 0.01 and row["es_geo_max"] < 0.01
+
+
+def test_orthogonal_schur_step_is_the_dense_marquardt_step():
+    """Eliminating the per-sample curve parameters changes nothing but the cost of a step."""
+    from invrad_wb.core.inverse import optim
+    rng = np.random.default_rng(8)
+    k = 12
+    X, Y = rng.uniform(-1, 1, (2, 3, k))
+    q = np.concatenate([rng.uniform(0.5, 1.5, (3, 2)), rng.uniform(-0.1, 0.1, (3, 3)),
+                        rng.uniform(0, 2 * np.pi, (3, k))], axis=1)
+    r, (Jx, Jy, tx, ty) = tf._orthogonal_residuals(X, Y)(q, np.arange(3), True)
+    J = np.zeros((3, 2 * k, 5 + k))
+    J[:, :k, :5], J[:, k:, :5] = Jx, Jy
+    J[:, np.arange(k), 5 + np.arange(k)] = tx
+    J[:, k + np.arange(k), 5 + np.arange(k)] = ty
+    r2 = tf._orthogonal_residuals(X, Y)(q + 1e-7 * J[:, 0, :], np.arange(3), False)
+    lam = np.array([1e-3, 0.1, 10.0])
+    schur, _ = tf._schur_step((Jx, Jy, tx, ty), r, lam)
+    dense, _ = optim.dense_step(J, r, lam, ridge=0.0)
+    np.testing.assert_allclose(schur, dense, rtol=1e-6, atol=1e-9)
+    # and the Jacobian is the residuals' derivative
+    np.testing.assert_allclose((r2 - r) / 1e-7, np.einsum("nmi,ni->nm", J, J[:, 0, :]),
+                               rtol=1e-4, atol=1e-6)

@@ -48,9 +48,8 @@ def test_model_matches_the_textbook_formula():
     np.testing.assert_allclose(e, p.target, rtol=1e-12)
 
 
-def test_jacobian_matches_finite_differences():
-    p = _problem([_ceiling_light(2.0, 1.5), _ceiling_light(4.2, 2.5)])
-    lights = [_ceiling_light(2.3, 1.2), _ceiling_light(3.9, 2.8)]
+def _check_jacobian(p, lights):
+    """The analytic Jacobian of the residuals against forward differences."""
     vis = [p.visibility(L) for L in lights]
     r, J = p.residuals(lights, vis, with_jac=True)
     h = 1e-6
@@ -63,6 +62,12 @@ def test_jacobian_matches_finite_differences():
             r2, _ = p.residuals(moved, vis)
             np.testing.assert_allclose(J[:, k], (r2 - r) / h, rtol=1e-4, atol=1e-6)
             k += 1
+    assert k == J.shape[1]
+
+
+def test_jacobian_matches_finite_differences():
+    p = _problem([_ceiling_light(2.0, 1.5), _ceiling_light(4.2, 2.5)])
+    _check_jacobian(p, [_ceiling_light(2.3, 1.2), _ceiling_light(3.9, 2.8)])
 
 
 def test_jacobian_with_free_flux_matches_finite_differences():
@@ -74,18 +79,7 @@ def test_jacobian_with_free_flux_matches_finite_differences():
     lights[0].flux_scale, lights[1].flux_scale = 0.6, 1.7
     lights[1].indirect = np.linspace(1.0, 30.0, len(p.positions))
     assert all(len(L.params()) == 3 for L in lights)
-    vis = [p.visibility(L) for L in lights]
-    r, J = p.residuals(lights, vis, with_jac=True)
-    h = 1e-6
-    k = 0
-    for i, L in enumerate(lights):
-        for j in range(len(L.params())):
-            q = L.params().copy()
-            q[j] += h
-            moved = [M if m != i else L.with_params(q) for m, M in enumerate(lights)]
-            r2, _ = p.residuals(moved, vis)
-            np.testing.assert_allclose(J[:, k], (r2 - r) / h, rtol=1e-4, atol=1e-6)
-            k += 1
+    _check_jacobian(p, lights)
 
 
 def test_levenberg_marquardt_fits_each_flux_with_the_position():
@@ -140,3 +134,60 @@ def test_cost_is_robust_to_a_hot_spot():
     one = p.w_area[0] * c * c * (np.sqrt(1 + (5.0 / c) ** 2) - 1)
     assert p.cost_of(r) == pytest.approx(one)
     assert one < p.w_area[0] * 0.5 * 5.0 ** 2         # linear, not quadratic, far out
+
+
+def test_evolution_strategy_pulls_a_luminaire_back():
+    truth = [_ceiling_light(2.5, 1.5)]
+    p = _problem(truth)
+    start = [_ceiling_light(2.7, 1.35)]                                  # 25 cm off
+    lights, cost = p.evolution_strategy(start, iterations=600, seed=3)
+    assert np.linalg.norm(lights[0].position - truth[0].position) < 0.01
+    assert lights[0].position[2] == pytest.approx(3.0)
+    assert cost < 1e-3 * p.cost(start)
+
+
+def test_fixed_light_is_held_while_the_other_moves():
+    """``fixed``: the light of luminaires that stay put; only the given one moves."""
+    truth = [_ceiling_light(1.5, 1.0), _ceiling_light(4.5, 3.0)]
+    p = _problem(truth)
+    held = p.fixed_light([truth[0]])
+    lights, cost = p.levenberg_marquardt([_ceiling_light(4.3, 3.2)], iterations=60,
+                                         fixed=held)
+    assert len(lights) == 1
+    assert np.linalg.norm(lights[0].position - truth[1].position) < 1e-3
+    assert cost < 1e-8
+    # without the held light the same start explains less of the room
+    _, alone = p.levenberg_marquardt([_ceiling_light(4.3, 3.2)], iterations=60)
+    assert alone > 100 * max(cost, 1e-12)
+
+
+def test_a_luminaire_stays_in_its_allowed_region():
+    truth = [_ceiling_light(2.6, 1.5)]
+    p = _problem(truth)
+    # only x <= 2.2 is allowed (e.g. the ceiling's edge): the fit presses against it
+    p.inside = lambda L: L if L.position[0] <= 2.2 else None
+    for opt in (p.levenberg_marquardt, p.evolution_strategy):
+        lights, cost = opt([_ceiling_light(1.8, 1.3)])
+        assert lights[0].position[0] <= 2.2
+        assert lights[0].position[0] > 2.1                    # went as far as it may
+        assert cost < p.cost([_ceiling_light(1.8, 1.3)])
+
+
+def test_robust_cost_ignores_hot_spots_in_the_targets():
+    truth = [_ceiling_light(2.5, 1.5), _ceiling_light(4.0, 2.8)]
+    p = _problem(truth)
+    rng = np.random.default_rng(5)
+    hot = rng.choice(len(p.target), 15, replace=False)
+    p.target[hot] *= 20.0                                    # reflections, sensor faults
+    p.log_target = np.log(p.target + p.eps_lux)
+    start = [_ceiling_light(2.7, 1.3), _ceiling_light(3.8, 3.0)]
+
+    def worst_error():
+        lights, _ = p.levenberg_marquardt(start, iterations=60)
+        return max(np.linalg.norm(L.position - T.position) for L, T in
+                   zip(sorted(lights, key=lambda L: L.position[0]), truth))
+
+    robust = worst_error()
+    p.robust_scale = 100.0                                   # ~ plain least squares
+    quadratic = worst_error()
+    assert robust < 0.02 and quadratic > 3 * robust

@@ -10,6 +10,7 @@ import pytest
 
 from invrad_wb import constants as C
 from invrad_wb.core.inverse import formfactor as ff
+from invrad_wb.core.inverse import tablefit as tf
 from invrad_wb.core.inverse.table import VotingTable, load_voting_table, table_paths
 from invrad_wb.errors import InvradError
 
@@ -101,7 +102,7 @@ def test_lookup_matches_fresh_fits_at_any_distance(table, alpha_deg):
     q = np.array([0.97, 0.6, 0.2, 0.03, 2.5e-3])
     for h in (0.37, 3.2, 8.9):
         e = q * float(ff.maximum_closed_form(h, alpha).e)
-        fit = ff.fit_deformed_ellipse(h, alpha, e, method="orthogonal")
+        fit = tf.fit_deformed_ellipse(h, alpha, e, method="orthogonal")
         ok, x_max, rot, a, b, d, xm, ym = table.lookup(h, alpha, e)
         assert ok.all()
         np.testing.assert_allclose(x_max, fit.x_max, rtol=1e-12)
@@ -112,7 +113,7 @@ def test_lookup_matches_fresh_fits_at_any_distance(table, alpha_deg):
         dev[:, [0, 1, 3, 4]] /= size[:, None]
         assert dev.max() < 2e-3, dev.max()
         # and what matters for voting: the looked-up curve lies on the true contour
-        _, gmax, _ = ff.geometric_error(h, alpha, e, got, x_max)
+        _, gmax, _ = tf.geometric_error(h, alpha, e, got, x_max)
         assert np.all(gmax < 0.035)
 
 

@@ -34,6 +34,7 @@ import numpy as np
 from invrad_wb import constants as C
 from invrad_wb.errors import Cancelled, SettingsError
 from invrad_wb.core.geometry.bvh import segments_occluded_numpy
+from invrad_wb.core.inverse import optim
 
 #: a luminaire's fitted flux stays within exp(+-this) of the problem's flux
 LOG_SCALE_LIMIT = np.log(100.0)
@@ -406,97 +407,115 @@ class RefineProblem:
             L.free_flux = self.free_flux
         return out
 
+    def _packing(self, lights):
+        """(x0 (n,), unpack(x) -> lights) for a joint fit of ``lights``' parameters."""
+        sizes = [len(L.params()) for L in lights]
+        cuts = np.cumsum(sizes)[:-1]
+        x0 = np.concatenate([L.params() for L in lights])
+
+        def unpack(x):
+            return [L.with_params(p) for L, p in zip(lights, np.split(x, cuts))]
+        return x0, unpack
+
+    def _project(self, unpack):
+        """x_new (n,) -> the parameters of its lights moved into the allowed region
+        (:attr:`inside`); None where a luminaire cannot be placed there."""
+        def project(x):
+            if self.inside is None:
+                return x
+            moved = [self.inside(L) for L in unpack(x)]
+            if any(L is None for L in moved):
+                return None
+            return np.concatenate([L.params() for L in moved])
+        return project
+
     def levenberg_marquardt(self, lights, iterations=25, tol=1e-7, fixed=None):
         """Jointly refine all positions; returns (lights, cost).
+
+        :func:`invrad_wb.core.inverse.optim.levenberg_marquardt` on the residuals
+        (IRLS weights of the pseudo-Huber cost, the separation term as quadratic rows),
+        with the analytic Jacobian; a luminaire whose step would leave its faces or room
+        (:attr:`inside`) keeps its place; visibility is refreshed where a luminaire moved
+        more than 2 cm after a step. At most ``iterations`` steps are taken, each after at
+        most 8 trials (damping x10 per failed trial).
 
         ``fixed``: (k,) illuminance of other luminaires that do not move (optional).
         """
         lights = self._own_copies(lights)
         if not lights:
             return lights, self.cost([], extra=fixed)
+        x0, unpack = self._packing(lights)
+        k, c = len(self.positions), self.robust_scale
+        pairs = len(lights) * (len(lights) - 1) // 2
         vis = [self.visibility(L) for L in lights]
         vis_at = [L.position.copy() for L in lights]
-        r, J = self.residuals(lights, vis, True, extra=fixed)
-        rp, Jp = self.separation(lights, True)
-        cost = self.cost_of(r) + float(rp @ rp)
-        lam = 1e-3
-        c = self.robust_scale
-        sizes = [len(L.params()) for L in lights]
-        for _ in range(iterations):
-            w = self.w_area / np.sqrt(1.0 + (r / c) ** 2)
-            JtW = J.T * w
-            H = JtW @ J + Jp.T @ Jp
-            g = JtW @ r + Jp.T @ rp
-            improved = False
-            for _try in range(8):
-                A = H + lam * np.diag(np.maximum(np.diag(H), 1e-12))
-                try:
-                    step = -np.linalg.solve(A, g)
-                except np.linalg.LinAlgError:
-                    lam *= 10
-                    continue
-                new, k = [], 0
-                for L, sz in zip(lights, sizes):
-                    cand = L.with_params(L.params() + step[k:k + sz])
-                    if self.inside is not None:
-                        cand = self.inside(cand)
-                        # a luminaire that would leave its plane/room keeps its place
-                        cand = L if cand is None else cand
-                    new.append(cand)
-                    k += sz
-                r_new, _ = self.residuals(new, vis, extra=fixed)
-                cost_new = self.cost_of(r_new) + self.separation_cost(new)
-                if cost_new < cost:
-                    improved = True
-                    gain = cost - cost_new
-                    lights, cost = new, cost_new
-                    lam = max(lam / 3, 1e-9)
-                    break
-                lam *= 10
-            if not improved:
-                break
-            # refresh visibility where a luminaire moved noticeably
-            for i, L in enumerate(lights):
-                if np.linalg.norm(L.position - vis_at[i]) > 0.02:
-                    vis[i] = self.visibility(L)
-                    vis_at[i] = L.position.copy()
-            r, J = self.residuals(lights, vis, True, extra=fixed)
-            rp, Jp = self.separation(lights, True)
-            cost = self.cost_of(r) + float(rp @ rp)
-            if gain < tol * max(cost, 1e-12) or np.linalg.norm(step) < 1e-5:
-                break
-        return lights, cost
+
+        def fun(x, _idx, jac):
+            new = unpack(x[0])
+            if jac:
+                for i, L in enumerate(new):
+                    if np.linalg.norm(L.position - vis_at[i]) > 0.02:
+                        vis[i] = self.visibility(L)
+                        vis_at[i] = L.position.copy()
+            r, J = self.residuals(new, vis, jac, extra=fixed)
+            rp, Jp = self.separation(new, jac)
+            # one row per pair (zero where apart): the batch needs a fixed row count
+            r = np.concatenate([r, rp, np.zeros(pairs - len(rp))])[None]
+            if not jac:
+                return r
+            return r, np.concatenate([J, Jp, np.zeros((pairs - len(rp), len(x0)))])[None]
+
+        def cost(r):
+            return np.array([self.cost_of(r[0, :k]) + float(r[0, k:] @ r[0, k:])])
+
+        def weights(r):
+            w = np.ones_like(r)
+            w[0, :k] = self.w_area / np.sqrt(1.0 + (r[0, :k] / c) ** 2)
+            return w
+
+        def project(x_old, x_new, _idx):
+            # per luminaire: one that would leave its plane/room keeps its place
+            old, new = unpack(x_old[0]), unpack(x_new[0])
+            kept = [L if M is None else M for L, M in
+                    zip(old, (self.inside(M) for M in new))]
+            return np.concatenate([L.params() for L in kept])[None]
+
+        res = optim.levenberg_marquardt(
+            fun, x0[None], cost=cost,
+            step=lambda J, r, lam: optim.dense_step(J, r, lam, weights(r), ridge=0.0),
+            project=None if self.inside is None else project, max_iter=None,
+            max_steps=iterations, max_tries=8, ftol=tol, xtol=1e-5, lam_up=10.0,
+            lam_min=1e-9, lam_max=np.inf)
+        return unpack(res.x[0]), float(res.cost[0])
 
     def evolution_strategy(self, lights, iterations=400, sigma=0.1, seed=0, fixed=None):
-        """The thesis' (1+1) evolution strategy with the 1/5 success rule (factor 0.85)."""
-        rng = np.random.default_rng(seed)
+        """The thesis' (1+1) evolution strategy (:func:`invrad_wb.core.inverse.optim.
+        evolution_strategy`, 1/5 rule every 20 generations) for at most ``iterations``
+        generations; visibility is refreshed at each step-size adaptation."""
         lights = self._own_copies(lights)
         if not lights:
             return lights, self.cost([], extra=fixed)
+        x0, unpack = self._packing(lights)
         vis = [self.visibility(L) for L in lights]
-        cost = self.cost(lights, vis, extra=fixed)
-        success, tried = 0, 0
-        for it in range(iterations):
-            new = [L.with_params(L.params() + sigma * rng.standard_normal(len(L.params())))
-                   for L in lights]
-            if self.inside is not None:
-                new = [self.inside(L) for L in new]
-            if any(L is None for L in new):
-                tried += 1
-            else:
-                c_new = self.cost(new, vis, extra=fixed)
-                tried += 1
-                if c_new < cost:
-                    lights, cost = new, c_new
-                    success += 1
-            if tried == 20:
-                sigma = sigma / 0.85 if success / tried > 0.2 else sigma * 0.85
-                success = tried = 0
-                vis = [self.visibility(L) for L in lights]
-                cost = self.cost(lights, vis, extra=fixed)
-            if sigma < 1e-4:
-                break
-        return lights, cost
+        inside = self._project(unpack)
+
+        def project(X):
+            p = inside(X[0])
+            return np.full_like(X, np.nan) if p is None else p[None]
+
+        def cost(X):
+            if not np.all(np.isfinite(X)):
+                return np.array([np.inf])
+            return np.array([self.cost(unpack(X[0]), vis, extra=fixed)])
+
+        def refresh(X):
+            vis[:] = [self.visibility(L) for L in unpack(X[0])]
+            return cost(X)
+
+        res = optim.evolution_strategy(cost, x0[None], sigma, rng=seed,
+                                       max_generations=iterations, adapt_every=20, xtol=1e-4,
+                                       project=project, refresh=refresh)
+        return unpack(res.x[0]), float(res.cost[0])
 
 
 def greedy_select(problem, candidates, min_gain=0.05, min_gain_total=0.005, max_lights=64,

@@ -34,7 +34,7 @@ The table is stored at unit distance ``h = 1`` only: the distribution obeys
   where all lengths grow like ``1/alpha``.
 * ``fit_error`` float32 ``(A, L)``: largest distance between the stored ellipse and the
   true contour, relative to the contour's equivalent radius ``sqrt(area/pi)`` (see
-  :func:`invrad_wb.core.inverse.formfactor.geometric_error`); ``fit_error_mean`` the mean;
+  :func:`invrad_wb.core.inverse.tablefit.geometric_error`); ``fit_error_mean`` the mean;
   ``r_eq`` float32 ``(A, L)`` that radius in units of ``h * r_max``. ``fit_error[:, 0] = 0``.
 
 Lookup (what the vote kernel must reproduce; :meth:`VotingTable.lookup` is its numpy twin)
