@@ -426,12 +426,86 @@ def main(argv=None):
     try:
         rc = args.func(args)
     except InvradError as exc:
+        if getattr(exc, "traceback_text", None):      # an internal error of a child process
+            return _internal_error(exc, exc.traceback_text, argv)
         print(f"invrad: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("invrad: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # the reader of our output went away (``| head``): not an error of ours
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return 141
+    except Exception as exc:             # a bug: one line, the traceback in a log file
+        import traceback
+        return _internal_error(exc, traceback.format_exc(), argv)
     return rc if isinstance(rc, int) else 0
+
+
+#: exit status of an internal error (BSD sysexits EX_SOFTWARE)
+EXIT_INTERNAL = 70
+ENV_LOG_DIR = "INVRAD_LOG_DIR"
+
+
+def log_folder():
+    """Where internal errors' tracebacks go: ``$INVRAD_LOG_DIR``, else
+    ``$XDG_CACHE_HOME/invrad`` (``~/.cache/invrad``)."""
+    if os.environ.get(ENV_LOG_DIR):
+        return os.environ[ENV_LOG_DIR]
+    cache = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(cache, "invrad")
+
+
+def _internal_error(exc, tb_text, argv=None):
+    """Report an unexpected exception in one line that says what to report and where its
+    traceback went (a log file); returns :data:`EXIT_INTERNAL`.
+
+    The traceback is for the maintainers, not the user: it goes to a log file with the
+    command line and versions. Only when no log file can be written does it go to stderr
+    (after the line), so that it is never lost."""
+    import datetime
+    import platform
+    from invrad_wb import __version__
+    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+    cmd = " ".join(sys.argv[:1] + list(sys.argv[1:] if argv is None else argv))
+    text = (f"invrad {__version__} internal error\n"
+            f"command: {cmd}\ncwd: {os.getcwd()}\n"
+            f"python {platform.python_version()}, numpy {np.__version__},"
+            f" {platform.platform()}\n\n{tb_text}")
+    path = None
+    for folder in (log_folder(), None):
+        try:
+            if folder is None:
+                import tempfile
+                folder = tempfile.gettempdir()
+            os.makedirs(folder, exist_ok=True)
+            candidate = os.path.join(folder, f"invrad-error-{stamp}-{os.getpid()}.log")
+            with open(candidate, "w", encoding="utf-8") as fh:
+                fh.write(text)
+            path = candidate
+            break
+        except OSError:
+            continue
+    if getattr(exc, "traceback_text", None):     # the child said "internal error: T: msg"
+        what = str(exc).replace("internal error: ", "", 1).replace("\n", " ")
+    else:
+        what = f"{type(exc).__name__}: {exc}".replace("\n", " ")
+    if len(what) > 300:
+        what = what[:297] + "..."
+    if isinstance(exc, MemoryError):
+        what = ("out of memory (an allocation invrad did not estimate; set"
+                f" INVRAD_MEMORY_LIMIT lower or ask for less): {what}")
+    where = f"the traceback is in {path}" if path else "the traceback follows"
+    print(f"invrad: internal error: {what}. This is a bug in invrad, not in your input:"
+          f" please report it with the command line, the input files if you can share"
+          f" them, and the log file ({where})", file=sys.stderr)
+    if path is None:
+        sys.stderr.write(text)
+    return EXIT_INTERNAL
 
 
 if __name__ == "__main__":

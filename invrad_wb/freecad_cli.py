@@ -231,10 +231,13 @@ def relaunch(opts):
                            f" finished{': ' + tail if tail else ''}")
     if status.get("ok"):
         return 0
-    if status.get("traceback"):
-        sys.stderr.write(status["traceback"])
     cls = Cancelled if status.get("type") == "Cancelled" else FreeCADError
-    raise cls(status.get("error", f"FreeCAD run failed (status {rc})"))
+    exc = cls(status.get("error", f"FreeCAD run failed (status {rc})"))
+    if status.get("traceback"):
+        # an internal error under freecadcmd: the command line's catch-all logs it and
+        # says what to report (invrad_wb.cli._internal_error), as for its own
+        exc.traceback_text = status["traceback"]
+    raise exc
 
 
 # --------------------------------------------------------------------------- child side
@@ -461,11 +464,20 @@ def _standalone(argv=None):
     ap = argparse.ArgumentParser(prog="python -m invrad_wb freecad")
     add_arguments(ap)
     args = ap.parse_args(argv)
+    from invrad_wb.cli import _internal_error
     try:
         return main(args)
     except InvradError as exc:
+        if getattr(exc, "traceback_text", None):
+            return _internal_error(exc, exc.traceback_text, argv)
         print(f"invrad: error: {exc}", file=sys.stderr)
         return 130 if isinstance(exc, Cancelled) else 2
+    except KeyboardInterrupt:
+        print("invrad: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:
+        import traceback
+        return _internal_error(exc, traceback.format_exc(), argv)
 
 
 if __name__ == "freecad_cli" and os.environ.get(ENV_JOB):
