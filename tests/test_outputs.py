@@ -13,8 +13,16 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 OFFICE = os.path.join(ROOT, "examples", "office.ply")
 
 
+def _env(**extra):
+    """This checkout's package first: a run in another folder must not import an installed
+    (or another checkout's editable) invrad_wb."""
+    env = dict(os.environ, **extra)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (ROOT, env.get("PYTHONPATH")) if p)
+    return env
+
+
 def run(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "invrad_wb", *args], cwd=cwd,
+    return subprocess.run([sys.executable, "-m", "invrad_wb", *args], cwd=cwd, env=_env(),
                           capture_output=True, text=True, timeout=300)
 
 
@@ -282,7 +290,7 @@ def test_a_malformed_lux_sidecar_without_flux_names_the_file_not_the_flux(tmp_pa
 @pytest.mark.parametrize("how", [["--settings", "s.json"], ["--votes-per-m2", "1e9"]])
 def test_memory_settings_from_a_file_or_the_command_line_are_refused_first(tmp_path, how):
     (tmp_path / "s.json").write_text('{"pixel_m": 1e-4}')
-    env = dict(os.environ, INVRAD_MEMORY_LIMIT="2G")
+    env = _env(INVRAD_MEMORY_LIMIT="2G")
     cp = subprocess.run([sys.executable, "-m", "invrad_wb", "locate", OFFICE, "--flux",
                          "3000", "-o", "r.json", *how], cwd=tmp_path, env=env,
                         capture_output=True, text=True, timeout=300)
@@ -312,7 +320,7 @@ def test_a_texture_declaring_huge_dimensions_is_refused_by_the_cli(tmp_path, col
     (tmp_path / "bomb.png").write_bytes(
         b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr)
         + chunk(b"IDAT", zlib.compress(b"\0" * 4096)) + chunk(b"IEND", b""))
-    env = dict(os.environ, INVRAD_MEMORY_LIMIT="2G")
+    env = _env(INVRAD_MEMORY_LIMIT="2G")
     cp = subprocess.run([sys.executable, "-m", "invrad_wb", "info", "uv.ply", "--texture",
                          "bomb.png", "--texture-max-lux", "500"], cwd=tmp_path, env=env,
                         capture_output=True, text=True, timeout=300)
@@ -341,3 +349,37 @@ def test_a_killed_verify_leaves_no_hidden_folder_after_the_next_run(tmp_path):
     assert cp.returncode == 0, cp.stderr
     assert (rep / "index.html").exists()
     assert not [n for n in os.listdir(rep) if n.startswith(".invrad-")], os.listdir(rep)
+
+
+@pytest.mark.parametrize("case, words", [
+    ("settings", ["s.json", "threshold must be a number"]),
+    ("flux", ["flux must be a positive number"]),
+    ("garbage", ["in.ifc", "not a readable IFC file"]),
+    ("no rooms", ["in.ifc", "no rooms (IfcSpace)"]),
+])
+def test_freecad_command_checks_settings_flux_and_the_ifc_before_freecad_starts(tmp_path,
+                                                                                case, words):
+    pytest.importorskip("invrad_wb.freecad_cli")
+    pytest.importorskip("ifcopenshell")
+    src = tmp_path / "in.ifc"
+    fzk = open(os.path.join(ROOT, "tests", "data", "AC20-FZK-Haus.ifc"), "rb").read()
+    extra = []
+    if case == "garbage":
+        src.write_bytes(b"\x00\xffnot an IFC at all" * 10)
+    elif case == "no rooms":
+        src.write_bytes(b"\n".join(l for l in fzk.split(b"\n") if b"IFCSPACE(" not in l))
+    else:
+        src.write_bytes(fzk)
+    if case == "settings":
+        (tmp_path / "s.json").write_text('{"threshold": "high"}')
+        extra = ["--settings", "s.json"]
+    elif case == "flux":
+        extra = ["--flux", "-3"]
+    # a freecadcmd that fails the test if it is ever started
+    fake = tmp_path / "freecadcmd"
+    fake.write_text("#!/bin/sh\necho started >&2\nexit 9\n")
+    fake.chmod(0o755)
+    cp = run("freecad", "in.ifc", "--out", "out.ifc", "--report", "rep", "--freecadcmd",
+             str(fake), *extra, cwd=tmp_path)
+    one_line_error(cp, *words)
+    assert "started" not in cp.stderr and not (tmp_path / "rep").exists()
