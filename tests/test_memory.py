@@ -177,3 +177,58 @@ def test_placement_is_checked_per_room_and_scales_with_luminaires():
     errors, warnings = placement_problems(scene, many)
     assert errors == [] and warnings == []
     assert time.perf_counter() - t < 20.0
+
+
+# --------------------------------------------------------------------------- room count
+def _floor(n=3, cell=0.5):
+    from invrad_wb.core.model.luminaires import Luminaire
+    from invrad_wb.core.synthetic import generate as g
+    sizes = [((4, 4), (5, 4), (3, 4))[i % 3] for i in range(n)]
+    scene, origins = g.floor_of_rooms(sizes, cell=cell, reflectance=0.5)
+    lums = [Luminaire(o + [1.5, 1.5, 3.0], [0, 0, -1], 3000.0, room=i)
+            for i, o in enumerate(origins)]
+    return scene, lums
+
+
+def test_radiosity_memory_is_estimated_from_the_rooms_before_building():
+    from invrad_wb.core.forward.radiosity import RadiosityModel
+    from invrad_wb.core.forward.render import radiosity_memory, PATCH_PAIR_BYTES
+    scene, _ = _floor(3, cell=0.25)
+    total, rooms = radiosity_memory(scene)
+    model = RadiosityModel(scene, backend="numpy")
+    for room in model.rooms:
+        est = rooms[room.room][1]
+        assert room.patches.n <= est <= 1.5 * room.patches.n, (room.patches.n, est)
+    kept = sum(r.F.nbytes for r in model.rooms)
+    assert kept <= total and sum(PATCH_PAIR_BYTES * p * p for _, p, _ in rooms.values()) \
+        < 4 * kept
+
+
+def test_rooms_one_at_a_time_give_the_same_light_and_bound_memory(monkeypatch):
+    from invrad_wb.core.forward import render as R
+    from invrad_wb.core.forward.radiosity import RadiosityModel
+    scene, lums = _floor(3)
+    whole = R.render(scene, lums, backend="numpy")
+    total, rooms = R.radiosity_memory(scene)
+    largest = max(b for b, _, _ in rooms.values())
+    # a budget the whole model exceeds (over half of it) but each room fits in
+    scene2, _ = _floor(3)
+    monkeypatch.setenv(memory.ENV, str(int(max(1.5 * total, largest) + 1)))
+    assert total > memory.limit_bytes() / 2 and largest <= memory.limit_bytes()
+    built = []
+    real_init = RadiosityModel.__init__
+
+    def counting(self, scene, *a, **k):
+        built.append(len(scene.rooms))
+        real_init(self, scene, *a, **k)
+    monkeypatch.setattr(RadiosityModel, "__init__", counting)
+    by_room = R.render(scene2, lums, backend="numpy")
+    assert built == [1, 1, 1]                   # one model per room, none of the whole
+    assert np.array_equal(by_room, whole)       # same light, bit for bit
+    assert not getattr(scene2, "_radiosity", {})
+    # a budget one room alone exceeds: refused before any model is built
+    monkeypatch.setenv(memory.ENV, str(int(largest / 2)))
+    built.clear()
+    with pytest.raises(memory.MemoryLimitError, match="radiosity model of room"):
+        R.render(_floor(3)[0], lums, backend="numpy")
+    assert built == []
