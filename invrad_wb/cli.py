@@ -30,6 +30,20 @@ from invrad_wb.progress import CliProgress, add_parallel_args, workers_arg
 
 #: finest mesh of a generated example (metres): finer meshes grow past a laptop's memory
 MIN_EXAMPLE_CELL_M = 0.02
+#: target illuminance above which a scene is suspicious: brighter than direct sunlight
+#: (about 100,000 lx), never an indoor lighting requirement; more likely wrong units
+SUSPICIOUS_LUX = 150000.0
+
+
+def _warn_suspicious_targets(path, scene):
+    """A warning (stderr) when targets are brighter than sunlight (units, a typo)."""
+    t = scene.vertex_targets()
+    top = float(np.nanmax(t)) if np.isfinite(t).any() else 0.0
+    if top > SUSPICIOUS_LUX:
+        n = int(np.sum(t > SUSPICIOUS_LUX))
+        print(f"invrad: warning: {path}: {n} target(s) up to {top:.3g} lx, brighter than"
+              f" direct sunlight ({SUSPICIOUS_LUX:.0f} lx): check the targets' units",
+              file=sys.stderr)
 
 
 def _scene_args(p, many=False):
@@ -231,6 +245,7 @@ def _locate_one(args, scene_path, output, vote_maps, settings, phot, workers):
     from invrad_wb.core.io.sceneio import read_scene
     scene = read_scene(scene_path, lux=args.lux, texture=args.texture,
                        texture_max_lux=args.texture_max_lux, unit=args.unit)
+    _warn_suspicious_targets(scene_path, scene)
     with CliProgress(args.verbose, "locate") as progress:
         result = locate(scene, args.flux, settings=settings, backend=args.backend,
                         progress=progress, photometry=phot, workers=workers, dask=args.dask)
@@ -267,6 +282,7 @@ def _cmd_verify(args):
     check_folder(args.report, "--report")
     phot = _photometry(args)
     scene = _read(args)
+    _warn_suspicious_targets(args.scene, scene)
     lums = _with_photometry(load_luminaires(args.luminaires), phot)
     _check_placement(args.luminaires, scene, lums)
     achieved = render(scene, lums, interreflection=not args.no_interreflection,

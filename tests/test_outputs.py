@@ -263,7 +263,7 @@ def test_unreachable_targets_say_so_and_exit_3(tmp_path):
     _small_scene(tmp_path / "s.ply", lux=1e30)           # every target at 1e30 lx
     cp = run("locate", "s.ply", "--flux", "3000", "-o", "r.json", cwd=tmp_path)
     _exit_3_with_reason(cp, tmp_path / "r.json", "no luminaire of 3000 lm explains",
-                        "reachable")
+                        "reachable", "up to 1e+30 lx, brighter than direct sunlight")
     assert json.loads((tmp_path / "r.json").read_text())["luminaires"] == []
 
 
