@@ -308,3 +308,16 @@ def test_corrupt_ifc_files_are_checked_or_refused_in_one_line_before_freecad(tmp
         except InvradError as exc:
             assert "\n" not in str(exc) and "f.ifc" in str(exc), str(exc)
     assert passed > 0
+
+
+def test_corrupt_json_lux_sidecars_are_read_or_refused_in_one_line(tmp_path):
+    import trimesh
+    sc = g.box_room(size=(3.0, 2.0, 2.5), cell=1.0)
+    obj = tmp_path / "room.obj"
+    trimesh.Trimesh(sc.vertices, sc.faces, process=False).export(obj)
+    lux = np.linspace(0, 500, len(sc.vertices)).tolist()
+    lux[3] = None                                       # no target there
+    good = json.dumps({"vertex_lux": lux}).encode()
+    (tmp_path / "good.json").write_bytes(good)
+    assert np.isnan(read_scene(obj, lux=tmp_path / "good.json").vertex_targets()).any()
+    _fuzz_json(tmp_path, good, 41, lambda p: read_scene(obj, lux=p))
