@@ -232,3 +232,20 @@ def test_rooms_one_at_a_time_give_the_same_light_and_bound_memory(monkeypatch):
     with pytest.raises(memory.MemoryLimitError, match="radiosity model of room"):
         R.render(_floor(3)[0], lums, backend="numpy")
     assert built == []
+
+
+def test_emitter_samples_are_estimated_before_they_are_made(monkeypatch):
+    from invrad_wb.core.forward import direct
+    from invrad_wb.core.model.luminaires import Luminaire, emitter_samples
+    lums = [Luminaire([1.0, 1.0, 2.9], [0, 0, -1], 10.0, radius_m=0.1) for _ in range(2000)]
+    nbytes, samples = direct.emitter_memory(lums)
+    assert samples == len(emitter_samples(lums)[0])
+    pts = np.array([[1.0, 1.0, 0.0]])
+    nrm = np.array([[0.0, 0.0, 1.0]])
+    monkeypatch.setenv(memory.ENV, str(int(nbytes * 2)))
+    e = direct.direct_illuminance(pts, nrm, lums, occlusion=False, backend="numpy")
+    assert e[0] == pytest.approx(2000 * 10.0 / (np.pi * 2.9 ** 2), rel=0.01)
+    monkeypatch.setenv(memory.ENV, str(int(nbytes / 2)))
+    monkeypatch.setattr(direct, "emitter_samples", lambda *a: pytest.fail("allocated"))
+    with pytest.raises(memory.MemoryLimitError, match="2000 luminaire"):
+        direct.direct_illuminance(pts, nrm, lums, occlusion=False, backend="numpy")
