@@ -204,9 +204,11 @@ def test_an_internal_error_under_freecadcmd_is_reported_the_same_way(tmp_path):
         "                        'ZeroDivisionError: division by zero\\n'},\n"
         "          open(job['status'], 'w'))\n")
     fake.chmod(0o755)
-    src = tmp_path / "in.ifc"
-    src.write_text("ISO-10303-21;\n")
-    p = run("freecad", str(src), "--out", str(tmp_path / "o.ifc"), "--report",
+    import zipfile
+    src = tmp_path / "in.FCStd"
+    with zipfile.ZipFile(src, "w") as z:
+        z.writestr("Document.xml", "<Document/>")
+    p = run("freecad", str(src), "--out", str(tmp_path / "o.FCStd"), "--report",
             str(tmp_path / "r"), "--freecadcmd", str(fake), "--flux", "3000",
             env={"INVRAD_LOG_DIR": str(tmp_path / "logs")})
     assert p.returncode == 70, p.stdout + p.stderr
