@@ -139,7 +139,7 @@ def indirect_light(scene, vertex_direct, backend="auto", patch_size=None, occlus
     (n,) float64, lux
     """
     from invrad_wb.core.forward.radiosity import RadiosityModel
-    from invrad_wb.core.model.memory import human, limit_bytes, require
+    from invrad_wb.core.model.memory import limit_bytes, require
     cached = getattr(scene, "_radiosity", {})
     if by_room is None:
         if cached.get((check_backend(backend), None if patch_size is None
