@@ -30,6 +30,20 @@ from invrad_wb.progress import CliProgress, add_parallel_args, workers_arg
 
 #: finest mesh of a generated example (metres): finer meshes grow past a laptop's memory
 MIN_EXAMPLE_CELL_M = 0.02
+#: target illuminance above which a scene is suspicious: brighter than direct sunlight
+#: (about 100,000 lx), never an indoor lighting requirement; more likely wrong units
+SUSPICIOUS_LUX = 150000.0
+
+
+def _warn_suspicious_targets(path, scene):
+    """A warning (stderr) when targets are brighter than sunlight (units, a typo)."""
+    t = scene.vertex_targets()
+    top = float(np.nanmax(t)) if np.isfinite(t).any() else 0.0
+    if top > SUSPICIOUS_LUX:
+        n = int(np.sum(t > SUSPICIOUS_LUX))
+        print(f"invrad: warning: {path}: {n} target(s) up to {top:.3g} lx, brighter than"
+              f" direct sunlight ({SUSPICIOUS_LUX:.0f} lx): check the targets' units",
+              file=sys.stderr)
 
 
 def _scene_args(p, many=False):
@@ -231,6 +245,7 @@ def _locate_one(args, scene_path, output, vote_maps, settings, phot, workers):
     from invrad_wb.core.io.sceneio import read_scene
     scene = read_scene(scene_path, lux=args.lux, texture=args.texture,
                        texture_max_lux=args.texture_max_lux, unit=args.unit)
+    _warn_suspicious_targets(scene_path, scene)
     with CliProgress(args.verbose, "locate") as progress:
         result = locate(scene, args.flux, settings=settings, backend=args.backend,
                         progress=progress, photometry=phot, workers=workers, dask=args.dask)
@@ -267,6 +282,7 @@ def _cmd_verify(args):
     check_folder(args.report, "--report")
     phot = _photometry(args)
     scene = _read(args)
+    _warn_suspicious_targets(args.scene, scene)
     lums = _with_photometry(load_luminaires(args.luminaires), phot)
     _check_placement(args.luminaires, scene, lums)
     achieved = render(scene, lums, interreflection=not args.no_interreflection,
@@ -438,12 +454,86 @@ def main(argv=None):
     try:
         rc = args.func(args)
     except InvradError as exc:
+        if getattr(exc, "traceback_text", None):      # an internal error of a child process
+            return _internal_error(exc, exc.traceback_text, argv)
         print(f"invrad: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("invrad: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # the reader of our output went away (``| head``): not an error of ours
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return 141
+    except Exception as exc:             # a bug: one line, the traceback in a log file
+        import traceback
+        return _internal_error(exc, traceback.format_exc(), argv)
     return rc if isinstance(rc, int) else 0
+
+
+#: exit status of an internal error (BSD sysexits EX_SOFTWARE)
+EXIT_INTERNAL = 70
+ENV_LOG_DIR = "INVRAD_LOG_DIR"
+
+
+def log_folder():
+    """Where internal errors' tracebacks go: ``$INVRAD_LOG_DIR``, else
+    ``$XDG_CACHE_HOME/invrad`` (``~/.cache/invrad``)."""
+    if os.environ.get(ENV_LOG_DIR):
+        return os.environ[ENV_LOG_DIR]
+    cache = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(cache, "invrad")
+
+
+def _internal_error(exc, tb_text, argv=None):
+    """Report an unexpected exception in one line that says what to report and where its
+    traceback went (a log file); returns :data:`EXIT_INTERNAL`.
+
+    The traceback is for the maintainers, not the user: it goes to a log file with the
+    command line and versions. Only when no log file can be written does it go to stderr
+    (after the line), so that it is never lost."""
+    import datetime
+    import platform
+    from invrad_wb import __version__
+    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+    cmd = " ".join(sys.argv[:1] + list(sys.argv[1:] if argv is None else argv))
+    text = (f"invrad {__version__} internal error\n"
+            f"command: {cmd}\ncwd: {os.getcwd()}\n"
+            f"python {platform.python_version()}, numpy {np.__version__},"
+            f" {platform.platform()}\n\n{tb_text}")
+    path = None
+    for folder in (log_folder(), None):
+        try:
+            if folder is None:
+                import tempfile
+                folder = tempfile.gettempdir()
+            os.makedirs(folder, exist_ok=True)
+            candidate = os.path.join(folder, f"invrad-error-{stamp}-{os.getpid()}.log")
+            with open(candidate, "w", encoding="utf-8") as fh:
+                fh.write(text)
+            path = candidate
+            break
+        except OSError:
+            continue
+    if getattr(exc, "traceback_text", None):     # the child said "internal error: T: msg"
+        what = str(exc).replace("internal error: ", "", 1).replace("\n", " ")
+    else:
+        what = f"{type(exc).__name__}: {exc}".replace("\n", " ")
+    if len(what) > 300:
+        what = what[:297] + "..."
+    if isinstance(exc, MemoryError):
+        what = ("out of memory (an allocation invrad did not estimate; set"
+                f" INVRAD_MEMORY_LIMIT lower or ask for less): {what}")
+    where = f"the traceback is in {path}" if path else "the traceback follows"
+    print(f"invrad: internal error: {what}. This is a bug in invrad, not in your input:"
+          f" please report it with the command line, the input files if you can share"
+          f" them, and the log file ({where})", file=sys.stderr)
+    if path is None:
+        sys.stderr.write(text)
+    return EXIT_INTERNAL
 
 
 if __name__ == "__main__":

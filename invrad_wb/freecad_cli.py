@@ -140,7 +140,14 @@ def main(args):
     """Run the ``freecad`` command (parsed ``args``); returns 0 or raises InvradError."""
     opts = _options(args)
     workers_arg(opts.get("workers", "1"))       # a bad count costs no FreeCAD start
-    _checked_paths(opts)          # before FreeCAD starts: a bad path costs no run
+    src, ext, _, _ = _checked_paths(opts)   # before FreeCAD starts: a bad path costs no run
+    if opts.get("flux") is not None:
+        from invrad_wb.core.inverse.locate import check_flux
+        check_flux(opts["flux"])
+    if opts.get("settings"):
+        read_settings_file(opts["settings"])
+    if ext == ".ifc" and not in_freecad():
+        check_ifc(src)            # a corrupt IFC costs a second, not a FreeCAD start
     if in_freecad():
         run_job(opts)
         return 0
@@ -231,10 +238,13 @@ def relaunch(opts):
                            f" finished{': ' + tail if tail else ''}")
     if status.get("ok"):
         return 0
-    if status.get("traceback"):
-        sys.stderr.write(status["traceback"])
     cls = Cancelled if status.get("type") == "Cancelled" else FreeCADError
-    raise cls(status.get("error", f"FreeCAD run failed (status {rc})"))
+    exc = cls(status.get("error", f"FreeCAD run failed (status {rc})"))
+    if status.get("traceback"):
+        # an internal error under freecadcmd: the command line's catch-all logs it and
+        # says what to report (invrad_wb.cli._internal_error), as for its own
+        exc.traceback_text = status["traceback"]
+    raise exc
 
 
 # --------------------------------------------------------------------------- child side
@@ -379,12 +389,61 @@ def _run_options(opts, design=False):
     mesh_size = opts.get("mesh_size") or from_file.get("resolution_m")
     locate_settings = None
     if opts.get("settings"):
-        try:
-            with open(opts["settings"], "r", encoding="utf-8") as fh:
-                locate_settings = json.load(fh)
-        except (OSError, ValueError) as exc:
-            raise SettingsError(f"{opts['settings']}: cannot read locate settings: {exc}")
+        locate_settings = read_settings_file(opts["settings"])
     return flux, mesh_size, locate_settings
+
+
+def read_settings_file(path):
+    """The locate settings of a ``--settings`` JSON file as a dict, checked (names, types,
+    ranges: :meth:`LocateSettings.from_dict`); errors name the file."""
+    from invrad_wb.core.inverse.locate import LocateSettings
+    try:
+        with open(path, "r", encoding="utf-8") as fh:
+            d = json.load(fh)
+    except (OSError, ValueError, RecursionError) as exc:   # UnicodeDecodeError is a ValueError
+        raise SettingsError(f"{path}: cannot read locate settings:"
+                            f" {str(exc) or type(exc).__name__}") from None
+    try:
+        LocateSettings.from_dict(d)
+    except InvradError as exc:
+        raise SettingsError(f"{path}: {exc}") from None
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise SettingsError(f"{path}: bad locate settings: {exc}") from None
+    return d
+
+
+def check_ifc(path):
+    """Read an IFC file with ifcopenshell, without FreeCAD, as far as the import reads it
+    before the geometry: it must parse and have rooms (IfcSpace) whose names, GlobalIds,
+    storeys and lighting requirements can be read. A file that is not is refused here in one
+    line (SceneError), not after a FreeCAD start or as an internal error inside it. Without
+    ifcopenshell in this interpreter the check is left to the import under FreeCAD."""
+    from invrad_wb.errors import SceneError
+    try:
+        import ifcopenshell  # noqa: F401
+    except ImportError:
+        return None
+    from invrad_wb.app import ifcrooms
+    ifc = ifcrooms._open(path)
+    try:
+        spaces = ifc.by_type("IfcSpace")
+        for sp in spaces:
+            (sp.GlobalId, sp.Name, sp.LongName, sp.id())
+            ifcrooms.required_illuminance(sp)
+            ifcrooms._storey_of(sp)
+        for b in ifc.by_type("IfcBuilding"):
+            (b.Name, b.GlobalId)
+        sorted(((st.Elevation or 0.0), st.Name, st.GlobalId)
+               for st in ifc.by_type("IfcBuildingStorey"))
+    except SceneError:
+        raise
+    except Exception as exc:     # ifcopenshell's own errors on a malformed entity
+        raise SceneError(f"not a readable IFC file: {type(exc).__name__}:"
+                         f" {str(exc).splitlines()[0] if str(exc) else 'malformed'}",
+                         path) from None
+    if not spaces:
+        raise SceneError("the file has no rooms (IfcSpace)", path)
+    return len(spaces)
 
 
 def _open_input(src, ext, opts, say):
@@ -461,11 +520,20 @@ def _standalone(argv=None):
     ap = argparse.ArgumentParser(prog="python -m invrad_wb freecad")
     add_arguments(ap)
     args = ap.parse_args(argv)
+    from invrad_wb.cli import _internal_error
     try:
         return main(args)
     except InvradError as exc:
+        if getattr(exc, "traceback_text", None):
+            return _internal_error(exc, exc.traceback_text, argv)
         print(f"invrad: error: {exc}", file=sys.stderr)
         return 130 if isinstance(exc, Cancelled) else 2
+    except KeyboardInterrupt:
+        print("invrad: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:
+        import traceback
+        return _internal_error(exc, traceback.format_exc(), argv)
 
 
 if __name__ == "freecad_cli" and os.environ.get(ENV_JOB):

@@ -158,3 +158,62 @@ def test_render_says_when_a_luminaire_cannot_light_the_room(tmp_path, change, rc
 def test_a_metres_file_read_as_millimetres_is_refused(tmp_path):
     p = run("info", "examples/office.ply", "--unit", "mm")
     assert p.returncode == 2 and "6 mm across" in p.stderr and "--unit m" in p.stderr
+
+
+def test_an_internal_error_says_what_to_report_and_logs_its_traceback(tmp_path,
+                                                                     monkeypatch, capsys):
+    from invrad_wb import cli
+
+    def broken(args):
+        return {}["no such key"]           # a bug, not an input error
+    monkeypatch.setattr(cli, "_cmd_info", broken)
+    monkeypatch.setenv(cli.ENV_LOG_DIR, str(tmp_path / "logs"))
+    rc = cli.main(["info", "examples/office.ply"])
+    err = capsys.readouterr().err
+    assert rc == cli.EXIT_INTERNAL
+    lines = [l for l in err.splitlines() if l.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    assert lines[0].startswith("invrad: internal error: KeyError: 'no such key'")
+    assert "bug in invrad" in lines[0] and "please report it" in lines[0]
+    logs = list((tmp_path / "logs").iterdir())
+    assert len(logs) == 1 and str(logs[0]) in lines[0]
+    log = logs[0].read_text()
+    assert "Traceback" in log and "in broken" in log and "info examples/office.ply" in log
+    # no folder for logs: the traceback is kept on stderr after the line, never lost
+    (tmp_path / "file").write_text("")
+    monkeypatch.setenv(cli.ENV_LOG_DIR, str(tmp_path / "file" / "logs"))
+    monkeypatch.setattr("tempfile.gettempdir", lambda: str(tmp_path / "file" / "tmp"))
+    assert cli.main(["info", "examples/office.ply"]) == cli.EXIT_INTERNAL
+    err = capsys.readouterr().err
+    assert "the traceback follows" in err.splitlines()[0] and "in broken" in err
+
+
+def test_an_internal_error_under_freecadcmd_is_reported_the_same_way(tmp_path):
+    # a stand-in for freecadcmd that fails the way child_main reports an internal error
+    pytest.importorskip("invrad_wb.freecad_cli")
+    from invrad_wb import freecad_cli
+    fake = tmp_path / "freecadcmd"
+    fake.write_text(
+        f"#!{sys.executable}\n"
+        "import json, os\n"
+        f"print({freecad_cli.SENTINEL!r}, flush=True)\n"
+        f"job = json.load(open(os.environ[{freecad_cli.ENV_JOB!r}]))\n"
+        "json.dump({'ok': False, 'type': 'internal',\n"
+        "           'error': 'internal error: ZeroDivisionError: division by zero',\n"
+        "           'traceback': 'Traceback (most recent call last):\\n  File x\\n'\n"
+        "                        'ZeroDivisionError: division by zero\\n'},\n"
+        "          open(job['status'], 'w'))\n")
+    fake.chmod(0o755)
+    import zipfile
+    src = tmp_path / "in.FCStd"
+    with zipfile.ZipFile(src, "w") as z:
+        z.writestr("Document.xml", "<Document/>")
+    p = run("freecad", str(src), "--out", str(tmp_path / "o.FCStd"), "--report",
+            str(tmp_path / "r"), "--freecadcmd", str(fake), "--flux", "3000",
+            env={"INVRAD_LOG_DIR": str(tmp_path / "logs")})
+    assert p.returncode == 70, p.stdout + p.stderr
+    lines = [l for l in p.stderr.splitlines() if l.strip()]
+    assert len(lines) == 1 and "Traceback" not in p.stderr, p.stderr
+    assert lines[0].startswith("invrad: internal error: ZeroDivisionError: division by zero.")
+    log = next((tmp_path / "logs").iterdir()).read_text()
+    assert "ZeroDivisionError" in log and "Traceback" in log

@@ -13,8 +13,16 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 OFFICE = os.path.join(ROOT, "examples", "office.ply")
 
 
+def _env(**extra):
+    """This checkout's package first: a run in another folder must not import an installed
+    (or another checkout's editable) invrad_wb."""
+    env = dict(os.environ, **extra)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (ROOT, env.get("PYTHONPATH")) if p)
+    return env
+
+
 def run(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "invrad_wb", *args], cwd=cwd,
+    return subprocess.run([sys.executable, "-m", "invrad_wb", *args], cwd=cwd, env=_env(),
                           capture_output=True, text=True, timeout=300)
 
 
@@ -93,7 +101,7 @@ def test_symlinked_output_stays_a_link(tmp_path):
     assert target.read_bytes().startswith(b"ply")
 
 
-@pytest.mark.parametrize("cell", ["0", "nan", "-1", "0.001", "inf"])
+@pytest.mark.parametrize("cell", ["0", "nan", "-1", "0.001", "0.005", "inf"])
 def test_example_cell_out_of_range(tmp_path, cell):
     cp = run("example", "one_ceiling", "-o", "x.ply", "--cell", cell, cwd=tmp_path)
     one_line_error(cp, "--cell")
@@ -224,3 +232,154 @@ def test_interrupted_vote_maps_leave_the_previous_ones_and_the_result(tmp_path, 
     assert sorted(os.listdir(maps)) == ["mine.txt", "room0"]          # no staging left
     after = {p: (maps / "room0" / p).read_bytes() for p in os.listdir(maps / "room0")}
     assert after == before
+
+
+# --------------------------------------------------------------------------- issue 10's
+# remaining cases, each as a user would type it
+
+def _small_scene(path, lux=None, floor_only=False):
+    """The one_ceiling example at 0.25 m, targets rendered (or ``lux`` everywhere);
+    ``floor_only``: its floor alone (no surface for a luminaire to be on)."""
+    import numpy as np
+    from invrad_wb.core.io.sceneio import write_scene
+    from invrad_wb.core.synthetic.scenarios import known_scene
+    scene, _ = known_scene("one_ceiling", cell=0.25, backend="numpy")
+    if floor_only:
+        scene = scene.face_subset(np.flatnonzero(scene.face_normals[:, 2] > 0.9))
+    t = scene.vertex_targets() if lux is None else np.full(len(scene.vertices), lux)
+    write_scene(path, scene, lux=t)
+    return path
+
+
+def _exit_3_with_reason(cp, out, *words):
+    assert cp.returncode == 3, cp.stdout + cp.stderr
+    assert "Traceback" not in cp.stderr
+    for w in words:
+        assert w in cp.stderr, cp.stderr
+    json.loads(out.read_text(), parse_constant=lambda c: pytest.fail(f"non-strict: {c}"))
+
+
+def test_unreachable_targets_say_so_and_exit_3(tmp_path):
+    _small_scene(tmp_path / "s.ply", lux=1e30)           # every target at 1e30 lx
+    cp = run("locate", "s.ply", "--flux", "3000", "-o", "r.json", cwd=tmp_path)
+    _exit_3_with_reason(cp, tmp_path / "r.json", "no luminaire of 3000 lm explains",
+                        "reachable", "up to 1e+30 lx, brighter than direct sunlight")
+    assert json.loads((tmp_path / "r.json").read_text())["luminaires"] == []
+
+
+def test_a_floor_only_scene_says_so_and_exits_3(tmp_path):
+    _small_scene(tmp_path / "s.ply", floor_only=True)
+    cp = run("locate", "s.ply", "--flux", "3000", "-o", "r.json", cwd=tmp_path)
+    _exit_3_with_reason(cp, tmp_path / "r.json", "no luminaire of 3000 lm explains")
+
+
+def test_a_vanishing_flux_says_so_and_exits_3(tmp_path):
+    _small_scene(tmp_path / "s.ply")
+    cp = run("locate", "s.ply", "--flux", "1e-30", "-o", "r.json", cwd=tmp_path)
+    _exit_3_with_reason(cp, tmp_path / "r.json", "no luminaire of 1e-30 lm explains")
+
+
+def test_a_malformed_lux_sidecar_without_flux_names_the_file_not_the_flux(tmp_path):
+    (tmp_path / "t.json").write_text('{"lux": [1, 2')
+    cp = run("locate", OFFICE, "--lux", "t.json", "-o", "r.json", cwd=tmp_path)
+    one_line_error(cp, "t.json", "not valid JSON")
+    assert "flux" not in cp.stderr
+    assert not (tmp_path / "r.json").exists()
+
+
+@pytest.mark.parametrize("how", [["--settings", "s.json"], ["--votes-per-m2", "1e9"]])
+def test_memory_settings_from_a_file_or_the_command_line_are_refused_first(tmp_path, how):
+    (tmp_path / "s.json").write_text('{"pixel_m": 1e-4}')
+    env = _env(INVRAD_MEMORY_LIMIT="2G")
+    cp = subprocess.run([sys.executable, "-m", "invrad_wb", "locate", OFFICE, "--flux",
+                         "3000", "-o", "r.json", *how], cwd=tmp_path, env=env,
+                        capture_output=True, text=True, timeout=300)
+    one_line_error(cp, "over the limit of 2.0 GB", "INVRAD_MEMORY_LIMIT")
+    assert not (tmp_path / "r.json").exists()
+
+
+@pytest.mark.parametrize("colour", [0, 2])              # grey and RGB PNG
+def test_a_texture_declaring_huge_dimensions_is_refused_by_the_cli(tmp_path, colour):
+    pytest.importorskip("OpenImageIO")
+    import struct
+    import zlib
+    from invrad_wb.core.synthetic import generate as g
+    sc = g.box_room((3, 2, 2.5), cell=1.0)
+    v, f = sc.vertices, sc.faces
+    head = ("ply\nformat ascii 1.0\nelement vertex %d\nproperty float x\nproperty float y\n"
+            "property float z\nproperty float s\nproperty float t\nelement face %d\n"
+            "property list uchar int vertex_indices\nend_header\n" % (len(v), len(f)))
+    rows = [f"{x} {y} {z} {x / 3} {y / 2}" for x, y, z in v]
+    rows += [f"3 {a} {b} {c}" for a, b, c in f]
+    (tmp_path / "uv.ply").write_text(head + "\n".join(rows) + "\n")
+
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+    ihdr = struct.pack(">IIBBBBB", 20000, 20000, 8, colour, 0, 0, 0)
+    (tmp_path / "bomb.png").write_bytes(
+        b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr)
+        + chunk(b"IDAT", zlib.compress(b"\0" * 4096)) + chunk(b"IEND", b""))
+    env = _env(INVRAD_MEMORY_LIMIT="2G")
+    cp = subprocess.run([sys.executable, "-m", "invrad_wb", "info", "uv.ply", "--texture",
+                         "bomb.png", "--texture-max-lux", "500"], cwd=tmp_path, env=env,
+                        capture_output=True, text=True, timeout=300)
+    one_line_error(cp, "bomb.png")
+    assert "20000 x 20000" in cp.stderr or "corrupt" in cp.stderr or "claims" in cp.stderr
+
+
+def test_a_killed_verify_leaves_no_hidden_folder_after_the_next_run(tmp_path):
+    lums = tmp_path / "l.json"
+    lums.write_text(json.dumps({"luminaires": [{"position": [3, 2, 2.95],
+                                                "flux_lm": 3000}]}))
+    rep = tmp_path / "rep"
+    # SIGKILL while the report's first image is written (a real verify, killed inside)
+    code = ("import os, signal, sys\n"
+            "from invrad_wb.core.output import images\n"
+            "images.save_png = lambda *a, **k: os.kill(os.getpid(), signal.SIGKILL)\n"
+            "from invrad_wb import cli\n"
+            "cli.main(sys.argv[1:])\n")
+    args = ["verify", OFFICE, "--luminaires", str(lums), "--report", str(rep),
+            "--no-interreflection"]
+    p = subprocess.run([sys.executable, "-c", code, *args], cwd=ROOT, capture_output=True)
+    assert p.returncode == -9, p.stderr
+    assert [n for n in os.listdir(rep) if n.startswith(".invrad-")], os.listdir(rep)
+    assert not (rep / "index.html").exists()
+    cp = run(*args, cwd=ROOT)
+    assert cp.returncode == 0, cp.stderr
+    assert (rep / "index.html").exists()
+    assert not [n for n in os.listdir(rep) if n.startswith(".invrad-")], os.listdir(rep)
+
+
+@pytest.mark.parametrize("case, words", [
+    ("settings", ["s.json", "threshold must be a number"]),
+    ("flux", ["flux must be a positive number"]),
+    ("garbage", ["in.ifc", "not a readable IFC file"]),
+    ("no rooms", ["in.ifc", "no rooms (IfcSpace)"]),
+])
+def test_freecad_command_checks_settings_flux_and_the_ifc_before_freecad_starts(tmp_path,
+                                                                                case, words):
+    pytest.importorskip("invrad_wb.freecad_cli")
+    pytest.importorskip("ifcopenshell")
+    src = tmp_path / "in.ifc"
+    fzk = open(os.path.join(ROOT, "tests", "data", "AC20-FZK-Haus.ifc"), "rb").read()
+    extra = []
+    if case == "garbage":
+        src.write_bytes(b"\x00\xffnot an IFC at all" * 10)
+    elif case == "no rooms":
+        src.write_bytes(b"\n".join(l for l in fzk.split(b"\n") if b"IFCSPACE(" not in l))
+    else:
+        src.write_bytes(fzk)
+    if case == "settings":
+        (tmp_path / "s.json").write_text('{"threshold": "high"}')
+        extra = ["--settings", "s.json"]
+    elif case == "flux":
+        extra = ["--flux", "-3"]
+    # a freecadcmd that fails the test if it is ever started
+    fake = tmp_path / "freecadcmd"
+    fake.write_text("#!/bin/sh\necho started >&2\nexit 9\n")
+    fake.chmod(0o755)
+    cp = run("freecad", "in.ifc", "--out", "out.ifc", "--report", "rep", "--freecadcmd",
+             str(fake), *extra, cwd=tmp_path)
+    one_line_error(cp, *words)
+    assert "started" not in cp.stderr and not (tmp_path / "rep").exists()

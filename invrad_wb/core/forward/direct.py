@@ -124,9 +124,33 @@ def direct_illuminance_opencl(points, normals, luminaires, bvh=None, occlusion=T
     return out.astype(np.float64)
 
 
+#: bytes per luminaire and per emitter sample while the samples are built and sent: the
+#: per-luminaire arrays before concatenation (4 small numpy arrays) and, per sample,
+#: float64 position, normal, flux and owner, their float4 copies and device buffers
+LUMINAIRE_BYTES = 600
+SAMPLE_BYTES = 130
+
+
+def emitter_memory(luminaires):
+    """Estimated bytes of the emitter samples of ``luminaires`` (no luminaire x receiver
+    array is ever made: the numpy twin loops over samples, the kernel over chunks of
+    receivers, ``CL_CHUNK_RECEIVERS / samples`` at a time)."""
+    from invrad_wb.core.model.luminaires import disk_quadrature
+    per_disk = len(disk_quadrature()[1])
+    samples = sum(per_disk if getattr(l, "radius_m", 0) > 0 else 1 for l in luminaires)
+    return LUMINAIRE_BYTES * len(luminaires) + SAMPLE_BYTES * samples, samples
+
+
 def direct_illuminance(points, normals, luminaires, bvh=None, occlusion=True,
                        backend="opencl"):
-    """Direct illuminance (lux) at points; ``backend`` is 'opencl', 'numpy' or 'auto'."""
+    """Direct illuminance (lux) at points; ``backend`` is 'opencl', 'numpy' or 'auto'.
+
+    The emitter samples' memory grows with the luminaire count and is checked against the
+    budget first (:func:`emitter_memory`)."""
+    from invrad_wb.core.model.memory import require
+    nbytes, samples = emitter_memory(luminaires)
+    require(nbytes, f"{len(luminaires)} luminaire(s) ({samples} emitter samples)",
+            "give fewer luminaires")
     fn = implementation("direct_illuminance", backend)
     return fn(points, normals, luminaires, bvh=bvh, occlusion=occlusion)
 

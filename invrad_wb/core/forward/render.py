@@ -4,12 +4,28 @@
 known answer) and the verification report use: direct light with occlusion
 (:mod:`invrad_wb.core.forward.direct`) plus, optionally, interreflected light from a radiosity solve
 (:mod:`invrad_wb.core.forward.radiosity`).
+
+Memory by room count: the radiosity model of a whole scene keeps every room's patch matrix
+and vertex gather block (a floor of 256 rooms: gigabytes). :func:`radiosity_memory`
+estimates it before anything is built; above half the memory budget the interreflections
+are computed one room at a time (a model per room, dropped after it; rooms do not exchange
+light in the model, so the result is the same) and only the largest room must fit.
 """
+import gc
+import math
+
 import numpy as np
 
+from invrad_wb import constants as C
 from invrad_wb.core.geometry.bvh import BVH
 from invrad_wb.core.accel.device import check_backend
 from invrad_wb.core.forward.direct import direct_illuminance
+
+#: bytes per patch pair of a room's model: the float64 patch matrix, its visibility (bool)
+#: and the float64 blocks its construction sums (measured: bench/bench_memory.py)
+PATCH_PAIR_BYTES = 8 + 1 + 8
+#: bytes per vertex and patch of the stored float32 vertex gather block
+GATHER_BYTES = 4
 
 
 def scene_bvh(scene):
@@ -19,6 +35,51 @@ def scene_bvh(scene):
         bvh = BVH(scene.triangles[scene.occluder_faces])
         scene._bvh = bvh
     return bvh
+
+
+def radiosity_memory(scene, patch_size=None):
+    """Estimated bytes of the radiosity model of ``scene``, before it is built.
+
+    Per room: patches ``P`` = for each of its planes, area / edge^2 plus the cells its
+    outline cuts (2 sqrt(area) / edge + 1), with the edge of
+    :func:`~invrad_wb.core.forward.radiosity.default_patch_size`; bytes
+    ``PATCH_PAIR_BYTES P^2`` plus the vertex gather block ``GATHER_BYTES n P`` (``n`` the
+    room's vertices; not stored above ``RADIOSITY_GATHER_MAX_MB``) plus the working chunks
+    (``2 RADIOSITY_CL_CHUNK_MB``).
+
+    Returns
+    -------
+    total : float, bytes of the whole scene's model (all rooms kept)
+    rooms : dict room id -> (bytes, estimated patches, patch edge m)
+    """
+    from invrad_wb.core.forward.radiosity import default_patch_size
+    areas = scene.face_areas
+    plane_area, plane_room = {}, {}
+    for pl in scene.planes:
+        plane_area[pl.index] = float(areas[pl.faces].sum())
+        plane_room[pl.index] = int(pl.room)
+    order = np.argsort(scene.face_room, kind="stable")
+    bounds = np.searchsorted(scene.face_room[order], scene.rooms)
+    ends = np.r_[bounds[1:], len(order)]
+    vertex_room_count = {}
+    for r, a, b in zip(scene.rooms, bounds, ends):
+        vertex_room_count[int(r)] = len(np.unique(scene.faces[order[a:b]]))
+    chunk = 2 * (C.RADIOSITY_CL_CHUNK_MB << 20)
+    total, rooms = 0.0, {}
+    for r, a, b in zip(scene.rooms, bounds, ends):
+        r = int(r)
+        faces = order[a:b]
+        edge = float(patch_size) if patch_size is not None else default_patch_size(scene,
+                                                                                   faces)
+        p = sum(A / edge ** 2 + 2.0 * math.sqrt(A) / edge + 1.0
+                for k, A in plane_area.items() if plane_room[k] == r)
+        gather = GATHER_BYTES * vertex_room_count[r] * p
+        if gather > C.RADIOSITY_GATHER_MAX_MB << 20:
+            gather = 0.0          # recomputed at each use instead of stored
+        nbytes = PATCH_PAIR_BYTES * p * p + gather
+        rooms[r] = (nbytes + chunk, p, edge)
+        total += nbytes
+    return total + chunk, rooms
 
 
 def render(scene, luminaires, interreflection=True, occlusion=True, backend="auto",
@@ -42,18 +103,76 @@ def render(scene, luminaires, interreflection=True, occlusion=True, backend="aut
     Returns
     -------
     (n,) float64 lux, or ``(total, direct, indirect)`` if ``return_parts``.
+
+    Raises
+    ------
+    MemoryLimitError
+        If one room's radiosity model alone would exceed the memory budget.
     """
     backend = check_backend(backend)
     bvh = scene_bvh(scene)
     direct = _direct_by_room(scene, luminaires, bvh, occlusion, backend)
     indirect = np.zeros_like(direct)
     if interreflection:
-        from invrad_wb.core.forward.radiosity import RadiosityModel
-        model = RadiosityModel.for_scene(scene, backend=backend, patch_size=patch_size,
-                                         occlusion=occlusion)
-        indirect = model.indirect_at_vertices(direct)
+        indirect = indirect_light(scene, direct, backend=backend, patch_size=patch_size,
+                                  occlusion=occlusion)
     total = direct + indirect
     return (total, direct, indirect) if return_parts else total
+
+
+def indirect_light(scene, vertex_direct, backend="auto", patch_size=None, occlusion=True,
+                   by_room=None):
+    """Interreflected illuminance at the scene's vertices for their direct light.
+
+    Parameters
+    ----------
+    scene : Scene
+    vertex_direct : (n,) float64, lux
+    by_room : bool, optional
+        One model per room, each dropped after its room (bounded memory), instead of the
+        scene's cached model. Default: when the whole model's estimate exceeds half the
+        memory budget (:func:`radiosity_memory`).
+
+    Returns
+    -------
+    (n,) float64, lux
+    """
+    from invrad_wb.core.forward.radiosity import RadiosityModel
+    from invrad_wb.core.model.memory import limit_bytes, require
+    cached = getattr(scene, "_radiosity", {})
+    if by_room is None:
+        if cached.get((check_backend(backend), None if patch_size is None
+                       else float(patch_size), bool(occlusion))) is not None:
+            by_room = False                       # built already: use it
+        else:
+            total, rooms = radiosity_memory(scene, patch_size)
+            by_room = len(rooms) > 1 and total > limit_bytes() / 2
+            r, (nbytes, p, edge) = max(rooms.items(), key=lambda kv: kv[1][0])
+            require(nbytes if by_room else total,
+                    f"the radiosity model of {'room ' + str(r) if by_room else 'the scene'}"
+                    f" (about {p:.0f} patches of {edge:.2f} m"
+                    f"{'' if by_room else f' in room {r}; {len(rooms)} room(s) in all'})",
+                    "give a larger patch size, or no interreflections")
+    if not by_room:
+        model = RadiosityModel.for_scene(scene, backend=backend, patch_size=patch_size,
+                                         occlusion=occlusion)
+        return model.indirect_at_vertices(vertex_direct)
+    vertex_direct = np.asarray(vertex_direct, dtype=np.float64)
+    out = np.zeros_like(vertex_direct)
+    # each room's faces as a scene of its own; its vertices carry their index in this one
+    index = scene.with_vertex_lux(np.arange(len(scene.vertices), dtype=np.float64))
+    for r in scene.rooms:
+        sub = index.face_subset(np.flatnonzero(scene.face_room == r))
+        parent = sub.vertex_lux.astype(np.int64)
+        model = RadiosityModel(sub, backend=backend, patch_size=patch_size,
+                               occlusion=occlusion)
+        out[parent] = model.indirect_at_vertices(vertex_direct[parent])
+        del model, sub
+        # a model and its gather operator refer to each other: without a collection here
+        # each room's matrices stay until the cyclic collector runs (measured: +19 MB per
+        # room, 64 rooms 976 MB; with it flat at 170 MB)
+        gc.collect()
+    return out
 
 
 def _direct_by_room(scene, luminaires, bvh, occlusion, backend):

@@ -72,6 +72,17 @@ def _require_image_memory(path, spec):
             f"{path}: its {w} x {h} pixels x {c} channel(s)", "use a smaller image")
 
 
+def _one_line(text):
+    """OpenImageIO's error text (libpng and OpenEXR give several lines, often repeating)
+    as one line: its distinct lines joined by '; '."""
+    seen = []
+    for line in str(text or "").splitlines():
+        line = line.strip()
+        if line and line not in seen:
+            seen.append(line)
+    return "; ".join(seen)
+
+
 def read_pixels(path):
     """Read the first sub-image of an image file as float pixels.
 
@@ -95,7 +106,7 @@ def read_pixels(path):
     oiio = oiio_module("reading images")
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
-        raise OSError(oiio.geterror() or "unknown image format")
+        raise OSError(_one_line(oiio.geterror()) or "unknown image format")
     try:
         spec = inp.spec()
         _require_image_memory(path, spec)
@@ -104,7 +115,7 @@ def read_pixels(path):
     finally:
         inp.close()
     if pixels is None or not spec.width or not spec.height:
-        raise OSError(f"cannot read the image's pixels: {error or 'empty image'}")
+        raise OSError(f"cannot read the image's pixels: {_one_line(error) or 'empty image'}")
     values = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width,
                                                           spec.nchannels)
     names = [str(n).upper() for n in spec.channelnames]

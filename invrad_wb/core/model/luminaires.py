@@ -118,8 +118,41 @@ def luminaire_from_dict(d, where="luminaire", base_dir=None):
                      extra=extra, photometry=phot)
 
 
+def _space_of(scene, real, room):
+    """(faces mask, name) of the space a luminaire of ``room`` is in: its room's faces,
+    else (no room, an unknown one) the scene's."""
+    if room is not None and not isinstance(room, bool):
+        try:
+            in_room = real & (scene.face_room == int(room))
+            if in_room.any():
+                return in_room, f"room {room}"
+        except (TypeError, ValueError):
+            pass
+    return real, "the scene"
+
+
+def _support_points(pts):
+    """The points that can be the farthest along any direction: the convex hull's vertices
+    (all points where the hull is flat or degenerate)."""
+    if len(pts) > 16:
+        try:
+            from scipy.spatial import ConvexHull
+            return pts[ConvexHull(pts).vertices]
+        except Exception:        # coplanar or too few points (QhullError): keep them all
+            pass
+    return pts
+
+
+#: bytes of one block of the support-point x luminaire products in placement_problems
+_PLACEMENT_BLOCK_BYTES = 32 << 20
+
+
 def placement_problems(scene, luminaires, names=None):
     """What is physically wrong with luminaires placed in a scene.
+
+    Luminaires are checked per space (room or scene) in blocks: the cost grows with
+    luminaires x hull vertices, not luminaires x mesh vertices (100,000 luminaires in a
+    room take about a second).
 
     Returns
     -------
@@ -131,40 +164,52 @@ def placement_problems(scene, luminaires, names=None):
     """
     names = names or [f"luminaires[{i}]" for i in range(len(luminaires))]
     errors, warnings = [], []
+    if not len(luminaires):
+        return errors, warnings
     real = ~np.asarray(getattr(scene, "face_virtual", np.zeros(len(scene.faces), bool)))
-    for name, lum in zip(names, luminaires):
-        sel = real.copy()
-        where = "the scene"
-        room = lum.room
-        if room is not None and not isinstance(room, bool):
-            try:
-                in_room = real & (scene.face_room == int(room))
-                if in_room.any():
-                    sel, where = in_room, f"room {room}"
-            except (TypeError, ValueError):
-                pass
+    groups = {}
+    for i, lum in enumerate(luminaires):
+        key = lum.room if lum.room is None or isinstance(lum.room, (bool, int, np.integer)) \
+            else repr(lum.room)
+        groups.setdefault(key, []).append(i)
+    tol = 0.02
+    for key, idx in groups.items():
+        sel, where = _space_of(scene, real, luminaires[idx[0]].room)
         pts = scene.vertices[np.unique(scene.faces[sel])]
         if not len(pts):
             continue
         lo, hi = pts.min(0), pts.max(0)
         across = float(np.max(hi - lo))
-        p = np.asarray(lum.position, float)
-        if lum.radius_m > across:
-            errors.append(f"{name}.radius_m {lum.radius_m:g} m is larger than {where}"
-                          f" ({across:.2f} m across)")
-        tol = 0.02
-        if np.any(p < lo - tol) or np.any(p > hi + tol):
-            warnings.append(f"{name} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) is outside"
-                            f" {where} ({lo[0]:.2f}..{hi[0]:.2f}, {lo[1]:.2f}..{hi[1]:.2f},"
-                            f" {lo[2]:.2f}..{hi[2]:.2f} m): check its position and units")
-            continue
-        n = np.asarray(lum.normal, float)
-        n = n / np.linalg.norm(n)
-        if not np.any((pts - p) @ n > 1e-3):
-            warnings.append(f"{name} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) faces away"
-                            f" from every surface of {where} (normal {n.round(3).tolist()}):"
-                            " it lights nothing there")
-    return errors, warnings
+        support = _support_points(pts)
+        idx = np.asarray(idx)
+        P = np.array([luminaires[i].position for i in idx], dtype=np.float64).reshape(-1, 3)
+        N = np.array([luminaires[i].normal for i in idx], dtype=np.float64).reshape(-1, 3)
+        N = N / np.linalg.norm(N, axis=1, keepdims=True)
+        R = np.array([luminaires[i].radius_m for i in idx], dtype=np.float64)
+        outside = np.any(P < lo - tol, axis=1) | np.any(P > hi + tol, axis=1)
+        away = np.zeros(len(idx), bool)
+        block = max(1, _PLACEMENT_BLOCK_BYTES // (8 * len(support)))
+        for a in range(0, len(idx), block):
+            far = (support @ N[a:a + block].T).max(axis=0)       # farthest surface along n
+            away[a:a + block] = far - np.einsum("ij,ij->i", P[a:a + block],
+                                                N[a:a + block]) <= 1e-3
+        for j in np.flatnonzero(R > across):
+            errors.append((idx[j], f"{names[idx[j]]}.radius_m {R[j]:g} m is larger than"
+                                   f" {where} ({across:.2f} m across)"))
+        for j in np.flatnonzero(outside | away):
+            p, name = P[j], names[idx[j]]
+            if outside[j]:
+                warnings.append((idx[j], f"{name} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) is"
+                                         f" outside {where} ({lo[0]:.2f}..{hi[0]:.2f},"
+                                         f" {lo[1]:.2f}..{hi[1]:.2f}, {lo[2]:.2f}..{hi[2]:.2f}"
+                                         " m): check its position and units"))
+            else:
+                warnings.append((idx[j], f"{name} at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f})"
+                                         f" faces away from every surface of {where} (normal"
+                                         f" {N[j].round(3).tolist()}): it lights nothing"
+                                         " there"))
+    return ([m for _, m in sorted(errors, key=lambda t: t[0])],
+            [m for _, m in sorted(warnings, key=lambda t: t[0])])
 
 
 def load_luminaires(path):

@@ -1,9 +1,23 @@
 """A memory budget: allocations that grow with a user's number are estimated first.
 
-Vote maps grow with 1/resolution^2, voting points with the votes per m^2, a texture with
-its declared pixel count. Each is estimated before it is made and refused, with the
-estimate, the limit and the setting to change, when it exceeds the budget: a laptop then
-gets a one-line error instead of swapping or a MemoryError traceback after minutes.
+What grows with a user's number, and where it is estimated:
+
+* vote maps with 1/resolution^2 and the dummy layers
+  (:func:`invrad_wb.core.inverse.votemaps.canvas_memory`);
+* voting points with the votes per m^2 (:mod:`invrad_wb.core.inverse.sampling`);
+* a texture with its declared pixel count, before its pixels are read
+  (:mod:`invrad_wb.core.io.oiio`); a PLY's element counts against its bytes
+  (:mod:`invrad_wb.core.io.ply`);
+* emitter samples with the luminaire count
+  (:func:`invrad_wb.core.forward.direct.emitter_memory`; direct light never makes a
+  luminaire x receiver array);
+* the radiosity model with the room count (:func:`invrad_wb.core.forward.render.
+  radiosity_memory`): above half the budget, rooms are solved one at a time (same light).
+
+Each is estimated before it is made and refused, with the estimate, the limit and the
+setting to change, when it exceeds the budget (or computed in pieces that fit): a laptop
+then gets a one-line error instead of swapping or a MemoryError traceback after minutes.
+``bench/bench_memory.py`` measures the peaks against these estimates.
 
 The budget is half of the machine's physical memory by default; ``INVRAD_MEMORY_LIMIT``
 overrides it with a size (``"6G"``, ``"800M"``, ``"2.5GB"``, a number of bytes) or a

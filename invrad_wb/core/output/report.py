@@ -100,14 +100,21 @@ def room_name(room_names, r, project=None, single=False):
 
 
 def luminaire_rooms(scene, luminaires):
-    """Room id of each luminaire: its ``room``, else the room of the nearest face centroid."""
-    out = []
-    for l in luminaires:
-        if l.room is not None:
-            out.append(int(l.room))
-        else:
-            k = int(np.argmin(np.linalg.norm(scene.face_centroids - l.position, axis=1)))
-            out.append(int(scene.face_room[k]))
+    """Room id of each luminaire: its ``room``, else the room of the nearest face centroid
+    (one k-d tree query for all: 100,000 luminaires took minutes one by one)."""
+    out = [None if l.room is None else int(l.room) for l in luminaires]
+    free = [i for i, r in enumerate(out) if r is None]
+    if not free:
+        return out
+    pos = np.array([luminaires[i].position for i in free], dtype=np.float64).reshape(-1, 3)
+    try:
+        from scipy.spatial import cKDTree
+        nearest = cKDTree(scene.face_centroids).query(pos)[1]
+    except ImportError:
+        nearest = [int(np.argmin(np.linalg.norm(scene.face_centroids - p, axis=1)))
+                   for p in pos]
+    for i, k in zip(free, np.atleast_1d(nearest)):
+        out[i] = int(scene.face_room[int(k)])
     return out
 
 
