@@ -21,7 +21,7 @@ from invrad_wb import constants as C
 from invrad_wb.core.forward.direct import direct_illuminance
 from invrad_wb.core.forward.radiosity import RadiosityModel
 from invrad_wb.core.geometry.bvh import BVH
-from invrad_wb.core.geometry.meshing import refine
+from invrad_wb.core.geometry.meshing import nearest_site, refine
 from invrad_wb.core.geometry.raster import locate_points
 from invrad_wb.core.model.luminaires import Luminaire, disk_quadrature
 from invrad_wb.core.model.scene import Scene, plane_basis
@@ -127,9 +127,8 @@ class RoomModel:
         patch = np.where(idx >= 0, self.rad.face_patch[floor[np.maximum(idx, 0)]], -1)
         miss = np.flatnonzero((idx < 0) | (np.arange(len(patch)) >= self.n_wp))
         if len(miss):
-            cen = m.face_centroids
-            d = np.linalg.norm(cen[None] - self.points[miss, None], axis=2)
-            patch[miss] = self.rad.face_patch[np.argmin(d, axis=1)]
+            patch[miss] = self.rad.face_patch[nearest_site(m.face_centroids,
+                                                           self.points[miss])]
         return patch
 
     # ------------------------------------------------------------------ exact
@@ -163,8 +162,7 @@ class RoomModel:
         """Interreflected illuminance (lux, new installation) at any receivers in the
         room, e.g. an observer's eye for the background luminance of UGR."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        cen = self.mesh.face_centroids
-        near = np.argmin(np.linalg.norm(cen[None] - points[:, None], axis=2), axis=1)
+        near = nearest_site(self.mesh.face_centroids, points)
         op = self.rad.gather(points, normals, self.rad.face_patch[near])
         d_v = direct_illuminance(self.mesh.vertices, self.mesh.vertex_normals, luminaires,
                                  bvh=self.bvh, occlusion=self.bvh is not None,

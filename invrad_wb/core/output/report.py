@@ -42,6 +42,7 @@ import numpy as np
 
 from invrad_wb.errors import SceneError
 from invrad_wb.core.output import images as im
+from invrad_wb.core.geometry.meshing import nearest_site
 from invrad_wb.core.output import document
 from invrad_wb.core.output import room_figures as rfig
 from invrad_wb.core.output.images import describe_plane, room_floor_z  # noqa: F401 - API
@@ -107,13 +108,7 @@ def luminaire_rooms(scene, luminaires):
     if not free:
         return out
     pos = np.array([luminaires[i].position for i in free], dtype=np.float64).reshape(-1, 3)
-    try:
-        from scipy.spatial import cKDTree
-        nearest = cKDTree(scene.face_centroids).query(pos)[1]
-    except ImportError:
-        nearest = [int(np.argmin(np.linalg.norm(scene.face_centroids - p, axis=1)))
-                   for p in pos]
-    for i, k in zip(free, np.atleast_1d(nearest)):
+    for i, k in zip(free, nearest_site(scene.face_centroids, pos)):
         out[i] = int(scene.face_room[int(k)])
     return out
 
