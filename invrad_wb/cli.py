@@ -256,7 +256,7 @@ def _locate_one(args, scene_path, output, vote_maps, settings, phot, workers):
     atomic_write_text(output, strict_json(data))
     for l in result.luminaires:
         p = ", ".join(f"{x:.3f}" for x in l.position)
-        n = ", ".join(f"{x:.2f}" for x in l.normal)
+        n = ", ".join(f"{round(float(x), 2) + 0.0:.2f}" for x in l.normal)   # never -0.00
         print(f"room {l.room}: luminaire at ({p}) m facing ({n}), {l.flux_lm:.0f} lm,"
               f" score {l.score:.3f} [{l.extra.get('mount', '')}]")
     of = "" if args.flux is None else f" of {args.flux:g} lm"

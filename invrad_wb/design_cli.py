@@ -118,8 +118,13 @@ def _design_one(args, scene_path, output, schedule, report, spec, workers):
     from invrad_wb.core.io.atomic import atomic_write_text
     from invrad_wb.core.io.sceneio import read_scene
     scene = read_scene(scene_path, unit=args.unit)
+    # a plain mesh's rooms have ids only: a single room takes the scene's name (as in the
+    # verification report), so the report and the schedule do not say 'room 0'
+    names = ({int(scene.rooms[0]): os.path.splitext(os.path.basename(scene_path))[0]}
+             if len(scene.rooms) == 1 else None)
     with CliProgress(args.verbose, "design") as progress:
-        result = design(scene, spec, backend=args.backend, progress=progress,
+        result = design(scene, spec, room_names=names, backend=args.backend,
+                        progress=progress,
                         mixed=args.mixed, dimming=args.dimming, workers=workers,
                         dask=args.dask)
     data = result.to_dict()
