@@ -164,7 +164,7 @@ def _luminaire_psets(ifc, ent, fx, lum):
     PS.edit_pset(ifc, pset=p, properties={"NumberOfSources": 1})
 
 
-def _body_context(ifc):
+def body_context(ifc):
     import ifcopenshell.api.context as CX
     import ifcopenshell.util.representation as R
     ctx = R.get_context(ifc, "Model", "Body", "MODEL_VIEW")
@@ -188,7 +188,7 @@ def fixture_matrix(lum):
     return m
 
 
-def _add_body(ifc, ent, lum, ctx, unit_scale):
+def add_body(ifc, ent, lum, ctx, unit_scale):
     r = (lum.radius_m if lum.radius_m > 0 else S.FIXTURE_RADIUS_M) / unit_scale
     t = S.FIXTURE_THICKNESS_M / unit_scale
     prof = ifc.create_entity("IfcCircleProfileDef", ProfileType="AREA", Radius=r)
@@ -225,7 +225,7 @@ def _merge(doc, base_ifc, out_path):
         if is_invrad_fixture(lf):
             RT.remove_product(ifc, product=lf)
     unit_scale = U.calculate_unit_scale(ifc)
-    ctx = _body_context(ifc)
+    ctx = body_context(ifc)
     used = set()
     for fx in all_fixtures(doc, generated_only=False):
         space = fixture_room(fx)
@@ -248,7 +248,7 @@ def _merge(doc, base_ifc, out_path):
         ent.Description = getattr(fx, "Description", None) or None
         SP.assign_container(ifc, products=[ent], relating_structure=sp)
         G.edit_object_placement(ifc, product=ent, matrix=fixture_matrix(lum), is_si=True)
-        _add_body(ifc, ent, lum, ctx, unit_scale)
+        add_body(ifc, ent, lum, ctx, unit_scale)
         _luminaire_psets(ifc, ent, fx, lum)
         info.fixtures += 1
     _set_requirements(ifc, doc, info)
@@ -335,4 +335,4 @@ def _restore_orientation(ifc, ent, lum, unit_scale):
             G.unassign_representation(ifc, product=ent, representation=rep)
             G.remove_representation(ifc, representation=rep)
     G.edit_object_placement(ifc, product=ent, matrix=fixture_matrix(lum), is_si=True)
-    _add_body(ifc, ent, lum, _body_context(ifc), unit_scale)
+    add_body(ifc, ent, lum, body_context(ifc), unit_scale)
