@@ -10,7 +10,13 @@ stamp="$root/.invrad-freecad1-v1"
 here="$(cd "$(dirname "$0")/.." && pwd)"
 # the stamp holds the requirements the venv was built from: a change re-runs only pip
 reqs="$(grep -v '^numpy' "$here/requirements.txt")"
-if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$reqs" ]; then echo "$root"; exit 0; fi
+# FreeCAD 1.0.0's NativeIFC (BIM workbench) uses entity_instance.wrapped_data, which
+# ifcopenshell 0.9 removed: an ifcopenshell 0.8 in its own folder, put first on the path by
+# test-freecad1.sh (the venv keeps the requirements' ifcopenshell; 0.8 needs nothing more)
+nifc_req='ifcopenshell>=0.8.1,<0.9'
+nifc=/opt/invrad-nativeifc
+nifc_ok() { [ "$(cat "$root$nifc/.invrad-stamp" 2>/dev/null)" = "$nifc_req" ]; }
+if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$reqs" ] && nifc_ok; then echo "$root"; exit 0; fi
 if [ "$(id -u)" -ne 0 ]; then
   echo "invrad setup (FreeCAD 1.0): needs root for debootstrap/chroot; run as root or set" \
        "INVRAD_NO_FREECAD1=1 to test on the host's FreeCAD only" >&2
@@ -47,5 +53,11 @@ pipcert=(env); [ -f "$root/etc/ssl/certs/invrad-host-ca.crt" ] && \
             REQUESTS_CA_BUNDLE=/etc/ssl/certs/invrad-host-ca.crt)
 chroot "$root" "${pipcert[@]}" PIP_FIND_LINKS= /opt/invrad-venv/bin/python -m pip install -q \
   -r /tmp/invrad-requirements.txt
+if ! nifc_ok; then
+  rm -rf "${root:?}$nifc"
+  chroot "$root" "${pipcert[@]}" PIP_FIND_LINKS= /opt/invrad-venv/bin/python -m pip install -q \
+    --no-deps --target "$nifc" "$nifc_req"
+  printf '%s' "$nifc_req" > "$root$nifc/.invrad-stamp"
+fi
 printf '%s' "$reqs" > "$stamp"
 echo "$root"
