@@ -16,7 +16,12 @@ reqs="$(grep -v '^numpy' "$here/requirements.txt")"
 nifc_req='ifcopenshell>=0.8.1,<0.9'
 nifc=/opt/invrad-nativeifc
 nifc_ok() { [ "$(cat "$root$nifc/.invrad-stamp" 2>/dev/null)" = "$nifc_req" ]; }
-if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$reqs" ] && nifc_ok; then echo "$root"; exit 0; fi
+# PySide6 (Debian's, not used by FreeCAD 1.0's Qt 5 build): tests/freecad/test_qt_names.py
+# looks up every Qt name the GUI uses in it, in a separate Python process
+pyside6_ok() { [ -n "${INVRAD_NO_GUI:-}" ] || [ -d "$root/usr/lib/python3/dist-packages/PySide6" ]; }
+if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$reqs" ] && nifc_ok && pyside6_ok; then
+  echo "$root"; exit 0
+fi
 if [ "$(id -u)" -ne 0 ]; then
   echo "invrad setup (FreeCAD 1.0): needs root for debootstrap/chroot; run as root or set" \
        "INVRAD_NO_FREECAD1=1 to test on the host's FreeCAD only" >&2
@@ -40,7 +45,7 @@ mkdir -p "$root/etc/ssl/certs"
 mountpoint -q "$root/proc" || mount -t proc proc "$root/proc"
 trap 'umount "$root/proc" 2>/dev/null || true' EXIT
 pkgs=(freecad-python3 python3-venv python3-pip pocl-opencl-icd ocl-icd-libopencl1)
-[ -n "${INVRAD_NO_GUI:-}" ] || pkgs+=(freecad xvfb xauth)
+[ -n "${INVRAD_NO_GUI:-}" ] || pkgs+=(freecad xvfb xauth python3-pyside6.qtwidgets)
 chroot "$root" apt-get update -qq
 chroot "$root" env DEBIAN_FRONTEND=noninteractive \
   apt-get install -y -qq --no-install-recommends "${pkgs[@]}" >/dev/null
