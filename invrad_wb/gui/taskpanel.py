@@ -200,7 +200,8 @@ class LocatePanel:
 
     def getStandardButtons(self):
         from PySide import QtGui
-        return int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
+        from invrad_wb.gui.qtcompat import flag_int
+        return flag_int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
 
     def check(self):
         """The panel's values, checked; raises SettingsError naming the bad one."""
@@ -333,7 +334,8 @@ class TargetPanel:
 
     def getStandardButtons(self):
         from PySide import QtGui
-        return int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
+        from invrad_wb.gui.qtcompat import flag_int
+        return flag_int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
 
     def accept(self):
         import FreeCADGui
@@ -384,7 +386,8 @@ class RepeakPanel:
 
     def getStandardButtons(self):
         from PySide import QtGui
-        return int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
+        from invrad_wb.gui.qtcompat import flag_int
+        return flag_int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
 
     def accept(self):
         import FreeCADGui
@@ -696,7 +699,8 @@ class DesignPanel:
     # ---------------------------------------------------------------- dialog
     def getStandardButtons(self):
         from PySide import QtGui
-        return int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
+        from invrad_wb.gui.qtcompat import flag_int
+        return flag_int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
 
     def accept(self):
         import FreeCADGui
