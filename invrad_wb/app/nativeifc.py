@@ -442,9 +442,12 @@ def insert_fixtures(doc, per_room, replace=True, name="Insert luminaires",
                 for i, lum in enumerate(lums):
                     label = f"Luminaire {space_name(space)} {i + 1}"
                     ent = _new_fixture_entity(ifc, sp_ent, lum, label, ctx, unit_scale)
-                    shapemode = getattr(space, "ShapeMode", None) or "Coin"
-                    obj = ifc_tools.create_object(ent, doc, ifc, shapemode)
+                    # a Part shape (a small disk), shown whatever the spaces' mode: a new
+                    # object in NativeIFC's "Coin" mode was not drawn (FreeCAD 1.0)
+                    obj = ifc_tools.create_object(ent, doc, ifc, "Shape")
                     obj.Proxy.nodelete = True      # the file's undo removes the entity
+                    obj.Proxy.cached = False       # a new entity: not in the file's cache
+                    obj.touch()
                     space.Proxy.addObject(space, obj)
                     out.append(obj)
             for space in [sp for sp, _ in per_room]:
