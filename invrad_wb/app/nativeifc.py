@@ -154,7 +154,7 @@ def document_is_native(doc):
 
 
 # --------------------------------------------------------------------------- open
-def open_ifc(path, doc=None, shapemode=None, requirements=True):
+def open_ifc(path, doc=None, shapemode=None, requirements=True, singledoc=False):
     """Open an IFC file as a NativeIFC document, with its building structure and spaces.
 
     FreeCAD 1.0's own importer (``nativeifc.ifc_import.insert``) is used, headless-safe
@@ -171,10 +171,13 @@ def open_ifc(path, doc=None, shapemode=None, requirements=True):
         preference (BIM > NativeIFC).
     requirements : bool
         Turn lighting requirements into WorkPlane targets.
+    singledoc : bool
+        NativeIFC's "locked" mode (what *File > Open* does): the document itself is the
+        project, no project object.
 
     Returns
     -------
-    (doc, project object)
+    (doc, project): the project object, or the document in locked mode
     """
     import FreeCAD
     check_available()
@@ -189,10 +192,12 @@ def open_ifc(path, doc=None, shapemode=None, requirements=True):
     before = set(o.Name for o in doc.Objects)
     try:
         ifc_import.insert(path, doc.Name, strategy=1, shapemode=shapemode, switchwb=False,
-                          silent=True, singledoc=False)
+                          silent=True, singledoc=singledoc)
     except Exception as exc:
         raise SceneError(f"NativeIFC could not open it: {exc}", path)
     projs = [o for o in doc.Objects if o.Name not in before and hasattr(o, "IfcFilePath")]
+    if singledoc and hasattr(doc, "IfcFilePath"):
+        projs = [doc]
     if not projs:
         raise SceneError("NativeIFC made no project object", path)
     proj = projs[0]
@@ -556,15 +561,16 @@ class IfcSyncProxy:
 def sync_object(doc, proj):
     """The document's sync object for ``proj`` (made on first use, in the caller's
     transaction: undoing that removes it, which the observer handles)."""
+    import FreeCAD
+    is_obj = isinstance(proj, FreeCAD.DocumentObject)    # else the document (locked mode)
     for o in doc.Objects:
         if getattr(getattr(o, "Proxy", None), "Type", None) == SYNC_TYPE:
-            linked = o.Project
-            if linked == (proj if hasattr(proj, "TypeId") else None):
+            if o.Project == (proj if is_obj else None):
                 return o
     obj = doc.addObject("App::FeaturePython", "InvRadIfcSync")
     IfcSyncProxy(obj)
     obj.Label = "InvRad IFC changes"
-    if hasattr(proj, "TypeId"):
+    if is_obj:
         obj.Project = proj
     if obj.ViewObject is not None:
         obj.ViewObject.ShowInTree = False

@@ -23,9 +23,12 @@ def offer_toolbar():
     Returns True when it was added now (False: no BIM workbench, or already there).
     """
     import FreeCAD
+    if not FreeCAD.GuiUp:
+        return False
     import FreeCADGui
     from invrad_wb.gui import commands
-    if BIM_WORKBENCH not in FreeCADGui.listWorkbenches():
+    listing = getattr(FreeCADGui, "listWorkbenches", None)
+    if listing is None or BIM_WORKBENCH not in listing():
         return False
     bars = FreeCAD.ParamGet(PARAM)
     if bars.HasGroup(GROUP):

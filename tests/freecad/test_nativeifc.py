@@ -232,6 +232,35 @@ class TestNativeFZK(FreeCADTestCase):
 
 @needs_native
 @needs_fzk
+class TestNativeLockedDocument(FreeCADTestCase):
+    """NativeIFC's single-document ("locked") mode, what File > Open does: the document
+    itself is the project."""
+
+    def test_fixtures_undo_and_save_when_the_document_is_the_project(self):
+        import ifcopenshell.util.element as E
+        from invrad_wb.core.model.luminaires import Luminaire
+        src = self.path("fzk.ifc")
+        shutil.copy(FZK, src)
+        doc, proj = nativeifc.open_ifc(src, doc=self.doc, shapemode=2, singledoc=True)
+        self.assertIs(proj, doc)
+        ifc = doc.Proxy.ifcfile
+        sp = {rooms.room_name(s): s for s in rooms.find_spaces(doc)}
+        self.assertEqual(set(sp), FZK_ROOMS)
+        lums = [Luminaire([3.0 + 0.5 * k, 7.8, 2.4], [0, 0, -1], 800.0) for k in range(2)]
+        fixtures.insert_fixtures(doc, [(sp["Buero"], lums)])
+        self.assertEqual(len(invrad_lights(ifc)), 2)
+        for e in invrad_lights(ifc):
+            self.assertEqual(E.get_container(e).GlobalId, rooms.space_uid(sp["Buero"]))
+        doc.undo()
+        self.assertEqual(invrad_lights(ifc), [])
+        doc.redo()
+        self.assertEqual(len(invrad_lights(ifc)), 2)
+        out = nativeifc.save(proj, self.path("saved.ifc"))
+        self.assertEqual(len(invrad_lights(read(out))), 2)
+
+
+@needs_native
+@needs_fzk
 class TestRequirementsRead(FreeCADTestCase):
 
     def test_both_lighting_sets_become_work_planes(self):
