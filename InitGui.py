@@ -46,6 +46,9 @@ class InvRadWorkbench(FreeCADGui.Workbench):
         commands.register()
         self.appendToolbar("InvRad", commands.TOOLBAR)
         self.appendMenu("InvRad", commands.MENU)
+        # the same toolbar in the BIM workbench (FreeCAD 1.x), once, as a custom toolbar
+        from invrad_wb.gui import bim
+        bim.offer_toolbar()
 
     def Activated(self):
         pass

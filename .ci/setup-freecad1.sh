@@ -10,7 +10,18 @@ stamp="$root/.invrad-freecad1-v1"
 here="$(cd "$(dirname "$0")/.." && pwd)"
 # the stamp holds the requirements the venv was built from: a change re-runs only pip
 reqs="$(grep -v '^numpy' "$here/requirements.txt")"
-if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$reqs" ]; then echo "$root"; exit 0; fi
+# FreeCAD 1.0.0's NativeIFC (BIM workbench) uses entity_instance.wrapped_data, which
+# ifcopenshell 0.9 removed: an ifcopenshell 0.8 in its own folder, put first on the path by
+# test-freecad1.sh (the venv keeps the requirements' ifcopenshell; 0.8 needs nothing more)
+nifc_req='ifcopenshell>=0.8.1,<0.9'
+nifc=/opt/invrad-nativeifc
+nifc_ok() { [ "$(cat "$root$nifc/.invrad-stamp" 2>/dev/null)" = "$nifc_req" ]; }
+# PySide6 (Debian's, not used by FreeCAD 1.0's Qt 5 build): tests/freecad/test_qt_names.py
+# looks up every Qt name the GUI uses in it, in a separate Python process
+pyside6_ok() { [ -n "${INVRAD_NO_GUI:-}" ] || [ -d "$root/usr/lib/python3/dist-packages/PySide6" ]; }
+if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$reqs" ] && nifc_ok && pyside6_ok; then
+  echo "$root"; exit 0
+fi
 if [ "$(id -u)" -ne 0 ]; then
   echo "invrad setup (FreeCAD 1.0): needs root for debootstrap/chroot; run as root or set" \
        "INVRAD_NO_FREECAD1=1 to test on the host's FreeCAD only" >&2
@@ -33,10 +44,11 @@ mkdir -p "$root/etc/ssl/certs"
 [ -f "$cert" ] && cp "$cert" "$root/etc/ssl/certs/invrad-host-ca.crt"
 mountpoint -q "$root/proc" || mount -t proc proc "$root/proc"
 trap 'umount "$root/proc" 2>/dev/null || true' EXIT
-# weasyprint (with Pango) for the reports' PDF, poppler-utils for the tests' PDF checks
+# weasyprint (with Pango) for the reports' PDF, poppler-utils for the tests' PDF checks;
+# PySide6 for the Qt 6 name check (tests/freecad/test_qt_names.py)
 pkgs=(freecad-python3 python3-venv python3-pip pocl-opencl-icd ocl-icd-libopencl1
       weasyprint poppler-utils)
-[ -n "${INVRAD_NO_GUI:-}" ] || pkgs+=(freecad xvfb xauth)
+[ -n "${INVRAD_NO_GUI:-}" ] || pkgs+=(freecad xvfb xauth python3-pyside6.qtwidgets)
 chroot "$root" apt-get update -qq
 chroot "$root" env DEBIAN_FRONTEND=noninteractive \
   apt-get install -y -qq --no-install-recommends "${pkgs[@]}" >/dev/null
@@ -49,5 +61,11 @@ pipcert=(env); [ -f "$root/etc/ssl/certs/invrad-host-ca.crt" ] && \
             REQUESTS_CA_BUNDLE=/etc/ssl/certs/invrad-host-ca.crt)
 chroot "$root" "${pipcert[@]}" PIP_FIND_LINKS= /opt/invrad-venv/bin/python -m pip install -q \
   -r /tmp/invrad-requirements.txt
+if ! nifc_ok; then
+  rm -rf "${root:?}$nifc"
+  chroot "$root" "${pipcert[@]}" PIP_FIND_LINKS= /opt/invrad-venv/bin/python -m pip install -q \
+    --no-deps --target "$nifc" "$nifc_req"
+  printf '%s' "$nifc_req" > "$root$nifc/.invrad-stamp"
+fi
 printf '%s' "$reqs" > "$stamp"
 echo "$root"

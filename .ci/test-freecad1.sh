@@ -26,6 +26,6 @@ mountpoint -q "$root/sys" || mount --rbind /sys "$root/sys"
 mountpoint -q "$root/dev" || mount --rbind /dev "$root/dev"
 [ $# -gt 0 ] || set -- freecadcmd tests/freecad/run.py
 chroot "$root" env -i HOME=/root PATH=/opt/invrad-venv/bin:/usr/sbin:/usr/bin:/sbin:/bin \
-  LANG=C.UTF-8 PYTHONPATH="$site:/$mnt" QT_QPA_PLATFORM=offscreen \
+  LANG=C.UTF-8 PYTHONPATH="/opt/invrad-nativeifc:$site:/$mnt" QT_QPA_PLATFORM=offscreen \
   INVRAD_PYTHON=/opt/invrad-venv/bin/python \
   bash -c 'cd "$0" && exec "$@"' "/$mnt" "$@"

@@ -18,9 +18,14 @@ import sys
 
 from invrad_wb import constants as C
 
-#: Required packages: import name -> pip requirement (as in pyproject.toml).
+#: Required packages: import name -> pip requirement (as in pyproject.toml); numpy's
+#: depends on FreeCAD (:func:`numpy_requirement`).
 REQUIRED = {"numpy": "numpy>=1.24,<2", "trimesh": "trimesh>=4.0",
             "OpenImageIO": "OpenImageIO>=2.5"}
+#: IFC rooms and fixtures; FreeCAD 1.0.0's NativeIFC needs the 0.8 series (it uses
+#: entity_instance.wrapped_data, which 0.9 removed)
+IFCOPENSHELL = "ifcopenshell>=0.8"
+IFCOPENSHELL_NATIVEIFC = "ifcopenshell>=0.8.1,<0.9"
 #: pyopencl with PoCL (an OpenCL driver for the CPU) from PyPI.
 PYOPENCL = "pyopencl[pocl]>=2024.1"
 #: Debian's OpenCL driver for the CPU (what `make setup` installs).
@@ -64,12 +69,45 @@ def is_checkout(root=C.ROOT):
             and os.path.isfile(os.path.join(root, ".ci", "setup.sh")))
 
 
-def install_command(requirements, root=C.ROOT):
-    """The one command that installs ``requirements`` (list of pip requirement strings)."""
-    if is_checkout(root):
+def freecad_major():
+    """FreeCAD's major version (0 for 0.x), or None outside FreeCAD."""
+    try:
+        import FreeCAD
+        return int(FreeCAD.Version()[0])
+    except Exception:
+        return None
+
+
+def numpy_requirement():
+    """numpy<2 for FreeCAD 0.x (Debian 12's scipy/matplotlib are numpy 1 builds); FreeCAD
+    1.x brings numpy 2."""
+    major = freecad_major()
+    return "numpy>=1.24" if major is not None and major >= 1 else "numpy>=1.24,<2"
+
+
+def addon_target():
+    """Where FreeCAD's Addon Manager installs add-ons' Python packages (on FreeCAD's
+    sys.path): ``<user data>/AdditionalPythonPackages/pyXY``; None outside FreeCAD."""
+    try:
+        import FreeCAD
+        base = FreeCAD.getUserAppDataDir()
+    except Exception:
+        return None
+    return os.path.join(base, "AdditionalPythonPackages", "py%d%d" % sys.version_info[:2])
+
+
+def install_command(requirements, root=C.ROOT, pip=False):
+    """The one command that installs ``requirements`` (list of pip requirement strings):
+    ``make setup`` in a checkout (unless ``pip``: what it installs would not do), else
+    pip into the Addon Manager's folder (in FreeCAD) or the user's site-packages."""
+    if is_checkout(root) and not pip:
         return f"cd {shlex.quote(root)} && make setup"
     python = "python%d.%d" % sys.version_info[:2]
-    return f"{python} -m pip install --user " + " ".join(shlex.quote(r) for r in requirements)
+    reqs = " ".join(shlex.quote(r) for r in requirements)
+    target = addon_target()
+    if target:
+        return f"{python} -m pip install --target {shlex.quote(target)} {reqs}"
+    return f"{python} -m pip install --user {reqs}"
 
 
 def _importable(name):
@@ -110,9 +148,9 @@ def problems(root=C.ROOT):
     missing = [name for name in REQUIRED
                if not (_importable(name) if name == "numpy" else _findable(name))]
     if missing:
+        reqs = [numpy_requirement() if n == "numpy" else REQUIRED[n] for n in missing]
         out.append(("error", f"missing Python package(s): {', '.join(missing)}. Install"
-                             " with: "
-                             + install_command([REQUIRED[n] for n in missing], root)))
+                             " with: " + install_command(reqs, root)))
     if not _importable("pyopencl"):
         out.append(("warning", "pyopencl cannot be imported: locating runs on the numpy"
                                " backend, much slower. Install it with:"
@@ -122,4 +160,30 @@ def problems(root=C.ROOT):
         out.append(("warning", "no OpenCL driver (no OpenCL device found): locating runs"
                                " on the numpy backend, much slower. Install one (PoCL, for"
                                f" the CPU) with: {cmd}"))
+    out.extend(_ifc_problems(root))
     return out
+
+
+def _ifc_problems(root):
+    """ifcopenshell missing, or too new for this FreeCAD's NativeIFC (warnings: the rest
+    of the workbench works)."""
+    if not _findable("ifcopenshell"):
+        return [("warning", "ifcopenshell is not installed: IFC files (rooms from IfcSpace,"
+                            " light fixtures, NativeIFC) cannot be read. Install it with: "
+                 + install_command([IFCOPENSHELL_NATIVEIFC if _has_nativeifc()
+                                    else IFCOPENSHELL], root))]
+    if _has_nativeifc():
+        from invrad_wb.app import nativeifc
+        try:
+            nativeifc.check_available()
+        except Exception as exc:
+            if "ifcopenshell 0.8" in str(exc):
+                return [("warning", "NativeIFC documents cannot be used: this FreeCAD's"
+                                    " NativeIFC needs ifcopenshell 0.8 (0.9 removed what it"
+                                    " uses). Install it with: "
+                         + install_command([IFCOPENSHELL_NATIVEIFC], root, pip=True))]
+    return []
+
+
+def _has_nativeifc():
+    return _findable("nativeifc")

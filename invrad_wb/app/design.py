@@ -68,10 +68,11 @@ def work_planes_for(spaces, spec):
     no WorkPlane target, one at the required height and margin (the design's work plane
     is meshed from it). Document edit: call inside a transaction. Returns the Spaces
     changed."""
+    from invrad_wb.app.rooms import room_name
     from invrad_wb.app.targets import set_work_plane, work_plane_target
     changed = []
     for sp in spaces:
-        rs = spec.room_spec(sp.Name, sp.Label)
+        rs = spec.room_spec(sp.Name, room_name(sp))
         if rs is None or rs.work_plane is None or work_plane_target(sp) is not None:
             continue
         wp = rs.work_plane

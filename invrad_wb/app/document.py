@@ -89,8 +89,14 @@ def describe(obj):
         return "(none)"
     try:
         label, name = obj.Label, obj.Name
+        # a NativeIFC IfcSpace is labelled with its IFC Name ("5"); its room name is the
+        # LongName ("Wohnen")
+        long_name = (getattr(obj, "LongName", "") if "IfcClass" in obj.PropertiesList
+                     else "")
     except Exception:          # deleted object
         return "(deleted object)"
+    if long_name and long_name not in (label, "None"):
+        return f"'{long_name}' ({label}, {name})"
     return f"'{label}'" if label == name else f"'{label}' ({name})"
 
 

@@ -156,9 +156,11 @@ def ceiling_drop_m(space, lum):
 
 
 def fixture_label(space, i, lum):
-    """``Luminaire <room> <i + 1>``, with the catalogue type in parentheses if known."""
+    """``Luminaire <room> <i + 1>``, with the catalogue type in parentheses if known (the
+    room by :func:`~invrad_wb.app.rooms.room_name`: a NativeIFC space's LongName)."""
+    from invrad_wb.app.rooms import room_name
     kind = lum.extra.get("type")
-    return f"Luminaire {space.Label} {i + 1}" + (f" ({kind})" if kind else "")
+    return f"Luminaire {room_name(space)} {i + 1}" + (f" ({kind})" if kind else "")
 
 
 def style_fixture(obj):
@@ -182,13 +184,27 @@ def style_fixture(obj):
 
 
 def is_fixture(obj, generated_only=False):
+    if _native(obj):
+        from invrad_wb.app import nativeifc
+        return nativeifc.is_native_fixture(obj, generated_only)
     if object_type(obj) != "Equipment" or getattr(obj, "IfcType", "") != LIGHT_FIXTURE:
         return False
     return not generated_only or getattr(obj, "Generator", "") == S.GENERATOR_TAG
 
 
+def _native(obj):
+    """A NativeIFC object (FreeCAD 1.x): its fixtures are IFC entities (.nativeifc)."""
+    try:
+        return "StepId" in obj.PropertiesList and "IfcClass" in obj.PropertiesList
+    except Exception:
+        return False
+
+
 def room_fixtures(space, generated_only=True):
     """Light fixtures inside a Space (those made by invrad only, by default)."""
+    if _native(space):
+        from invrad_wb.app import nativeifc
+        return nativeifc.room_fixtures(space, generated_only)
     return [o for o in space.Group if is_fixture(o, generated_only)]
 
 
@@ -198,6 +214,9 @@ def all_fixtures(doc, generated_only=True):
 
 def fixture_room(obj):
     """The Space of a fixture: its Room link, else the Space whose Group holds it."""
+    if _native(obj):
+        from invrad_wb.app import nativeifc
+        return nativeifc.fixture_room(obj)
     room = getattr(obj, "Room", None)
     if room is not None:
         return room
@@ -315,6 +334,9 @@ def insert_fixtures(doc, per_room, replace=True, name="Insert luminaires"):
     LuminaireError, SceneError
         Bad luminaire or room; the document is left unchanged.
     """
+    if per_room and all(_native(sp) for sp, _ in per_room):
+        from invrad_wb.app import nativeifc      # IfcLightFixture entities, one undo step
+        return nativeifc.insert_fixtures(doc, per_room, replace=replace, name=name)
     for space, lums in per_room:
         if object_type(space) != "Space":
             raise SceneError(f"{describe(space)} is not a room (Arch Space)", doc.Label)
@@ -334,6 +356,9 @@ def insert_fixtures(doc, per_room, replace=True, name="Insert luminaires"):
 
 def fixture_luminaire(obj):
     """The Luminaire a fixture stands for (position, direction, flux, radius, score)."""
+    if _native(obj):
+        from invrad_wb.app import nativeifc
+        return nativeifc.fixture_luminaire(obj)
     pl = obj.getGlobalPlacement() if hasattr(obj, "getGlobalPlacement") else obj.Placement
     import FreeCAD
     d = pl.Rotation.multVec(FreeCAD.Vector(0, 0, -1))

@@ -123,9 +123,11 @@ def _find_space(ifc, space):
 
 
 def _set_requirements(ifc, doc, info):
-    """Pset_SpaceLightingRequirements.Illuminance from each room's WorkPlane target."""
-    import ifcopenshell.api.pset as PS
-    import ifcopenshell.util.element as E
+    """Each room's WorkPlane lux -> the schema's lighting set (``Illuminance``,
+    ``ArtificialLighting``: Pset_SpaceLightingRequirements in IFC2X3/IFC4,
+    Pset_SpaceLightingDesign in IFC4.3) and the achieved values a run stored on the Space
+    (``InvRad_LightingResult`` in its IfcProperties) -> the same set on the IfcSpace."""
+    from invrad_wb.app.nativeifc import write_requirement
     from invrad_wb.app.targets import work_plane_target
     for space in find_spaces(doc):
         wp = work_plane_target(space)
@@ -136,15 +138,23 @@ def _set_requirements(ifc, doc, info):
             info.warnings.append(f"room {describe(space)} has no IfcSpace in the file; its"
                                  " work-plane illuminance is not written")
             continue
-        psets = E.get_psets(ent, psets_only=True)
-        if "Pset_SpaceLightingRequirements" in psets:
-            pset = ifc.by_id(psets["Pset_SpaceLightingRequirements"]["id"])
-        else:
-            pset = PS.add_pset(ifc, product=ent, name="Pset_SpaceLightingRequirements")
-        PS.edit_pset(ifc, pset=pset, properties={
-            "Illuminance": ifc.create_entity("IfcIlluminanceMeasure", float(wp.Lux)),
-            "ArtificialLighting": True})
+        write_requirement(ifc, ent, float(wp.Lux), _stored_results(space))
         info.spaces_with_requirement += 1
+
+
+def _stored_results(space):
+    """The achieved values a run wrote into a Space's IfcProperties, as
+    :func:`.nativeifc.write_requirement` takes them (None if there are none)."""
+    from invrad_wb.app.nativeifc import PSET_RESULT
+    props = getattr(space, "IfcProperties", None) or {}
+    out = {}
+    for key, (name, _) in _RESULT_TYPES.items():
+        raw = props.get(f"{name};;{PSET_RESULT}") if hasattr(props, "get") else None
+        try:
+            out[key] = float(str(raw).split(";;")[-1])
+        except (TypeError, ValueError):
+            continue
+    return out or None
 
 
 def _luminaire_psets(ifc, ent, fx, lum):
@@ -164,7 +174,7 @@ def _luminaire_psets(ifc, ent, fx, lum):
     PS.edit_pset(ifc, pset=p, properties={"NumberOfSources": 1})
 
 
-def _body_context(ifc):
+def body_context(ifc):
     import ifcopenshell.api.context as CX
     import ifcopenshell.util.representation as R
     ctx = R.get_context(ifc, "Model", "Body", "MODEL_VIEW")
@@ -188,7 +198,7 @@ def fixture_matrix(lum):
     return m
 
 
-def _add_body(ifc, ent, lum, ctx, unit_scale):
+def add_body(ifc, ent, lum, ctx, unit_scale):
     r = (lum.radius_m if lum.radius_m > 0 else S.FIXTURE_RADIUS_M) / unit_scale
     t = S.FIXTURE_THICKNESS_M / unit_scale
     prof = ifc.create_entity("IfcCircleProfileDef", ProfileType="AREA", Radius=r)
@@ -225,7 +235,7 @@ def _merge(doc, base_ifc, out_path):
         if is_invrad_fixture(lf):
             RT.remove_product(ifc, product=lf)
     unit_scale = U.calculate_unit_scale(ifc)
-    ctx = _body_context(ifc)
+    ctx = body_context(ifc)
     used = set()
     for fx in all_fixtures(doc, generated_only=False):
         space = fixture_room(fx)
@@ -248,7 +258,7 @@ def _merge(doc, base_ifc, out_path):
         ent.Description = getattr(fx, "Description", None) or None
         SP.assign_container(ifc, products=[ent], relating_structure=sp)
         G.edit_object_placement(ifc, product=ent, matrix=fixture_matrix(lum), is_si=True)
-        _add_body(ifc, ent, lum, ctx, unit_scale)
+        add_body(ifc, ent, lum, ctx, unit_scale)
         _luminaire_psets(ifc, ent, fx, lum)
         info.fixtures += 1
     _set_requirements(ifc, doc, info)
@@ -335,4 +345,69 @@ def _restore_orientation(ifc, ent, lum, unit_scale):
             G.unassign_representation(ifc, product=ent, representation=rep)
             G.remove_representation(ifc, representation=rep)
     G.edit_object_placement(ifc, product=ent, matrix=fixture_matrix(lum), is_si=True)
-    _add_body(ifc, ent, lum, _body_context(ifc), unit_scale)
+    add_body(ifc, ent, lum, body_context(ifc), unit_scale)
+
+
+# --------------------------------------------------------------------------- requirements
+def requirements_of_run(building, summary):
+    """Each room's work-plane requirement and what a run achieved, for the IFC lighting
+    set: ``{space Name: (required lux, {"Em", "Emin", "U0", "Watts"})}`` (rooms with a
+    work plane only). A design's own figures (exact EN 12464 metrics) are used where
+    there are some, else the verification's work-plane mean and minimum."""
+    design = {r.get("room"): r for r in (summary.get("design") or {}).get("rooms", [])}
+    stats = {r["space"]: r for r in summary.get("rooms", [])}
+    out = {}
+    for p in building.rooms:
+        if p.work_plane is None:
+            continue
+        d = design.get(p.room_id)
+        if d is not None and "em_lux" in d:
+            achieved = {"Em": d["em_lux"], "Emin": d.get("emin_lux"), "U0": d.get("u0"),
+                        "Watts": d.get("watts")}
+        else:
+            wp = (stats.get(p.space.Name) or {}).get("work_plane") or {}
+            em, emin = wp.get("mean_achieved_lux"), wp.get("min_achieved_lux")
+            achieved = {"Em": em, "Emin": emin,
+                        "U0": (emin / em) if em and emin is not None else None}
+        out[p.space.Name] = (float(p.work_plane.lux), achieved)
+    return out
+
+
+def write_requirements(doc, requirements):
+    """Write ``{space Name: (lux, achieved)}`` into the rooms' IFC data: in a NativeIFC
+    document into the IfcSpace entities (:func:`.nativeifc.write_requirements`), else
+    into each Arch Space's ``IfcProperties`` (``Pset_SpaceLightingRequirements``:
+    Illuminance, ArtificialLighting; ``InvRad_LightingResult``: AchievedEm, AchievedEmin,
+    AchievedU0, InstalledPower), which FreeCAD's IFC exporter writes as property sets.
+    Call inside the run's transaction (one undo step). Returns the rooms written."""
+    from invrad_wb.app import nativeifc
+    from invrad_wb.app.document import transaction
+    native = {k: v for k, v in requirements.items()
+              if nativeifc.is_native_space(doc.getObject(k))}
+    n = nativeifc.write_requirements(doc, native) if native else 0
+    with transaction(doc, "Lighting requirements"):
+        for key, (lux, achieved) in requirements.items():
+            space = doc.getObject(key)
+            if key in native or space is None or not hasattr(space, "IfcProperties"):
+                continue
+            _set_space_properties(space, lux, achieved)
+            n += 1
+    return n
+
+
+_RESULT_TYPES = {"Em": ("AchievedEm", "IfcIlluminanceMeasure"),
+                 "Emin": ("AchievedEmin", "IfcIlluminanceMeasure"),
+                 "U0": ("AchievedU0", "IfcRatioMeasure"),
+                 "Watts": ("InstalledPower", "IfcPowerMeasure")}
+
+
+def _set_space_properties(space, lux, achieved):
+    from invrad_wb.app.nativeifc import PSET_REQ_IFC4, PSET_RESULT
+    props = dict(space.IfcProperties)
+    props[f"Illuminance;;{PSET_REQ_IFC4}"] = f"IfcIlluminanceMeasure;;{float(lux)!r}"
+    props[f"ArtificialLighting;;{PSET_REQ_IFC4}"] = "IfcBoolean;;True"
+    for key, value in (achieved or {}).items():
+        if key in _RESULT_TYPES and value is not None and math.isfinite(float(value)):
+            name, kind = _RESULT_TYPES[key]
+            props[f"{name};;{PSET_RESULT}"] = f"{kind};;{float(value)!r}"
+    space.IfcProperties = props

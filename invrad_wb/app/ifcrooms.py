@@ -16,7 +16,8 @@ What is created (one undoable transaction):
   (IfcType "Building Storey"), with the IFC GlobalId in ``IfcData['IfcUID']``;
 * per IfcSpace: a hidden Part::Feature with its solid and an Arch Space based on it,
   labelled with the space's LongName (else Name), inside its storey, GlobalId kept;
-* ``Pset_SpaceLightingRequirements.Illuminance`` -> a WorkPlane target (0.75 m);
+* ``Pset_SpaceLightingRequirements.Illuminance`` (``Pset_SpaceLightingDesign`` in IFC4.3)
+  -> a WorkPlane target (0.75 m);
 * light fixtures that a previous invrad run wrote (property set ``InvRad_Luminaire``)
   -> Equipment "Light Fixture" in their Space again, so a round trip keeps them;
 * optionally (``elements=True``) walls, slabs, windows... as Arch Components for context.
@@ -149,14 +150,11 @@ def _storey_of(entity):
 
 
 def required_illuminance(entity):
-    """``Pset_SpaceLightingRequirements.Illuminance`` of an IfcSpace (lux) or None."""
-    import ifcopenshell.util.element as E
-    value = E.get_psets(entity).get("Pset_SpaceLightingRequirements", {}).get("Illuminance")
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        return None
-    return value if math.isfinite(value) and value >= 0 else None
+    """Required illuminance (lux) of an IfcSpace, or None: ``Illuminance`` of
+    ``Pset_SpaceLightingRequirements`` (IFC2X3/IFC4) or ``Pset_SpaceLightingDesign``
+    (its IFC4.3 name)."""
+    from invrad_wb.app.nativeifc import read_requirement
+    return read_requirement(entity)
 
 
 def invrad_fixture_data(entity, unit_scale):

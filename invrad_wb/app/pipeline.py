@@ -30,7 +30,7 @@ from invrad_wb.errors import Cancelled, SceneError
 from invrad_wb.app import settings as S
 from invrad_wb.app.document import describe
 from invrad_wb.app.fixtures import fixture_label
-from invrad_wb.app.rooms import find_spaces, get_space, mesh_room, room_shape
+from invrad_wb.app.rooms import find_spaces, get_space, mesh_room, room_name, room_shape
 from invrad_wb.app.targets import has_targets, room_specs
 
 
@@ -90,7 +90,7 @@ class BuildingScene:
 
     @property
     def room_names(self):
-        return [r.space.Label for r in self.rooms]
+        return [room_name(r.space) for r in self.rooms]
 
 
 @dataclass
@@ -167,7 +167,7 @@ def prepare(doc, settings, progress=None):
     plans = []
     nv = nf = 0
     for k, space in enumerate(spaces):
-        report(k / len(spaces), f"room {space.Label}: mesh and targets")
+        report(k / len(spaces), f"room {room_name(space)}: mesh and targets")
         n_faces = len(room_shape(space).Faces)
         specs, reflectance, wp = room_specs(space, n_faces, base_dir=settings.base_dir)
         mesh = mesh_room(space, settings.resolution_m, reflectance)
@@ -212,7 +212,7 @@ def _room_stats(scene, target, achieved, plans):
     vvirt[scene.faces[scene.face_virtual].reshape(-1)] = True
     for p in plans:
         sel = vr == p.room_id
-        d = {"room": p.space.Label, "space": p.space.Name,
+        d = {"room": room_name(p.space), "space": p.space.Name,
              "triangles": int(len(p.mesh.triangles)), "work_plane_triangles": p.n_work_plane}
         for name, mask in (("surfaces", sel & ~vvirt), ("work_plane", sel & vvirt)):
             t = target[mask]
@@ -299,10 +299,14 @@ def run(doc, settings, progress=None, locate=None, building=None):
     if settings.insert:
         from invrad_wb.app.fixtures import insert_fixtures
         t = time.perf_counter()
-        fixtures = insert_fixtures(doc, [(p.space, per_room[p.room_id])
-                                         for p in building.rooms],
-                                   replace=settings.replace,
-                                   name=f"invrad: {len(lums)} luminaire(s)")
+        from invrad_wb.app.document import transaction
+        from invrad_wb.app.ifcexport import requirements_of_run, write_requirements
+        name = f"invrad: {len(lums)} luminaire(s)"
+        with transaction(doc, name):       # fixtures and IFC requirements: one undo step
+            fixtures = insert_fixtures(doc, [(p.space, per_room[p.room_id])
+                                             for p in building.rooms],
+                                       replace=settings.replace, name=name)
+            write_requirements(doc, requirements_of_run(building, summary))
         timings["insert"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
     summary["timings"] = timings
@@ -327,7 +331,7 @@ def _find_luminaires(building, settings, flux, progress, locate=None):
     extra = {} if settings.workers in (1, None) else {"workers": settings.workers}
     return locate(building.scene, flux_lm=flux, settings=settings.locate, progress=progress,
                   backend=settings.backend,
-                  room_names={p.room_id: p.space.Label for p in building.rooms}, **extra)
+                  room_names={p.room_id: room_name(p.space) for p in building.rooms}, **extra)
 
 
 def by_room(building, luminaires):
@@ -354,7 +358,7 @@ def _summary(doc, flux, settings, building, target, achieved, per_room):
     for p in building.rooms:
         for i, lum in enumerate(per_room[p.room_id]):
             d = lum.to_dict()
-            d["room_name"] = p.space.Label
+            d["room_name"] = room_name(p.space)
             d["fixture"] = fixture_label(p.space, i, lum)
             summary["luminaires"].append(d)
     return summary

@@ -26,6 +26,7 @@ from invrad_wb.errors import SceneError
 from invrad_wb.app.document import transaction
 from invrad_wb.app.fixtures import fixture_luminaire, insert_fixtures, room_fixtures
 from invrad_wb.app.pipeline import _progress, by_room, prepare, write_report, _write_json
+from invrad_wb.app.rooms import room_name
 
 #: Name of the metrics spreadsheet (its Label is :data:`SHEET_LABEL`).
 SHEET_NAME = "InvRadReport"
@@ -189,7 +190,7 @@ def room_metrics(building, target, achieved, luminaires):
         if (sel & vvirt).any():
             parts += [("work plane", sel & vvirt), ("surfaces", sel & ~vvirt)]
         for part, mask in parts:
-            row = {"room": p.space.Label, "part": part}
+            row = {"room": room_name(p.space), "part": part}
             if part == "all targets":
                 row.update(luminaires=len(lums), flux_lm=float(sum(l.flux_lm for l in lums)))
             row.update(_part_metrics(target[mask], achieved[mask]))
@@ -204,7 +205,7 @@ def report_rows(report, building):
     rooms = getattr(report, "rooms", None)
     if not rooms:
         return None
-    names = {p.room_id: p.space.Label for p in building.rooms}
+    names = {p.room_id: room_name(p.space) for p in building.rooms}
     rows = []
     try:
         for rr in rooms:
@@ -266,7 +267,7 @@ def verify(doc, settings, progress=None, building=None, luminaires=None):
     summary = {"document": doc.Label, "resolution_m": settings.resolution_m,
                "interreflection": bool(settings.interreflection),
                "rooms": _room_stats(scene, target, achieved, building.rooms),
-               "luminaires": [dict(l.to_dict(), room_name=building.rooms[l.room].space.Label)
+               "luminaires": [dict(l.to_dict(), room_name=room_name(building.rooms[l.room].space))
                               for l in luminaires],
                "skipped_fixtures": skipped}
     report = None

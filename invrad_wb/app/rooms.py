@@ -88,7 +88,26 @@ class RoomMesh:
 
 # --------------------------------------------------------------------------- spaces
 def is_space(obj):
-    return object_type(obj) == "Space"
+    """An Arch/BIM Space, or an IfcSpace of a NativeIFC document (FreeCAD 1.x)."""
+    if object_type(obj) == "Space":
+        return True
+    from invrad_wb.app import nativeifc
+    return nativeifc.is_native_space(obj)
+
+
+def is_native(space):
+    """True for an IfcSpace object of a NativeIFC document."""
+    from invrad_wb.app import nativeifc
+    return nativeifc.is_native_space(space)
+
+
+def room_name(space):
+    """The name of a room shown to the user: its Label, or a NativeIFC IfcSpace's
+    LongName ("Wohnen"; NativeIFC labels it with the IFC Name, e.g. "1")."""
+    if is_native(space):
+        from invrad_wb.app import nativeifc
+        return nativeifc.space_name(space)
+    return space.Label
 
 
 def find_spaces(doc):
@@ -97,7 +116,10 @@ def find_spaces(doc):
 
 
 def space_uid(space):
-    """The IFC GlobalId stored on a Space (``IfcData['IfcUID']``) or ''."""
+    """The IFC GlobalId stored on a Space (``IfcData['IfcUID']``, or a NativeIFC
+    space's ``GlobalId``) or ''."""
+    if is_native(space):
+        return str(getattr(space, "GlobalId", "") or "")
     data = getattr(space, "IfcData", None) or {}
     return str(data.get("IfcUID", "")) if hasattr(data, "get") else ""
 
@@ -107,8 +129,9 @@ def get_space(doc, key):
     spaces = find_spaces(doc)
     if not spaces:
         raise SceneError("the document has no rooms (Arch Spaces)", doc.Label)
-    for attr in ("Name", "Label"):
-        hit = [s for s in spaces if getattr(s, attr) == key]
+    for attr in ("Name", "Label", "room"):
+        hit = [s for s in spaces
+               if (room_name(s) if attr == "room" else getattr(s, attr)) == key]
         if len(hit) == 1:
             return hit[0]
         if len(hit) > 1:
@@ -139,6 +162,9 @@ def room_shape(space):
         Naming the Space when it has no geometry, its boundaries enclose no volume or its
         surface is not closed.
     """
+    if is_native(space):
+        from invrad_wb.app import nativeifc
+        return nativeifc.space_solid(space)
     who = f"room {describe(space)}"
     base = getattr(space, "Base", None)
     if base is not None and hasattr(base, "Shape") and not base.Shape.isNull():
@@ -287,7 +313,7 @@ def mesh_room(space, resolution_m=S.RESOLUTION_M, reflectance=None):
                          f" solid {expected:.3f} m^3; the surface is not a valid closed"
                          " solid", space.Label)
     rho = _face_reflectances(kinds, reflectance, space.Label)
-    return RoomMesh(space=space.Name, label=space.Label, vertices=v, triangles=t,
+    return RoomMesh(space=space.Name, label=room_name(space), vertices=v, triangles=t,
                     triangle_face=tf, face_kind=kinds, face_normal=np.array(face_normal),
                     face_area=np.array(face_area), face_reflectance=rho, volume=-vol,
                     seconds=time.perf_counter() - t0, coarse=coarse)
@@ -344,6 +370,11 @@ def _face_reflectances(kinds, reflectance, label):
 
 def face_count(space):
     """Number of faces of a Space's shape (0 without geometry)."""
+    if is_native(space):
+        try:
+            return len(room_shape(space).Faces)
+        except SceneError:
+            return 0
     shape = getattr(space, "Shape", None)
     if shape is None or shape.isNull():
         return 0

@@ -12,4 +12,6 @@ they can be imported (and their numpy parts tested) under freecadcmd as well.
 * :mod:`.selection`  selected faces -> faces of rooms (Space faces or wall faces on them)
 * :mod:`.params`     settings kept in FreeCAD's parameters
 * :mod:`.messages`   errors and results to the report view and dialog boxes
+* :mod:`.qtcompat`   PySide2 / PySide6 differences (exec, enum flags)
+* :mod:`.bim`        the InvRad toolbar in the BIM workbench (a custom toolbar)
 """

@@ -35,7 +35,8 @@ def _box(level, title, text, details=None):
                             FreeCADGui.getMainWindow())
     if details:
         box.setDetailedText(details)
-    box.exec_()
+    from invrad_wb.gui.qtcompat import run_exec
+    run_exec(box)
 
 
 def show(level, title, text, details=None, box=True):

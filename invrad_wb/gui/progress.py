@@ -141,7 +141,8 @@ def run(title, work, poll_ms=100):
         thread.start()
         timer.start(poll_ms)
         if not job.done:
-            loop.exec_()
+            from invrad_wb.gui.qtcompat import run_exec
+            run_exec(loop)
         thread.join()
         dialog.update_from(job)
         dialog.hide()

@@ -159,13 +159,13 @@ def design(doc=None, spec=None, rooms=None, run=None):
         doc = _doc(doc)
         from invrad_wb.app import design as app_design, pipeline, results
         from invrad_wb.app.document import transaction
-        from invrad_wb.app.rooms import find_spaces
+        from invrad_wb.app.rooms import find_spaces, room_name
         data = params.load_design() if spec is None else spec
         base = os.path.dirname(doc.FileName) if doc.FileName else os.getcwd()
         dspec = app_design.spec_from_data(data, "design panel", base)
         keys = _room_keys(rooms)
         spaces = (pipeline.select_rooms(doc, keys) if keys else
-                  [sp for sp in find_spaces(doc) if dspec.room_spec(sp.Name, sp.Label)])
+                  [sp for sp in find_spaces(doc) if dspec.room_spec(sp.Name, room_name(sp))])
         if not spaces:
             from invrad_wb.errors import SceneError
             raise SceneError("no room of the document has a requirement in the design"

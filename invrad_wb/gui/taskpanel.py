@@ -226,7 +226,8 @@ class LocatePanel:
 
     def getStandardButtons(self):
         from PySide import QtGui
-        return int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
+        from invrad_wb.gui.qtcompat import flag_int
+        return flag_int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
 
     def check(self):
         """The panel's values, checked; raises SettingsError naming the bad one."""
@@ -359,7 +360,8 @@ class TargetPanel:
 
     def getStandardButtons(self):
         from PySide import QtGui
-        return int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
+        from invrad_wb.gui.qtcompat import flag_int
+        return flag_int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
 
     def accept(self):
         import FreeCADGui
@@ -410,7 +412,8 @@ class RepeakPanel:
 
     def getStandardButtons(self):
         from PySide import QtGui
-        return int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
+        from invrad_wb.gui.qtcompat import flag_int
+        return flag_int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
 
     def accept(self):
         import FreeCADGui
@@ -456,7 +459,7 @@ class DesignPanel:
     RUN_FIELDS = ("resolution_m", "interreflection", "backend", "replace")
 
     def __init__(self, doc, rooms=None):
-        from invrad_wb.app.rooms import find_spaces
+        from invrad_wb.app.rooms import find_spaces, room_name
         from invrad_wb.core.design import en12464
         self.doc = doc
         global ACTIVE
@@ -475,7 +478,8 @@ class DesignPanel:
         for k in self.RUN_FIELDS:
             set_value(self.widget(k), run[k])
         self.widget("rooms_label").setText(
-            "Rooms: " + (", ".join(sp.Label for sp in self.spaces) or "(none in the document)"))
+            "Rooms: " + (", ".join(room_name(sp) for sp in self.spaces)
+                         or "(none in the document)"))
         for name, fn in (("add_entry", self.add_entry), ("remove_entry", self.remove_entries),
                          ("load_spec", self.open_spec), ("save_spec", self.save_spec)):
             self.widget(name).clicked.connect(fn)
@@ -581,8 +585,9 @@ class DesignPanel:
         self._mounting_changed()
         req = self.widget("requirements")
         req.setRowCount(0)
+        from invrad_wb.app.rooms import room_name
         for sp in self.spaces:
-            r = rooms.get(sp.Label) or rooms.get(sp.Name)
+            r = rooms.get(room_name(sp)) or rooms.get(sp.Label) or rooms.get(sp.Name)
             self._add_room_row(sp, r if r is not None else self._room_default(sp, default))
         cat.resizeColumnsToContents()
         req.resizeColumnsToContents()
@@ -632,7 +637,8 @@ class DesignPanel:
         req = self.widget("requirements")
         row = req.rowCount()
         req.insertRow(row)
-        item = QtGui.QTableWidgetItem(space.Label)
+        from invrad_wb.app.rooms import room_name
+        item = QtGui.QTableWidgetItem(room_name(space))
         item.setFlags(item.flags() & ~QtCore.Qt.ItemIsEditable)
         item.setData(QtCore.Qt.UserRole, space.Name)
         req.setItem(row, 0, item)
@@ -802,7 +808,8 @@ class DesignPanel:
     # ---------------------------------------------------------------- dialog
     def getStandardButtons(self):
         from PySide import QtGui
-        return int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
+        from invrad_wb.gui.qtcompat import flag_int
+        return flag_int(QtGui.QDialogButtonBox.Ok | QtGui.QDialogButtonBox.Cancel)
 
     def accept(self):
         import FreeCADGui

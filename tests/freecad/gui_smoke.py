@@ -59,6 +59,9 @@ def relaunch(argv):
     ap.add_argument("--out", default=os.path.join(ROOT, "out", "screenshots"))
     ap.add_argument("--fzk", action="store_true", help="also the FZK-Haus IFC building")
     ap.add_argument("--quick", action="store_true", help="fewer steps (test suite)")
+    ap.add_argument("--native", action="store_true",
+                    help="only FZK-Haus as a NativeIFC document in the BIM workbench"
+                         " (FreeCAD 1.x; Smoke.run_native)")
     ap.add_argument("--timeout", type=float, default=900.0)
     ap.add_argument("-q", "--quiet", action="store_true", help="print failures only")
     ap.add_argument("--freecad", default=os.environ.get("INVRAD_FREECAD", "freecad"))
@@ -77,9 +80,10 @@ def relaunch(argv):
     os.makedirs(os.path.join(home, "Mod"))
     os.symlink(ROOT, os.path.join(home, "Mod", "invrad"))
     env = os.environ.copy()
-    paths = [sysconfig.get_paths()["purelib"], ROOT]
-    if env.get("PYTHONPATH"):
-        paths += env["PYTHONPATH"].split(os.pathsep)
+    # $PYTHONPATH first: the FreeCAD 1.0 root puts its ifcopenshell 0.8 for NativeIFC there
+    # ahead of the venv's
+    paths = env.get("PYTHONPATH", "").split(os.pathsep) + [sysconfig.get_paths()["purelib"],
+                                                            ROOT]
     paths = [p for i, p in enumerate(paths) if p and p not in paths[:i]]
     # the GUI clears PYTHONPATH (FreeCAD 0.20): InitGui.py reads INVRAD_SITE_PACKAGES
     env.update(PYTHONPATH=os.pathsep.join(paths), FREECAD_USER_HOME=home,
@@ -87,6 +91,7 @@ def relaunch(argv):
                QTWEBENGINE_DISABLE_SANDBOX="1", INVRAD_SMOKE_OUT=out,
                INVRAD_SMOKE_FZK="1" if args.fzk else "",
                INVRAD_SMOKE_QUICK="1" if args.quick else "",
+               INVRAD_SMOKE_NATIVE="1" if args.native else "",
                INVRAD_SMOKE_HANG_S=str(max(args.timeout - 60, 30)))
     env.pop("QT_QPA_PLATFORM", None)
     log = os.path.join(out, "gui_smoke.log")
@@ -130,6 +135,7 @@ class Smoke:
         self.out = os.environ[ENV_OUT]
         self.quick = bool(os.environ.get("INVRAD_SMOKE_QUICK"))
         self.fzk = bool(os.environ.get("INVRAD_SMOKE_FZK"))
+        self.native = bool(os.environ.get("INVRAD_SMOKE_NATIVE"))
         self.checks = []
         self.shots = []
         self.finished = False
@@ -347,6 +353,9 @@ class Smoke:
                    [a.text() for a in tb[0].actions()] if tb else "none")
         menus = [a.text().replace("&", "") for a in mw.menuBar().actions()]
         self.check("InvRad menu", "InvRad" in menus, menus)
+        if self.native:        # --native: only the NativeIFC building (run_native)
+            yield from self.run_native()
+            return
 
         # 2. an office and its targets, through the commands
         from fctest import make_walled_room
@@ -817,6 +826,123 @@ class Smoke:
         self.shot("fzk_designed_top")
         self.view_iso()
         self.shot("fzk_designed_iso")
+
+    # ----------------------------------------------------------------- NativeIFC (1.x)
+    def main_window_shot(self, name):
+        """The main window with the 3D view drawn in: ``QWidget.grab`` leaves the 3D view
+        blank, so the view's own ``saveImage`` at its size is painted into its place."""
+        import tempfile
+        import FreeCADGui
+        from PySide import QtCore, QtGui
+        mw = FreeCADGui.getMainWindow()
+        FreeCADGui.updateGui()
+        pix = mw.grab()
+        area = mw.findChild(QtGui.QMdiArea)
+        sub = area.activeSubWindow() if area is not None else None
+        widget = sub.widget() if sub is not None else None
+        ok = widget is not None
+        if ok:
+            fd, tmp = tempfile.mkstemp(suffix=".png")
+            os.close(fd)
+            size = widget.size()
+            FreeCADGui.activeDocument().activeView().saveImage(
+                tmp, size.width(), size.height(), "Current")
+            painter = QtGui.QPainter(pix)
+            painter.drawImage(QtCore.QRect(widget.mapTo(mw, QtCore.QPoint(0, 0)), size),
+                              QtGui.QImage(tmp))
+            painter.end()
+            os.remove(tmp)
+        path = os.path.join(self.out, name + ".png")
+        ok = ok and pix.save(path)
+        if ok:
+            self.shots.append(os.path.relpath(path, self.out))
+        self.check(f"main window picture {name}", ok and self.drawn(path) > 0.05, path)
+
+    def run_native(self):
+        """FreeCAD 1.x: FZK-Haus opened as a NativeIFC document, Locate in its ground-floor
+        rooms through the workbench's runner, the luminaires as IfcLightFixture entities,
+        then the BIM workbench with the InvRad toolbar and the located fixtures."""
+        import shutil
+        import tempfile
+        import FreeCAD
+        import FreeCADGui
+        from PySide import QtGui
+        from fctest import FZK
+        from invrad_wb.app import fixtures, nativeifc, rooms, targets
+        from invrad_wb.gui import messages
+        if not self.check("NativeIFC available (FreeCAD 1.x)", nativeifc.available()):
+            return
+        tmp = tempfile.mkdtemp(prefix="invrad-native-")
+        src = os.path.join(tmp, "AC20-FZK-Haus.ifc")
+        shutil.copy(FZK, src)
+        t0 = time.time()
+        doc, proj = nativeifc.open_ifc(src, shapemode=1)      # NativeIFC's coin display
+        FreeCADGui.SendMsgToActiveView("ViewFit")
+        yield None
+        spaces = {rooms.room_name(s): s for s in rooms.find_spaces(doc)}
+        self.check("NativeIFC FZK-Haus: 7 rooms from its IfcSpaces", len(spaces) == 7,
+                   f"{sorted(spaces)} in {time.time() - t0:.0f} s")
+        lux = {"Wohnen": 300, "Küche": 500, "Buero": 500, "Bad": 300, "Schlafzimmer": 200}
+        for name, v in lux.items():
+            if name in spaces:
+                targets.set_work_plane(spaces[name], v)
+        n0 = doc.UndoCount
+        t1 = time.time()
+        FreeCADGui.doCommand("import invrad_wb.gui.runner")
+        FreeCADGui.doCommand(f"invrad_wb.gui.runner.locate(App.getDocument({doc.Name!r}),"
+                             " run={'flux_lm': 1500.0, 'resolution_m': 0.4})")
+        yield self.idle
+        fx = fixtures.all_fixtures(doc)
+        ifc = proj.Proxy.ifcfile
+        import ifcopenshell.util.element as E
+        lights = [e for e in ifc.by_type("IfcLightFixture")
+                  if (E.get_container(e) is not None
+                      and E.get_container(e).is_a("IfcSpace"))]
+        self.check("NativeIFC FZK-Haus: located luminaires are IfcLightFixture in their"
+                   " IfcSpace, one undo step",
+                   fx and len(lights) == len(fx) and doc.UndoCount == n0 + 1,
+                   (len(fx), len(lights), doc.UndoCount - n0, messages.LOG[-1:],
+                    f"{time.time() - t1:.0f} s"))
+        print(f"NativeIFC FZK-Haus locate in the GUI: {time.time() - t1:.1f} s,"
+              f" {len(fx)} fixtures")
+        self.check("NativeIFC FZK-Haus: every fixture has a visible body",
+                   fx and all(not f.Shape.isNull() and f.ViewObject.Visibility for f in fx),
+                   [(f.Label, f.ShapeMode, f.Shape.isNull(), f.ViewObject.Visibility)
+                    for f in fx[:3]])
+        for f in fx:                        # the fixtures stand out from the building
+            try:
+                f.ViewObject.ShapeColor = (1.0, 0.8, 0.0)
+            except Exception:
+                pass
+        FreeCADGui.activateWorkbench("BIMWorkbench")
+        yield None
+        self.check("BIM workbench active",
+                   FreeCADGui.activeWorkbench().name() == "BIMWorkbench",
+                   FreeCADGui.activeWorkbench().name())
+        mw = FreeCADGui.getMainWindow()
+        tb = [t for t in mw.findChildren(QtGui.QToolBar)
+              if t.windowTitle() == "InvRad" and t.isVisible()]
+        self.check("the BIM workbench shows the InvRad toolbar",
+                   bool(tb) and len([a for a in tb[0].actions() if a.text()]) >= 6,
+                   [a.text() for a in tb[0].actions()] if tb else
+                   [t.windowTitle() for t in mw.findChildren(QtGui.QToolBar)
+                    if t.isVisible()])
+        if tb:
+            self.grab(tb[0], "native_bim_invrad_toolbar")
+        # a plan cut just below the ground floor's ceilings, as in run_fzk
+        view = FreeCADGui.getDocument(doc.Name).activeView()
+        view.toggleClippingPlane(1, False, True,
+                                 FreeCAD.Placement(FreeCAD.Vector(0, 0, 2480),
+                                                   FreeCAD.Rotation()))
+        view.viewIsometric()
+        view.fitAll()
+        yield None
+        self.shot("native_fzk_located_iso")
+        self.main_window_shot("native_fzk_bim_workbench")
+        view.viewTop()
+        view.fitAll()
+        yield None
+        self.shot("native_fzk_located_top")
 
 
 SMOKE = None

@@ -235,6 +235,44 @@ class TestWalledRoomExport(FreeCADTestCase):
         self.assertEqual(container_chain(lf)[0][:2], ("IfcSpace", "Office"))
 
 
+class TestRequirementsWritten(FreeCADTestCase):
+    """After a run, a classic room's requirement and what was achieved are in its IFC
+    properties and in the exported file (the standard lighting set + invrad's own)."""
+
+    def test_run_writes_requirement_and_achieved_values(self):
+        import types
+        import ifcopenshell.util.element as E
+        from invrad_wb.app import pipeline
+        space = make_walled_room(self.doc)
+        targets.set_work_plane(space, 300.0)
+        lums = [Luminaire([1.3, 1.5, 2.7], [0, 0, -1], 1500.0, room=0),
+                Luminaire([2.7, 1.5, 2.7], [0, 0, -1], 1500.0, room=0)]
+        given = lambda scene, **kw: types.SimpleNamespace(luminaires=lums)
+        before = dict(space.IfcProperties)
+        res = pipeline.run(self.doc, pipeline.PipelineSettings(
+            flux_lm=1500.0, resolution_m=0.4, interreflection=False), locate=given)
+        wp = res.summary["rooms"][0]["work_plane"]
+        props = dict(space.IfcProperties)
+        self.assertEqual(props["Illuminance;;Pset_SpaceLightingRequirements"],
+                         "IfcIlluminanceMeasure;;300.0")
+        em = float(props["AchievedEm;;InvRad_LightingResult"].split(";;")[1])
+        self.assertAlmostEqual(em, wp["mean_achieved_lux"], places=6)
+        # the same undo step as the fixtures
+        self.doc.undo()
+        self.assertEqual(dict(space.IfcProperties), before)
+        self.assertEqual(fixtures.room_fixtures(space), [])
+        self.doc.redo()
+        out = self.path("office.ifc")
+        ifcexport.export_ifc(self.doc, out)
+        ifc = read(out)
+        (sp,) = ifc.by_type("IfcSpace")
+        ps = E.get_psets(sp)
+        self.assertEqual(ps["Pset_SpaceLightingRequirements"]["Illuminance"], 300.0)
+        self.assertAlmostEqual(ps["InvRad_LightingResult"]["AchievedEm"], em, places=6)
+        self.assertAlmostEqual(ps["InvRad_LightingResult"]["AchievedU0"],
+                               wp["min_achieved_lux"] / wp["mean_achieved_lux"], places=6)
+
+
 class TestBadIfc(FreeCADTestCase):
 
     def test_missing_and_unreadable_files(self):

@@ -1,0 +1,288 @@
+"""NativeIFC documents (FreeCAD 1.x BIM): FZK-Haus opened natively, rooms from its IfcSpace
+entities, Locate and Design on every room, luminaires written into the IFC as
+IfcLightFixture in their IfcSpace with their property sets, in ONE undo step that also
+undoes the IFC file; lighting requirements read from and written to the spaces' sets.
+
+On FreeCAD 0.20 (no nativeifc) only the refusal is tested; the rest is skipped."""
+import json
+import os
+import shutil
+import time
+import unittest
+
+import numpy as np
+
+import FreeCAD
+
+from fctest import FZK, FZK_ROOMS, ROOT, FreeCADTestCase, needs_fzk
+from invrad_wb.app import fixtures, nativeifc, pipeline, rooms, targets
+from invrad_wb.app import design as app_design
+from invrad_wb.app.document import snapshot
+from invrad_wb.errors import InvradError
+
+HAS_NATIVE = nativeifc.available()
+needs_native = unittest.skipUnless(
+    HAS_NATIVE, f"NativeIFC needs FreeCAD 1.0's BIM workbench (nativeifc); FreeCAD"
+                f" {'.'.join(FreeCAD.Version()[:2])} has none")
+TARGETS = os.path.join(ROOT, "examples", "fzk_targets.json")
+DESIGN = os.path.join(ROOT, "examples", "fzk_design.json")
+
+
+def read(path):
+    import ifcopenshell
+    return ifcopenshell.open(path)
+
+
+def invrad_lights(ifc):
+    import ifcopenshell.util.element as E
+    return [e for e in ifc.by_type("IfcLightFixture")
+            if "InvRad_Luminaire" in E.get_psets(e)]
+
+
+@unittest.skipIf(HAS_NATIVE, "FreeCAD has NativeIFC")
+class TestWithoutNativeIFC(unittest.TestCase):
+
+    def test_refused_with_the_reason(self):
+        with self.assertRaises(InvradError) as cm:
+            nativeifc.check_available()
+        self.assertIn("FreeCAD 1.0", str(cm.exception))
+        self.assertFalse(nativeifc.is_native_space(object()))
+
+
+@needs_native
+@needs_fzk
+class TestNativeFZK(FreeCADTestCase):
+    """One NativeIFC FZK-Haus per test (a copy: saving writes the project's file)."""
+
+    def setUp(self):
+        super().setUp()
+        self.src = self.path("fzk.ifc")
+        shutil.copy(FZK, self.src)
+        # shape mode 2 (no Part shapes): rooms come from the IfcSpace geometry anyway
+        self.ndoc, self.proj = nativeifc.open_ifc(self.src, doc=self.doc, shapemode=2)
+        self.ifc = self.proj.Proxy.ifcfile
+
+    def spaces(self):
+        return {rooms.room_name(s): s for s in rooms.find_spaces(self.doc)}
+
+    def test_rooms_are_the_ifc_spaces(self):
+        import ifcopenshell.util.element as E
+        sp = self.spaces()
+        self.assertEqual(set(sp), FZK_ROOMS)
+        for name, s in sp.items():
+            with self.subTest(room=name):
+                ent = nativeifc.entity(s)
+                self.assertEqual(ent.is_a(), "IfcSpace")
+                self.assertEqual(rooms.space_uid(s), ent.GlobalId)
+                self.assertIs(rooms.get_space(self.doc, name), s)
+                m = rooms.mesh_room(s, 0.3)
+                self.assertEqual(m.label, name)
+                self.assertTrue({"floor", "wall", "ceiling"} <= set(m.face_kind))
+                q = E.get_psets(ent).get("BaseQuantities", {})
+                vol = q.get("NetVolume") or q.get("GrossVolume")
+                if vol:
+                    self.assertAlmostEqual(m.volume, vol, delta=0.02 * vol)
+
+    def test_locate_writes_light_fixtures_into_their_spaces(self):
+        import ifcopenshell.util.element as E
+        targets.apply_targets_file(self.doc, TARGETS)
+        undo0 = self.doc.UndoCount
+        t0 = time.perf_counter()
+        res = pipeline.run(self.doc, pipeline.PipelineSettings(
+            flux_lm=2000.0, resolution_m=0.4, interreflection=False,
+            rooms=["Bad", "Buero"]))
+        print(f"  NativeIFC FZK locate (Bad, Buero): {time.perf_counter() - t0:.1f} s,"
+              f" {len(res.luminaires)} luminaires")
+        self.assertEqual(self.doc.UndoCount - undo0, 1)
+        fx = fixtures.all_fixtures(self.doc)
+        self.assertEqual(len(fx), len(res.luminaires))
+        self.assertEqual({rooms.room_name(fixtures.fixture_room(f)) for f in fx},
+                         {"Bad", "Buero"})
+        for f in fx:
+            ent = nativeifc.entity(f)
+            self.assertEqual(ent.is_a(), "IfcLightFixture")
+            space = fixtures.fixture_room(f)
+            self.assertEqual(E.get_container(ent).GlobalId, rooms.space_uid(space))
+            self.assertAlmostEqual(fixtures.fixture_luminaire(f).flux_lm, 2000.0)
+        # each found luminaire is an entity at its position, lighting the same way
+        key = lambda l: tuple(np.round(l.position, 6))
+        found = sorted(res.luminaires, key=key)
+        stored = sorted((fixtures.fixture_luminaire(f) for f in fx), key=key)
+        for a, b in zip(found, stored):
+            np.testing.assert_allclose(a.position, b.position, atol=1e-6)
+            np.testing.assert_allclose(a.normal, b.normal, atol=1e-6)
+        self.doc.undo()
+        self.assertEqual(invrad_lights(self.ifc), [])
+
+    def test_design_writes_fixtures_and_requirements_undone_in_one_step(self):
+        import ifcopenshell.util.element as E
+        spec = app_design.spec_from_targets_file(DESIGN)
+        targets.apply_targets_file(self.doc, DESIGN)
+        before = snapshot(self.doc)
+        n_entities = len(list(self.ifc))
+        undo0 = self.doc.UndoCount
+        t0 = time.perf_counter()
+        res = pipeline.run(self.doc, pipeline.PipelineSettings(flux_lm=None, design=spec))
+        print(f"  NativeIFC FZK design: {time.perf_counter() - t0:.1f} s,"
+              f" {len(res.luminaires)} luminaires")
+        self.assertEqual(self.doc.UndoCount - undo0, 1)
+        fx = fixtures.all_fixtures(self.doc)
+        self.assertEqual(len(fx), len(res.luminaires))
+        self.assertEqual({rooms.room_name(fixtures.fixture_room(f)) for f in fx}, FZK_ROOMS)
+        # the saved IFC has them in their spaces, with flux and a Body; the requirements too
+        out = self.path("out.ifc")
+        nativeifc.save(self.proj, out)
+        ifc = read(out)
+        lights = invrad_lights(ifc)
+        self.assertEqual(len(lights), len(fx))
+        names = {s.GlobalId: (s.LongName or s.Name) for s in ifc.by_type("IfcSpace")}
+        req = json.load(open(DESIGN, encoding="utf-8"))["rooms"]
+        for e in lights:
+            c = E.get_container(e)
+            self.assertEqual(c.is_a(), "IfcSpace")
+            self.assertIn(names[c.GlobalId], FZK_ROOMS)
+            ps = E.get_psets(e)
+            self.assertGreater(ps["InvRad_Luminaire"]["LuminousFlux"], 0)
+            self.assertEqual(ps["Pset_LightFixtureTypeCommon"]["NumberOfSources"], 1)
+            reps = e.Representation.Representations
+            self.assertEqual(reps[0].RepresentationIdentifier, "Body")
+        for s in ifc.by_type("IfcSpace"):
+            with self.subTest(space=s.LongName):
+                ps = E.get_psets(s)
+                self.assertEqual(ps["Pset_SpaceLightingRequirements"]["Illuminance"],
+                                 req[s.LongName]["work_plane"]["lux"])
+                self.assertTrue(ps["Pset_SpaceLightingRequirements"]["ArtificialLighting"])
+                res_ps = ps["InvRad_LightingResult"]
+                self.assertGreater(res_ps["AchievedEm"], 0)
+                self.assertLessEqual(res_ps["AchievedEmin"], res_ps["AchievedEm"])
+        # the design's catalogue types and figures
+        cat = {e.name for e in spec.catalogue}
+        for e in lights:
+            ps = E.get_psets(e)
+            self.assertIn(ps["InvRad_Luminaire"]["LuminaireType"], cat)
+            self.assertEqual(ps["Pset_LightFixtureTypeCommon"]["Reference"],
+                             ps["InvRad_Luminaire"]["LuminaireType"])
+        design = {r["name"]: r for r in res.summary["design"]["rooms"]}
+        self.assertTrue(res.summary["design"]["compliant"])
+        for s in ifc.by_type("IfcSpace"):
+            r = E.get_psets(s)["InvRad_LightingResult"]
+            self.assertAlmostEqual(r["AchievedEm"], design[s.LongName]["em_lux"], places=2)
+            self.assertAlmostEqual(r["InstalledPower"], design[s.LongName]["watts"], places=2)
+        # undo: the document and the IFC file as before; redo: back again
+        self.doc.undo()
+        self.assertEqual(snapshot(self.doc), before)
+        self.assertEqual(invrad_lights(self.ifc), [])
+        self.assertEqual(len(list(self.ifc)), n_entities)
+        for s in self.ifc.by_type("IfcSpace"):
+            self.assertNotIn("InvRad_LightingResult", E.get_psets(s))
+        self.doc.redo()
+        self.assertEqual(len(invrad_lights(self.ifc)), len(fx))
+        self.assertEqual(len(fixtures.all_fixtures(self.doc)), len(fx))
+        self.doc.undo()
+        after = self.path("after_undo.ifc")
+        nativeifc.save(self.proj, after)
+        self.assertEqual(invrad_lights(read(after)), [])
+
+    def test_a_second_insert_replaces_invrads_fixtures_in_the_room(self):
+        from invrad_wb.core.model.luminaires import Luminaire
+        sp = self.spaces()
+        lums = [Luminaire([3.0 + 0.5 * k, 7.8, 2.4], [0, 0, -1], 800.0) for k in range(3)]
+        fixtures.insert_fixtures(self.doc, [(sp["Buero"], lums), (sp["Bad"], lums[:1])])
+        self.assertEqual(len(invrad_lights(self.ifc)), 4)
+        fixtures.insert_fixtures(self.doc, [(sp["Buero"], lums[:2])])
+        self.assertEqual(len(invrad_lights(self.ifc)), 3)          # Buero 2, Bad 1
+        self.assertEqual(len(fixtures.room_fixtures(sp["Buero"])), 2)
+        self.doc.undo()
+        self.assertEqual(len(invrad_lights(self.ifc)), 4)
+        self.assertEqual(len(fixtures.room_fixtures(sp["Buero"])), 3)
+        self.doc.undo()
+        self.assertEqual(invrad_lights(self.ifc), [])
+
+    def test_a_failed_insert_leaves_document_and_file_unchanged(self):
+        from invrad_wb.core.model.luminaires import Luminaire
+        sp = self.spaces()
+        before = snapshot(self.doc)
+        n = len(list(self.ifc))
+        lum = Luminaire([4.0, 7.8, 2.4], [0, 0, -1], 1000.0)
+        calls = []
+        real = nativeifc._luminaire_psets
+
+        def fail_second(*args):           # the second fixture's property sets fail
+            calls.append(1)
+            if len(calls) == 2:
+                raise InvradError("injected failure")
+            return real(*args)
+        nativeifc._luminaire_psets = fail_second
+        try:
+            with self.assertRaises(InvradError):
+                fixtures.insert_fixtures(self.doc, [(sp["Buero"], [lum]), (sp["Bad"], [lum])])
+        finally:
+            nativeifc._luminaire_psets = real
+        self.assertEqual(len(calls), 2)
+        self.assertEqual(snapshot(self.doc), before)
+        self.assertEqual(len(list(self.ifc)), n)
+        self.assertEqual(invrad_lights(self.ifc), [])
+        # and the file's undo history is unchanged: a later step still undoes alone
+        fixtures.insert_fixtures(self.doc, [(sp["Buero"], [lum])])
+        self.assertEqual(len(invrad_lights(self.ifc)), 1)
+        self.doc.undo()
+        self.assertEqual(invrad_lights(self.ifc), [])
+        self.assertEqual(len(list(self.ifc)), n)
+
+
+@needs_native
+@needs_fzk
+class TestNativeLockedDocument(FreeCADTestCase):
+    """NativeIFC's single-document ("locked") mode, what File > Open does: the document
+    itself is the project."""
+
+    def test_fixtures_undo_and_save_when_the_document_is_the_project(self):
+        import ifcopenshell.util.element as E
+        from invrad_wb.core.model.luminaires import Luminaire
+        src = self.path("fzk.ifc")
+        shutil.copy(FZK, src)
+        doc, proj = nativeifc.open_ifc(src, doc=self.doc, shapemode=2, singledoc=True)
+        self.assertIs(proj, doc)
+        ifc = doc.Proxy.ifcfile
+        sp = {rooms.room_name(s): s for s in rooms.find_spaces(doc)}
+        self.assertEqual(set(sp), FZK_ROOMS)
+        lums = [Luminaire([3.0 + 0.5 * k, 7.8, 2.4], [0, 0, -1], 800.0) for k in range(2)]
+        fixtures.insert_fixtures(doc, [(sp["Buero"], lums)])
+        self.assertEqual(len(invrad_lights(ifc)), 2)
+        for e in invrad_lights(ifc):
+            self.assertEqual(E.get_container(e).GlobalId, rooms.space_uid(sp["Buero"]))
+        doc.undo()
+        self.assertEqual(invrad_lights(ifc), [])
+        doc.redo()
+        self.assertEqual(len(invrad_lights(ifc)), 2)
+        out = nativeifc.save(proj, self.path("saved.ifc"))
+        self.assertEqual(len(invrad_lights(read(out))), 2)
+
+
+@needs_native
+@needs_fzk
+class TestRequirementsRead(FreeCADTestCase):
+
+    def test_both_lighting_sets_become_work_planes(self):
+        import ifcopenshell.api.pset as PS
+        ifc = read(FZK)
+        by = {s.LongName: s for s in ifc.by_type("IfcSpace")}
+        p = PS.add_pset(ifc, product=by["Buero"], name="Pset_SpaceLightingRequirements")
+        PS.edit_pset(ifc, pset=p, properties={"Illuminance": 500.0})
+        # the IFC4.3 name of the same set, as other tools may write it
+        p = ifc.create_entity("IfcPropertySet", GlobalId=__import__(
+            "ifcopenshell.guid").guid.new(), Name="Pset_SpaceLightingDesign",
+            HasProperties=[ifc.create_entity(
+                "IfcPropertySingleValue", Name="Illuminance",
+                NominalValue=ifc.create_entity("IfcIlluminanceMeasure", 150.0))])
+        ifc.create_entity("IfcRelDefinesByProperties", GlobalId=__import__(
+            "ifcopenshell.guid").guid.new(), RelatedObjects=[by["Flur"]],
+            RelatingPropertyDefinition=p)
+        path = self.path("req.ifc")
+        ifc.write(path)
+        nativeifc.open_ifc(path, doc=self.doc, shapemode=2)
+        wp = {rooms.room_name(s): targets.work_plane_target(s)
+              for s in rooms.find_spaces(self.doc)}
+        self.assertEqual(wp["Buero"].Lux, 500.0)
+        self.assertEqual(wp["Flur"].Lux, 150.0)
+        self.assertIsNone(wp["Küche"])
