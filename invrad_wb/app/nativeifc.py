@@ -34,7 +34,6 @@ which ifcopenshell 0.9 removed; :func:`check_available` names the install comman
 import math
 import os
 
-
 from invrad_wb.errors import InvradError, LuminaireError, SceneError
 from invrad_wb.app import settings as S
 from invrad_wb.app.document import activate, describe, transaction
