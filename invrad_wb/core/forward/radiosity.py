@@ -435,6 +435,28 @@ def _form_factors_numpy(points, normals, point_plane, ps, point_patch, vis, cent
 
 
 
+def _patch_launch(env, ps, vis, centre, kernel):
+    """What both radiosity.cl form-factor kernels take: the centre (float32 coordinates are
+    relative to it), patch blocks of ``PATCH_LANES`` (count and padded length), the patch
+    set's device buffers, the kernel built with ``-D VIS`` and the padded visibility buffer
+    (a dummy when ``vis`` is None)."""
+    n = ps.n
+    if centre is None:
+        centre = ps.centroid.mean(axis=0)
+    centre = np.asarray(centre, dtype=np.float64)
+    nblk = -(-n // PATCH_LANES)
+    ppad = nblk * PATCH_LANES
+    bufs = ps.cl_buffers(env, centre)
+    knl = env.kernel("radiosity", kernel, [f"-D VIS={0 if vis is None else 1}"])
+    if vis is None:
+        d_vis = device_buffer(env, np.zeros(16, np.uint8))     # not read with VIS=0
+    else:
+        vpad = np.zeros((n, ppad), np.uint8)
+        vpad[:, :n] = vis
+        d_vis = device_buffer(env, vpad)
+    return centre, nblk, ppad, bufs, knl, d_vis
+
+
 def _form_factors_opencl(points, normals, point_plane, ps, point_patch, vis, centre=None):
     """Form factors with ``kernels/radiosity.cl`` (float32); see :func:`form_factor_matrix`."""
     env = get_env()
@@ -442,19 +464,8 @@ def _form_factors_opencl(points, normals, point_plane, ps, point_patch, vis, cen
     out = np.zeros((k, n), np.float32)
     if k == 0 or n == 0:
         return out
-    if centre is None:
-        centre = ps.centroid.mean(axis=0)
-    centre = np.asarray(centre, dtype=np.float64)
-    nblk = -(-n // PATCH_LANES)
-    ppad = nblk * PATCH_LANES
-    pblk, pplane, tstart, tris = ps.cl_buffers(env, centre)
-    knl = env.kernel("radiosity", "form_factors", [f"-D VIS={0 if vis is None else 1}"])
-    if vis is None:
-        d_vis = device_buffer(env, np.zeros(16, np.uint8))     # not read with VIS=0
-    else:
-        vpad = np.zeros((n, ppad), np.uint8)
-        vpad[:, :n] = vis
-        d_vis = device_buffer(env, vpad)
+    centre, nblk, ppad, (pblk, pplane, tstart, tris), knl, d_vis = _patch_launch(
+        env, ps, vis, centre, "form_factors")
     info = np.zeros((k, 2), np.int32)
     info[:, 0] = point_plane
     if point_patch is not None:
@@ -542,19 +553,8 @@ def _patch_form_factors_opencl(points, normals, ps, parent, weight, vis, centre=
     if n == 0 or len(parent) == 0:
         return F
     env = get_env()
-    if centre is None:
-        centre = ps.centroid.mean(axis=0)
-    centre = np.asarray(centre, dtype=np.float64)
-    nblk = -(-n // PATCH_LANES)
-    ppad = nblk * PATCH_LANES
-    pblk, pplane, tstart, tris = ps.cl_buffers(env, centre)
-    knl = env.kernel("radiosity", "patch_form_factors", [f"-D VIS={0 if vis is None else 1}"])
-    if vis is None:
-        d_vis = device_buffer(env, np.zeros(16, np.uint8))     # not read with VIS=0
-    else:
-        vpad = np.zeros((n, ppad), np.uint8)
-        vpad[:, :n] = vis
-        d_vis = device_buffer(env, vpad)
+    centre, nblk, ppad, (pblk, pplane, tstart, tris), knl, d_vis = _patch_launch(
+        env, ps, vis, centre, "patch_form_factors")
     info = np.stack([ps.plane[parent], parent], axis=1).astype(np.int32)
     # sstart[r] = first sample of row r (rows without samples: empty ranges)
     sstart = np.searchsorted(parent, np.arange(n + 1)).astype(np.int32)
