@@ -157,7 +157,11 @@ def _stored_results(space):
     return out or None
 
 
-def _luminaire_psets(ifc, ent, fx, lum):
+def luminaire_psets(ifc, ent, lum, kind=None):
+    """invrad's property set (flux, emitter radius, vote score, catalogue type, photometry
+    file) and ``Pset_LightFixtureTypeCommon`` on the IfcLightFixture ``ent``, through
+    ``ifcopenshell.api`` (classic export and NativeIFC documents alike). ``kind``: the
+    catalogue type (default: the luminaire's ``extra['type']``)."""
     import ifcopenshell.api.pset as PS
     props = {"LuminousFlux": ifc.create_entity("IfcLuminousFluxMeasure", float(lum.flux_lm)),
              "Generator": ifc.create_entity("IfcLabel", S.GENERATOR_TAG)}
@@ -165,13 +169,19 @@ def _luminaire_psets(ifc, ent, fx, lum):
         props["EmitterRadius"] = ifc.create_entity("IfcLengthMeasure", float(lum.radius_m))
     if lum.score is not None and math.isfinite(lum.score) and lum.score > 0:
         props["Score"] = ifc.create_entity("IfcReal", float(lum.score))
-    kind = getattr(fx, "Model", "") or lum.extra.get("type")
+    kind = kind or lum.extra.get("type")
     if kind:       # the catalogue entry a design chose
         props["LuminaireType"] = ifc.create_entity("IfcLabel", str(kind))
+    path = getattr(lum.photometry, "path", None)
+    if path:
+        props["PhotometryFile"] = ifc.create_entity("IfcText", os.fspath(path))
     p = PS.add_pset(ifc, product=ent, name=S.IFC_LUMINAIRE_PSET)
     PS.edit_pset(ifc, pset=p, properties=props)
+    common = {"NumberOfSources": 1}
+    if kind:
+        common["Reference"] = str(kind)
     p = PS.add_pset(ifc, product=ent, name="Pset_LightFixtureTypeCommon")
-    PS.edit_pset(ifc, pset=p, properties={"NumberOfSources": 1})
+    PS.edit_pset(ifc, pset=p, properties=common)
 
 
 def body_context(ifc):
@@ -259,7 +269,7 @@ def _merge(doc, base_ifc, out_path):
         SP.assign_container(ifc, products=[ent], relating_structure=sp)
         G.edit_object_placement(ifc, product=ent, matrix=fixture_matrix(lum), is_si=True)
         add_body(ifc, ent, lum, ctx, unit_scale)
-        _luminaire_psets(ifc, ent, fx, lum)
+        luminaire_psets(ifc, ent, lum, kind=getattr(fx, "Model", "") or None)
         info.fixtures += 1
     _set_requirements(ifc, doc, info)
     ifc.write(out_path)

@@ -346,34 +346,11 @@ def room_fixtures(space, generated_only=True):
     return [o for o in space.Group if is_native_fixture(o, generated_only)]
 
 
-def _luminaire_psets(ifc, ent, lum):
-    import ifcopenshell.api.pset as PS
-    props = {"LuminousFlux": ifc.create_entity("IfcLuminousFluxMeasure", float(lum.flux_lm)),
-             "Generator": ifc.create_entity("IfcLabel", S.GENERATOR_TAG)}
-    if lum.radius_m > 0:
-        props["EmitterRadius"] = ifc.create_entity("IfcLengthMeasure", float(lum.radius_m))
-    if lum.score is not None and math.isfinite(lum.score) and lum.score > 0:
-        props["Score"] = ifc.create_entity("IfcReal", float(lum.score))
-    kind = lum.extra.get("type")
-    if kind:
-        props["LuminaireType"] = ifc.create_entity("IfcLabel", str(kind))
-    path = getattr(lum.photometry, "path", None)
-    if path:
-        props["PhotometryFile"] = ifc.create_entity("IfcText", os.fspath(path))
-    p = PS.add_pset(ifc, product=ent, name=S.IFC_LUMINAIRE_PSET)
-    PS.edit_pset(ifc, pset=p, properties=props)
-    common = {"NumberOfSources": 1}
-    if kind:
-        common["Reference"] = str(kind)
-    p = PS.add_pset(ifc, product=ent, name="Pset_LightFixtureTypeCommon")
-    PS.edit_pset(ifc, pset=p, properties=common)
-
-
 def _new_fixture_entity(ifc, space_ent, lum, label, ctx, unit_scale):
     import ifcopenshell.api.geometry as G
     import ifcopenshell.api.root as RT
     import ifcopenshell.api.spatial as SP
-    from invrad_wb.app.ifcexport import add_body, fixture_matrix
+    from invrad_wb.app.ifcexport import add_body, fixture_matrix, luminaire_psets
     ent = RT.create_entity(ifc, ifc_class=IFC_CLASS_FIXTURE, name=label,
                            predefined_type="POINTSOURCE")
     kind = lum.extra.get("type")
@@ -382,7 +359,7 @@ def _new_fixture_entity(ifc, space_ent, lum, label, ctx, unit_scale):
     SP.assign_container(ifc, products=[ent], relating_structure=space_ent)
     G.edit_object_placement(ifc, product=ent, matrix=fixture_matrix(lum), is_si=True)
     add_body(ifc, ent, lum, ctx, unit_scale)
-    _luminaire_psets(ifc, ent, lum)
+    luminaire_psets(ifc, ent, lum)
     return ent
 
 

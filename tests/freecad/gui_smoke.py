@@ -290,6 +290,18 @@ class Smoke:
         for s in subs:
             FreeCADGui.Selection.addSelection(obj, s)
 
+    def plan_cut(self, doc):
+        """FZK-Haus: a plan cut just below the ground floor's ceilings (2.48 m) instead of
+        hiding the upper storey (FreeCAD 0.20 keeps Arch components inside a BuildingPart
+        visible); returns the active view."""
+        import FreeCAD
+        import FreeCADGui
+        view = FreeCADGui.getDocument(doc.Name).activeView()
+        view.toggleClippingPlane(1, False, True,
+                                 FreeCAD.Placement(FreeCAD.Vector(0, 0, 2480),
+                                                   FreeCAD.Rotation()))
+        return view
+
     def view_iso(self, hide=()):
         import FreeCADGui
         for o in hide:
@@ -721,7 +733,6 @@ class Smoke:
         self.shot("office_designed")
 
     def run_fzk(self):
-        import FreeCAD
         import FreeCADGui
         from fctest import FZK
         from invrad_wb.app import fixtures, ifcimport, rooms, targets
@@ -744,12 +755,7 @@ class Smoke:
                 ground.append(sp)
         FreeCADGui.runCommand("InvRad_ToggleTargets")
         yield None
-        # a plan cut just below the ceilings (2.5 m) instead of hiding the upper storey
-        # (FreeCAD 0.20 keeps Arch components inside a BuildingPart visible)
-        view = FreeCADGui.getDocument(doc.Name).activeView()
-        view.toggleClippingPlane(1, False, True,
-                                 FreeCAD.Placement(FreeCAD.Vector(0, 0, 2480),
-                                                   FreeCAD.Rotation()))
+        view = self.plan_cut(doc)
         self.view_iso()
         view.viewTop()
         view.fitAll()
@@ -864,7 +870,6 @@ class Smoke:
         then the BIM workbench with the InvRad toolbar and the located fixtures."""
         import shutil
         import tempfile
-        import FreeCAD
         import FreeCADGui
         from PySide import QtGui
         from fctest import FZK
@@ -929,11 +934,7 @@ class Smoke:
                     if t.isVisible()])
         if tb:
             self.grab(tb[0], "native_bim_invrad_toolbar")
-        # a plan cut just below the ground floor's ceilings, as in run_fzk
-        view = FreeCADGui.getDocument(doc.Name).activeView()
-        view.toggleClippingPlane(1, False, True,
-                                 FreeCAD.Placement(FreeCAD.Vector(0, 0, 2480),
-                                                   FreeCAD.Rotation()))
+        view = self.plan_cut(doc)
         view.viewIsometric()
         view.fitAll()
         yield None
