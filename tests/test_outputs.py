@@ -333,10 +333,10 @@ def test_a_killed_verify_leaves_no_hidden_folder_after_the_next_run(tmp_path):
     lums.write_text(json.dumps({"luminaires": [{"position": [3, 2, 2.95],
                                                 "flux_lm": 3000}]}))
     rep = tmp_path / "rep"
-    # SIGKILL while the report's first image is written (a real verify, killed inside)
+    # SIGKILL while the report's first figure is drawn (a real verify, killed inside)
     code = ("import os, signal, sys\n"
-            "from invrad_wb.core.output import images\n"
-            "images.save_png = lambda *a, **k: os.kill(os.getpid(), signal.SIGKILL)\n"
+            "from invrad_wb.core.output import figures\n"
+            "figures.png = lambda *a, **k: os.kill(os.getpid(), signal.SIGKILL)\n"
             "from invrad_wb import cli\n"
             "cli.main(sys.argv[1:])\n")
     args = ["verify", OFFICE, "--luminaires", str(lums), "--report", str(rep),
