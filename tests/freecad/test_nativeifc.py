@@ -205,19 +205,20 @@ class TestNativeFZK(FreeCADTestCase):
         n = len(list(self.ifc))
         lum = Luminaire([4.0, 7.8, 2.4], [0, 0, -1], 1000.0)
         calls = []
-        real = nativeifc._luminaire_psets
+        from invrad_wb.app import ifcexport
+        real = ifcexport.luminaire_psets
 
         def fail_second(*args):           # the second fixture's property sets fail
             calls.append(1)
             if len(calls) == 2:
                 raise InvradError("injected failure")
             return real(*args)
-        nativeifc._luminaire_psets = fail_second
+        ifcexport.luminaire_psets = fail_second        # nativeifc imports it per call
         try:
             with self.assertRaises(InvradError):
                 fixtures.insert_fixtures(self.doc, [(sp["Buero"], [lum]), (sp["Bad"], [lum])])
         finally:
-            nativeifc._luminaire_psets = real
+            ifcexport.luminaire_psets = real
         self.assertEqual(len(calls), 2)
         self.assertEqual(snapshot(self.doc), before)
         self.assertEqual(len(list(self.ifc)), n)
