@@ -152,11 +152,13 @@ class TestZoneLocate(OpenPlan):
                 self.assertTrue(inside(sp, pos), (names[sp], pos))
         self.assertEqual(sum(len(v) for v in placed.values()), len(res.luminaires))
         # a fixture of one room never stands next to one of the other: the spacing the
-        # targets imply (each luminaire's flux spread on Phi / E square metres)
+        # targets imply (each luminaire's flux spread on Phi / E square metres: 2 m here).
+        # Located apart (zones=False), the rooms put rows 1.1 m apart along the border
+        # (plan distance); together 2.6 m
         spacing = math.sqrt(FLUX / max(lux.values()))
         cross = min(np.linalg.norm((a - b)[:2]) for a, b in
                     itertools.product(placed[self.kitchen], placed[self.living]))
-        self.assertGreater(cross, 0.5 * spacing, placed)
+        self.assertGreater(cross, 0.75 * spacing, placed)
         # no fixture on the open border itself
         for pos in itertools.chain(*placed.values()):
             self.assertGreater(abs(pos[0] - 4.0), 0.05, pos)
