@@ -9,7 +9,14 @@ rooms asked for):
    plane: ``Scene(face_virtual=...)``);
 2. builds ONE :class:`~invrad_wb.core.model.scene.Scene` of the building with a room id per
    room, and lets the core's ``locate`` find the luminaires room by room;
-3. verifies them with a forward render (with interreflection by default);
+   rooms that meet with no wall between them (Küche, Wohnen and Flur of FZK-Haus: open
+   borders, :func:`invrad_wb.app.rooms.open_borders`) are located as ONE lighting zone,
+   on a copy of the scene with one room id per zone whose shared faces are virtual
+   (transparent, non-reflecting, no targets, no mounting); each luminaire of a zone then
+   goes to the room that contains it (:func:`assign_rooms`), so fixtures, summaries and
+   the report stay per room, and a zone is never lit twice along its inner borders;
+3. verifies them with a forward render (with interreflection by default; a zone's
+   luminaires light all of the zone);
 4. writes a report (:func:`invrad_wb.core.output.report.build_report`, plus ``summary.json``);
 5. inserts the luminaires as light fixtures, as one undoable transaction.
 
@@ -19,7 +26,7 @@ leaves the document exactly as it was.
 
 GUI commands call :func:`run` (or :func:`prepare` to preview meshes and targets).
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 import os
 import time
 
@@ -30,7 +37,8 @@ from invrad_wb.errors import Cancelled, SceneError
 from invrad_wb.app import settings as S
 from invrad_wb.app.document import describe
 from invrad_wb.app.fixtures import fixture_label
-from invrad_wb.app.rooms import find_spaces, get_space, mesh_room, room_name, room_shape
+from invrad_wb.app.rooms import (containing_room, find_spaces, get_space, lighting_zones,
+                                  mesh_room, open_borders, room_name, room_shape)
 from invrad_wb.app.targets import has_targets, room_specs
 
 
@@ -55,6 +63,8 @@ class PipelineSettings:
         instead of locating luminaires of ``flux_lm`` (which is then ignored)
     workers : rooms on this many worker processes (int or 'auto'; 1: in this process);
         the result is the same
+    zones : locate rooms joined by open borders as one lighting zone (not for a design,
+        whose requirements and grids are per room: it keeps every room closed)
     """
     flux_lm: float
     resolution_m: float = S.RESOLUTION_M
@@ -68,6 +78,7 @@ class PipelineSettings:
     insert: bool = True
     design: object = None
     workers: object = 1
+    zones: bool = True
 
 
 @dataclass
@@ -80,17 +91,47 @@ class RoomPlan:
     work_plane: object
     faces: slice = None          # its faces in the building scene (before vertex split)
     n_work_plane: int = 0
+    zone: int = None             # room id of its lighting zone in ``zone_scene``
+    n_open: int = 0              # its triangles on open borders (virtual)
 
 
 @dataclass
 class BuildingScene:
+    """The building's scene, one room id per room (``RoomPlan.room_id``), and the same
+    scene (same vertices) with one room id per lighting zone (``RoomPlan.zone``) where
+    open borders join rooms (``zone_scene``; None when every room is its own zone)."""
     scene: object
     rooms: list
     seconds: float = 0.0
+    zone_scene: object = None
+    borders: list = field(default_factory=list)
 
     @property
     def room_names(self):
         return [room_name(r.space) for r in self.rooms]
+
+    @property
+    def locate_scene(self):
+        """The scene that locate and the forward render work on (room ids: zones)."""
+        return self.zone_scene if self.zone_scene is not None else self.scene
+
+    @property
+    def zone_names(self):
+        """``{zone id: 'Küche + Wohnen'}`` (the names of its rooms)."""
+        out = {}
+        for p in self.rooms:
+            z = p.room_id if p.zone is None else p.zone
+            out[z] = f"{out[z]} + {room_name(p.space)}" if z in out else room_name(p.space)
+        return out
+
+    def to_zones(self, luminaires):
+        """Copies of luminaires of rooms (``room``: a room id) with their zone's id, for
+        the forward render on :attr:`locate_scene`."""
+        if self.zone_scene is None:
+            return list(luminaires)
+        zone = {p.room_id: p.zone for p in self.rooms}
+        return [replace(l, room=zone.get(l.room, l.room), extra=dict(l.extra))
+                for l in luminaires]
 
 
 @dataclass
@@ -163,19 +204,37 @@ def prepare(doc, settings, progress=None):
     t0 = time.perf_counter()
     report = _progress(progress, 0.0, 1.0)
     spaces = select_rooms(doc, settings.rooms)
+    shapes = [room_shape(sp) for sp in spaces]
+    borders, zones = [], np.arange(len(spaces))
+    if getattr(settings, "zones", True) and settings.design is None and len(spaces) > 1:
+        report(0.0, "open borders between rooms")
+        borders = open_borders(spaces, doc, shapes=shapes)
+        zones = lighting_zones(len(spaces), borders)
+    open_regions = [{} for _ in spaces]
+    for b in borders:
+        open_regions[b.a].setdefault(b.face_a, []).append(b.region_a)
+        open_regions[b.b].setdefault(b.face_b, []).append(b.region_b)
     verts, faces, lux, room, rho, virtual = [], [], [], [], [], []
     plans = []
     nv = nf = 0
     for k, space in enumerate(spaces):
         report(k / len(spaces), f"room {room_name(space)}: mesh and targets")
-        n_faces = len(room_shape(space).Faces)
+        n_faces = len(shapes[k].Faces)
         specs, reflectance, wp = room_specs(space, n_faces, base_dir=settings.base_dir)
-        mesh = mesh_room(space, settings.resolution_m, reflectance)
+        mesh = mesh_room(space, settings.resolution_m, reflectance,
+                         open_regions=open_regions[k])
         vl = CT.evaluate(mesh.vertices, mesh.triangles, mesh.triangle_face, specs,
                          source=space.Label, label=mesh.face_label,
                          base_dir=settings.base_dir)
-        plan = RoomPlan(k, space, mesh, specs, wp)
-        parts = [(mesh.vertices, mesh.triangles, vl, mesh.triangle_reflectance, False)]
+        plan = RoomPlan(k, space, mesh, specs, wp, zone=int(zones[k]),
+                        n_open=int(mesh.triangle_open.sum()))
+        opened = mesh.triangle_open
+        room_rho = mesh.triangle_reflectance
+        if opened.any():                # an open border: no target, no reflection
+            vl = np.asarray(vl, dtype=np.float64).copy()
+            vl[np.unique(mesh.triangles[opened])] = np.nan
+            room_rho = np.where(opened, 0.0, room_rho)
+        parts = [(mesh.vertices, mesh.triangles, vl, room_rho, opened)]
         if wp is not None:
             wv, wt, wl = CT.work_plane(mesh.vertices, mesh.triangles, mesh.floor_triangles,
                                        wp, source=space.Label, surface=mesh.coarse)
@@ -188,7 +247,7 @@ def prepare(doc, settings, progress=None):
             lux.append(l)
             room.append(np.full(len(t), k))
             rho.append(r)
-            virtual.append(np.full(len(t), virt))
+            virtual.append(np.zeros(len(t), dtype=bool) | virt)
             nv += len(v)
             nf += len(t)
         plan.faces = slice(start, nf)
@@ -200,8 +259,18 @@ def prepare(doc, settings, progress=None):
                   vertex_lux=np.concatenate(lux), face_room=np.concatenate(room),
                   face_reflectance=np.concatenate(rho),
                   face_virtual=np.concatenate(virtual), source=doc.Label)
+    zone_scene = None
+    if len(np.unique(zones)) < len(spaces):
+        # the same (split) vertices, so that per-vertex lux of one is that of the other
+        zone_scene = Scene(scene.vertices, scene.faces, vertex_lux=scene.vertex_lux,
+                           face_room=zones[scene.face_room],
+                           face_reflectance=scene.face_reflectance,
+                           face_virtual=scene.face_virtual, source=doc.Label,
+                           check_winding=False, _split=False)
+        zone_scene.vertex_source = scene.vertex_source.copy()
     report(1.0, "scene ready")
-    return BuildingScene(scene, plans, time.perf_counter() - t0)
+    return BuildingScene(scene, plans, time.perf_counter() - t0, zone_scene=zone_scene,
+                         borders=borders)
 
 
 def _room_stats(scene, target, achieved, plans):
@@ -267,13 +336,15 @@ def run(doc, settings, progress=None, locate=None, building=None):
                               locate)
     timings["locate" if settings.design is None else "design"] = time.perf_counter() - t
     lums = list(result.luminaires)
+    if settings.design is None:
+        lums = assign_rooms(building, lums)
     per_room = by_room(building, lums)
     step = _progress(progress, 0.75, 0.9)
     step(0.0, f"verify {len(lums)} luminaire(s)")
     t = time.perf_counter()
     from invrad_wb.core.forward.render import render
-    achieved = render(scene, lums, interreflection=settings.interreflection,
-                      backend=settings.backend)
+    achieved = render(building.locate_scene, building.to_zones(lums),
+                      interreflection=settings.interreflection, backend=settings.backend)
     timings["verify"] = time.perf_counter() - t
     target = scene.vertex_lux.copy() if scene.vertex_lux is not None else scene.vertex_targets()
     summary = _summary(doc, flux, settings, building, target, achieved, per_room)
@@ -329,9 +400,36 @@ def _find_luminaires(building, settings, flux, progress, locate=None):
     if locate is None:
         from invrad_wb.core.inverse.locate import locate
     extra = {} if settings.workers in (1, None) else {"workers": settings.workers}
-    return locate(building.scene, flux_lm=flux, settings=settings.locate, progress=progress,
-                  backend=settings.backend,
-                  room_names={p.room_id: room_name(p.space) for p in building.rooms}, **extra)
+    return locate(building.locate_scene, flux_lm=flux, settings=settings.locate,
+                  progress=progress, backend=settings.backend,
+                  room_names=building.zone_names, **extra)
+
+
+def assign_rooms(building, luminaires):
+    """Luminaires of lighting zones (``room``: a zone id of ``building.locate_scene``) ->
+    copies with the room id of the room that contains each (else the nearest room of its
+    zone); luminaires of one-room zones just take that room's id."""
+    if building.zone_scene is None:
+        return list(luminaires)
+    members = {}
+    for k, p in enumerate(building.rooms):
+        members.setdefault(p.zone, []).append(k)
+    shapes = {}
+    out = []
+    for lum in luminaires:
+        ks = members.get(lum.room)
+        if ks is None:
+            raise SceneError(f"a luminaire belongs to unknown zone id {lum.room!r}")
+        if len(ks) == 1:
+            k = ks[0]
+        else:
+            for j in ks:
+                if j not in shapes:
+                    shapes[j] = room_shape(building.rooms[j].space)
+            k = containing_room(lum.position, [shapes.get(j) for j in
+                                               range(len(building.rooms))], candidates=ks)
+        out.append(replace(lum, room=building.rooms[k].room_id, extra=dict(lum.extra)))
+    return out
 
 
 def by_room(building, luminaires):

@@ -25,7 +25,8 @@ import numpy as np
 from invrad_wb.errors import SceneError
 from invrad_wb.app.document import transaction
 from invrad_wb.app.fixtures import fixture_luminaire, insert_fixtures, room_fixtures
-from invrad_wb.app.pipeline import _progress, by_room, prepare, write_report, _write_json
+from invrad_wb.app.pipeline import (_progress, assign_rooms, by_room, prepare, write_report,
+                                    _write_json)
 from invrad_wb.app.rooms import room_name
 
 #: Name of the metrics spreadsheet (its Label is :data:`SHEET_LABEL`).
@@ -108,8 +109,9 @@ def repeak(result, threshold=None, neighbourhood_m=None, progress=None):
 
     Returns
     -------
-    list of Luminaire (with room ids); ``result.luminaires`` is left alone, so that the
-    caller replaces it only once the fixtures are in the document.
+    list of Luminaire (with room ids: a lighting zone's go to the room that contains
+    them); ``result.luminaires`` is left alone, so that the caller replaces it only once
+    the fixtures are in the document.
     """
     loc = getattr(result, "locate_result", None)
     if loc is None or not hasattr(loc, "repeak"):
@@ -119,7 +121,7 @@ def repeak(result, threshold=None, neighbourhood_m=None, progress=None):
     # the core's refinement reports a fraction only
     loc.repeak(threshold=threshold, neighbourhood=neighbourhood_m,
                progress=lambda frac, msg="refinement": step(frac, f"peaks: {msg}"))
-    return list(loc.luminaires)
+    return assign_rooms(result.building, loc.luminaires)
 
 
 def document_luminaires(building):
@@ -254,9 +256,10 @@ def verify(doc, settings, progress=None, building=None, luminaires=None):
               + (" with interreflection" if settings.interreflection else ""))
     scene = building.scene
     t = time.perf_counter()
-    if luminaires:
+    if luminaires:        # on the zones' scene: a zone's luminaires light all of it
         from invrad_wb.core.forward.render import render
-        achieved = render(scene, luminaires, interreflection=settings.interreflection,
+        achieved = render(building.locate_scene, building.to_zones(luminaires),
+                          interreflection=settings.interreflection,
                           backend=settings.backend)
     else:
         achieved = np.zeros(len(scene.vertices))

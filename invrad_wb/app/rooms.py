@@ -47,6 +47,8 @@ class RoomMesh:
     volume : float, m^3
     seconds : float, time taken to mesh
     coarse : ((k, 3), (j, 3)): FreeCAD's own (unrefined) tessellation, inward, metres
+    triangle_open : (m,) bool, triangles on an open border to another room
+        (:func:`open_borders`; all False unless ``mesh_room`` was given open regions)
     """
     space: str
     label: str
@@ -61,6 +63,11 @@ class RoomMesh:
     seconds: float = 0.0
     coarse: tuple = None
     extra: dict = field(default_factory=dict)
+    triangle_open: np.ndarray = None
+
+    def __post_init__(self):
+        if self.triangle_open is None:
+            self.triangle_open = np.zeros(len(self.triangles), dtype=bool)
 
     @property
     def n_faces(self):
@@ -191,9 +198,15 @@ def room_shape(space):
             if not shell.isClosed():
                 raise SceneError(f"{who} is not closed: its solid has"
                                  f" {_free_edges(shell)} free edges", space.Label)
-    shape = shape.copy()
-    gp = space.getGlobalPlacement()
-    own = space.Placement
+    return global_shape(space, shape)
+
+
+def global_shape(obj, shape=None):
+    """A copy of ``obj.Shape`` (or ``shape``) in global coordinates (mm): FreeCAD keeps an
+    object's shape in the frame of the BuildingPart/storey it is in."""
+    shape = (obj.Shape if shape is None else shape).copy()
+    gp = obj.getGlobalPlacement()
+    own = obj.Placement
     if not gp.toMatrix() == own.toMatrix():
         shape.Placement = gp.multiply(own.inverse()).multiply(shape.Placement)
     return shape
@@ -252,7 +265,7 @@ def _check_reflectance(value, what, source):
     return r
 
 
-def mesh_room(space, resolution_m=S.RESOLUTION_M, reflectance=None):
+def mesh_room(space, resolution_m=S.RESOLUTION_M, reflectance=None, open_regions=None):
     """Mesh the boundary surfaces of a Space for sampling.
 
     Parameters
@@ -263,6 +276,10 @@ def mesh_room(space, resolution_m=S.RESOLUTION_M, reflectance=None):
     reflectance : dict, optional
         Overrides of the default reflectance: keys 'floor', 'wall', 'ceiling' (per kind)
         and/or int (0-based face index); values in [0, 1).
+    open_regions : dict, optional
+        ``{0-based face index: [Part.Face, ...]}`` (mm, in that face's plane): the parts
+        of the face that are open borders to another room (:func:`open_borders`). The face
+        is meshed in two parts, its triangles there are flagged in ``triangle_open``.
 
     Returns
     -------
@@ -271,28 +288,36 @@ def mesh_room(space, resolution_m=S.RESOLUTION_M, reflectance=None):
     t0 = time.perf_counter()
     res = check_resolution(resolution_m)
     shape = room_shape(space)
-    verts, tris, tface = [], [], []
+    verts, tris, tface, topen = [], [], [], []
     coarse_v, coarse_t = [], []
     n_v = n_cv = 0
     face_normal, face_area, kinds = [], [], []
     for i, face in enumerate(shape.Faces):
-        meshed = _mesh_face(face, res)
-        if meshed is None:
+        pieces = _split_open(face, (open_regions or {}).get(i))
+        meshed = [(m, is_open) for sub, is_open in pieces
+                  for m in [_mesh_face(sub, res, orient=face)] if m is not None]
+        if not meshed:
             face_normal.append(np.zeros(3))
             face_area.append(0.0)
             kinds.append("wall")
             continue
-        (cp, ct), (p, t), n, area = meshed
-        coarse_v.append(cp)
-        coarse_t.append(ct + n_cv)
-        n_cv += len(cp)
+        n_sum, a_sum = np.zeros(3), 0.0
+        for ((cp, ct), (p, t), n, area), is_open in meshed:
+            coarse_v.append(cp)
+            coarse_t.append(ct + n_cv)
+            n_cv += len(cp)
+            verts.append(p)
+            tris.append(t + n_v)
+            tface.append(np.full(len(t), i, dtype=np.int64))
+            topen.append(np.full(len(t), is_open))
+            n_v += len(p)
+            n_sum += n * area
+            a_sum += area
+        nn = np.linalg.norm(n_sum)
+        n = n_sum / nn if nn > 0 else n_sum
         face_normal.append(n)
-        face_area.append(area)
+        face_area.append(a_sum)
         kinds.append(classify(n))
-        verts.append(p)
-        tris.append(t + n_v)
-        tface.append(np.full(len(t), i, dtype=np.int64))
-        n_v += len(p)
     if not tris:
         raise SceneError(f"room {describe(space)}: its surfaces could not be tessellated",
                          space.Label)
@@ -316,11 +341,30 @@ def mesh_room(space, resolution_m=S.RESOLUTION_M, reflectance=None):
     return RoomMesh(space=space.Name, label=room_name(space), vertices=v, triangles=t,
                     triangle_face=tf, face_kind=kinds, face_normal=np.array(face_normal),
                     face_area=np.array(face_area), face_reflectance=rho, volume=-vol,
-                    seconds=time.perf_counter() - t0, coarse=coarse)
+                    seconds=time.perf_counter() - t0, coarse=coarse,
+                    triangle_open=np.concatenate(topen))
 
 
-def _mesh_face(face, res):
+def _split_open(face, regions):
+    """``[(sub-face, is_open), ...]``: ``face`` cut into the part on open borders
+    (``regions``, Part faces in its plane) and the rest; ``[(face, False)]`` without."""
+    if not regions:
+        return [(face, False)]
+    import Part
+    region = Part.Compound(list(regions))
+    opened = [f for f in face.common(region).Faces if f.Area > 1.0]
+    rest = [f for f in face.cut(region).Faces if f.Area > 1.0]
+    if not opened:
+        return [(face, False)]
+    return [(f, False) for f in rest] + [(f, True) for f in opened]
+
+
+def _mesh_face(face, res, orient=None):
     """Tessellate one face of a room solid and refine it to edges <= ``res`` metres.
+
+    ``orient`` is the face of the solid whose outward normal winds the triangles (a
+    part of it cut off by a boolean operation may have lost its orientation); default
+    ``face``.
 
     Returns ``((coarse_vertices, coarse_triangles), (vertices, triangles), normal,
     area_m2)`` with triangles wound to face into the room (metres; the unit ``normal`` is
@@ -331,7 +375,7 @@ def _mesh_face(face, res):
         return None
     p = points_mm_to_m(pts)
     t = np.asarray(ftris, dtype=np.int64).reshape(-1, 3)
-    out = _face_outward_normals(face, p, t)
+    out = _face_outward_normals(orient if orient is not None else face, p, t)
     tn = triangle_normals(p, t)
     flip = np.einsum("ij,ij->i", tn, out) > 0       # facing out: wind the other way
     t[flip] = t[flip][:, [0, 2, 1]]
@@ -399,3 +443,198 @@ def faces_by_kind(space, kind):
         raise SceneError(f"unknown surface kind {kind!r}; use floor, walls, ceiling or all",
                          space.Label)
     return out
+
+
+# --------------------------------------------------------------------------- open borders
+#: Two room faces at most this far apart (m) are one border: much thinner than any wall,
+#: wide enough for rounding in IFC exports (FZK-Haus' open borders meet within 0.01 mm).
+OPEN_BORDER_TOL_M = 0.01
+#: Smaller shared areas (m^2) are touching edges or slivers, not open borders.
+OPEN_BORDER_MIN_AREA_M2 = 0.05
+#: IFC types of objects that close a border even where two rooms meet (rooms modelled to
+#: wall axes, a wall overlapping both): anything built, not furniture or fixtures.
+BLOCKING_TYPES = {"Wall", "Curtain Wall", "Column", "Slab", "Plate", "Member", "Window",
+                  "Door", "Roof", "Covering", "Beam", "Building Element Proxy", "Chimney",
+                  "Footing", "Pile", "Ramp", "Stair", "Shading Device"}
+
+
+@dataclass
+class OpenBorder:
+    """Where two rooms meet with nothing between them: their faces coincide (opposite
+    normals, same plane within :data:`OPEN_BORDER_TOL_M`) and no wall is there.
+
+    Attributes
+    ----------
+    a, b : int, positions of the two rooms in the list given to :func:`open_borders`
+    face_a, face_b : int, 0-based face of each room's solid (``FaceN`` - 1)
+    region_a, region_b : Part.Face (mm), the open part, in the plane of each face
+    area_m2 : float, its area
+    """
+    a: int
+    b: int
+    face_a: int
+    face_b: int
+    region_a: object
+    region_b: object
+    area_m2: float
+
+
+def _is_planar(face):
+    return "Plane" in type(face.Surface).__name__
+
+
+def _outward(face):
+    u0, u1, v0, v1 = face.ParameterRange
+    return face.normalAt(0.5 * (u0 + u1), 0.5 * (v0 + v1))
+
+
+def _ifc_kind(obj):
+    """An object's IFC type in Arch's words ('Wall', 'Slab'...) or '' (NativeIFC objects
+    give their class, 'IfcWallStandardCase' -> 'Wall')."""
+    import re
+    kind = str(getattr(obj, "IfcType", "") or "")
+    cls = str(getattr(obj, "IfcClass", "") or "")
+    if not kind and cls.startswith("Ifc"):
+        name = cls[3:].replace("StandardCase", "").replace("ElementedCase", "")
+        kind = " ".join(re.findall(r"[A-Z][a-z0-9]*", name))
+    return kind
+
+
+def blocking_solids(doc, spaces=()):
+    """``[(object, global solid shape)]``: the document's walls, slabs, columns, windows,
+    doors... (:data:`BLOCKING_TYPES`), which close a border between rooms that touch."""
+    skip = {s.Name for s in spaces}
+    for s in spaces:
+        base = getattr(s, "Base", None)
+        if base is not None:
+            skip.add(base.Name)
+    out = []
+    for obj in doc.Objects:
+        if obj.Name in skip or is_space(obj) or _ifc_kind(obj) not in BLOCKING_TYPES:
+            continue
+        shape = getattr(obj, "Shape", None)
+        if shape is None or shape.isNull() or not shape.Solids:
+            continue
+        try:
+            out.append((obj, global_shape(obj)))
+        except Exception:
+            continue
+    return out
+
+
+def open_borders(spaces, doc=None, tol_m=OPEN_BORDER_TOL_M, min_area_m2=OPEN_BORDER_MIN_AREA_M2,
+                 shapes=None):
+    """Open borders between rooms: faces of two Spaces that coincide with no wall between.
+
+    Two planar faces are a border when their outward normals are opposite (within 2.6
+    degrees), their planes are at most ``tol_m`` apart and they overlap (one projected on
+    the other's plane, their common part). What of it lies in a wall, slab, column,
+    window or door of ``doc`` (:func:`blocking_solids`; rooms modelled to wall axes meet
+    inside the wall) is taken off. What is left, if at least ``min_area_m2``, is open.
+    Horizontal faces are left out: an opening between storeys (a void) would be a
+    horizontal virtual plane, which the locate core takes for a work plane.
+
+    Parameters
+    ----------
+    spaces : list of Arch Spaces (or NativeIFC IfcSpaces)
+    doc : FreeCAD document whose building elements may close a border (None: none)
+    tol_m, min_area_m2 : float
+    shapes : list of their :func:`room_shape` solids, optional (computed otherwise)
+
+    Returns
+    -------
+    list of :class:`OpenBorder`
+    """
+    import FreeCAD
+    import Part
+    tol = float(tol_m) * 1000.0
+    min_area = float(min_area_m2) * 1e6
+    shapes = shapes or [room_shape(s) for s in spaces]
+    blockers = None
+    out = []
+    for i in range(len(spaces)):
+        box_i = FreeCAD.BoundBox(shapes[i].BoundBox)
+        box_i.enlarge(tol)
+        for j in range(i + 1, len(spaces)):
+            if not box_i.intersect(shapes[j].BoundBox):
+                continue
+            for fi, fa in enumerate(shapes[i].Faces):
+                if not _is_planar(fa):
+                    continue
+                na = _outward(fa)
+                if abs(na.z) > S.FLOOR_CEILING_NZ:
+                    continue
+                box_a = FreeCAD.BoundBox(fa.BoundBox)
+                box_a.enlarge(tol)
+                for fj, fb in enumerate(shapes[j].Faces):
+                    if not _is_planar(fb) or not box_a.intersect(fb.BoundBox):
+                        continue
+                    if na.dot(_outward(fb)) > -0.999:
+                        continue
+                    d = (fb.CenterOfMass - fa.CenterOfMass).dot(na)
+                    if abs(d) > tol:
+                        continue
+                    moved = fb.copy()
+                    moved.translate(na * (-d))
+                    common = [f for f in fa.common(moved).Faces if f.Area > 1.0]
+                    if sum(f.Area for f in common) < min_area:
+                        continue
+                    region = Part.Compound(common)
+                    if blockers is None:
+                        blockers = blocking_solids(doc, spaces) if doc is not None else []
+                    for _, solid in blockers:
+                        if solid.BoundBox.intersect(region.BoundBox):
+                            region = Part.Compound([f for f in region.cut(solid).Faces
+                                                    if f.Area > 1.0])
+                    faces = region.Faces
+                    area = sum(f.Area for f in faces)
+                    if area < min_area:
+                        continue
+                    ra = Part.Compound(faces)
+                    rb = ra.copy()
+                    rb.translate(na * d)
+                    out.append(OpenBorder(i, j, fi, fj, ra, rb, area / 1e6))
+    return out
+
+
+def lighting_zones(n_rooms, borders):
+    """Rooms joined by open borders: ``(n_rooms,)`` int, the zone of each room (the
+    lowest position of its rooms, so that a room without open borders is its own zone)."""
+    parent = list(range(n_rooms))
+
+    def find(k):
+        while parent[k] != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+    for b in borders:
+        ra, rb = find(b.a), find(b.b)
+        if ra != rb:
+            parent[max(ra, rb)] = min(ra, rb)
+    return np.array([find(k) for k in range(n_rooms)], dtype=np.int64)
+
+
+def containing_room(point_m, shapes, candidates=None):
+    """The position (in ``shapes``) of the room solid that contains a point, else of the
+    nearest one (a luminaire on a ceiling lies on its room's boundary).
+
+    Parameters
+    ----------
+    point_m : (3,) float, metres
+    shapes : list of room solids (mm, :func:`room_shape`)
+    candidates : positions to choose from (default all)
+    """
+    import FreeCAD
+    import Part
+    from invrad_wb.app.units import MM_PER_M
+    p = FreeCAD.Vector(*(float(c) * MM_PER_M for c in point_m))
+    candidates = list(range(len(shapes))) if candidates is None else list(candidates)
+    best, best_d = candidates[0], np.inf
+    for k in candidates:
+        sh = shapes[k]
+        if sh.isInside(p, 0.5, True):
+            return k
+        d = sh.distToShape(Part.Vertex(p))[0]
+        if d < best_d:
+            best, best_d = k, d
+    return best
