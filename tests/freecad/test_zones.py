@@ -82,7 +82,8 @@ class TestOpenBorders(OpenPlan):
     def test_the_border_is_virtual_and_the_rooms_one_zone(self):
         for sp in self.spaces:
             targets.set_work_plane(sp, 300.0)
-        b = pipeline.prepare(self.doc, PipelineSettings(flux_lm=FLUX, resolution_m=0.4))
+        b = pipeline.prepare(self.doc, PipelineSettings(flux_lm=FLUX, resolution_m=0.4,
+                                                                zones=True))
         self.assertEqual([p.zone for p in b.rooms], [0, 0, 2, 3, 4, 5])
         self.assertEqual(b.zone_names[0], "Kitchen + Living")
         sc, zs = b.scene, b.zone_scene
@@ -121,7 +122,8 @@ class TestOpenBorders(OpenPlan):
         from invrad_wb.core.model.luminaires import Luminaire
         for sp in (self.kitchen, self.living, self.office):
             targets.set_work_plane(sp, 300.0)
-        b = pipeline.prepare(self.doc, PipelineSettings(flux_lm=FLUX, resolution_m=0.5))
+        b = pipeline.prepare(self.doc, PipelineSettings(flux_lm=FLUX, resolution_m=0.5,
+                                                                zones=True))
         lums = [Luminaire([3.9, 1.5, 2.7], [0, 0, -1], FLUX, room=0),
                 Luminaire([4.1, 1.5, 2.7], [0, 0, -1], FLUX, room=0),
                 Luminaire([6.0, 4.0, 2.7], [0, 0, -1], FLUX, room=0),
@@ -141,7 +143,8 @@ class TestZoneLocate(OpenPlan):
         for sp, e in lux.items():
             targets.set_work_plane(sp, e)
         res = pipeline.run(self.doc, PipelineSettings(flux_lm=FLUX, resolution_m=0.3,
-                                                      report_dir=self.path("report")))
+                                                      report_dir=self.path("report"),
+                                                      zones=True))
         names = {self.kitchen: "Kitchen", self.living: "Living"}
         placed = {}
         for sp in lux:
