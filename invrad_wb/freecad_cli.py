@@ -150,7 +150,7 @@ def main(args):
     if opts.get("settings"):
         read_settings_file(opts["settings"])
     if ext == ".ifc" and not in_freecad():
-        check_ifc(src)            # a corrupt IFC costs a second, not a FreeCAD start
+        check_ifc_isolated(src)   # a corrupt IFC costs a second, not a FreeCAD start
     if in_freecad():
         run_job(opts)
         return 0
@@ -414,6 +414,42 @@ def read_settings_file(path):
     except (TypeError, ValueError, OverflowError) as exc:
         raise SettingsError(f"{path}: bad locate settings: {exc}") from None
     return d
+
+
+def check_ifc_isolated(path):
+    """:func:`check_ifc` in a child Python process: ifcopenshell 0.8 (the one FreeCAD
+    1.0.0's NativeIFC needs) dies with a segmentation fault on some malformed files (the fuzz
+    test's corrupt IFCs did), which in this process would end the command with no message.
+    A child that dies is a one-line SceneError naming the file and the signal."""
+    import signal
+    from invrad_wb.errors import SceneError
+    code = ("import sys\n"
+            "from invrad_wb.errors import InvradError\n"
+            "from invrad_wb.freecad_cli import check_ifc\n"
+            "try:\n"
+            "    check_ifc(sys.argv[1])\n"
+            "except InvradError as exc:\n"
+            "    print(exc, file=sys.stderr); sys.exit(2)\n")
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(
+        [p for p in [os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                     env.get("PYTHONPATH")] if p])
+    p = subprocess.run([sys.executable, "-c", code, path], capture_output=True, text=True,
+                       env=env)
+    if p.returncode == 0:
+        return
+    lines = [x for x in p.stderr.strip().splitlines() if x.strip()]
+    if p.returncode == 2 and lines:
+        raise SceneError(lines[-1].replace(f"{path}: ", "", 1), path)
+    if p.returncode < 0:
+        try:
+            name = signal.Signals(-p.returncode).name
+        except ValueError:
+            name = f"signal {-p.returncode}"
+        raise SceneError(f"not a readable IFC file: ifcopenshell crashed reading it ({name})",
+                         path)
+    raise SceneError(f"not a readable IFC file: its check ended with status {p.returncode}"
+                     + (f" ({lines[-1]})" if lines else ""), path)
 
 
 def check_ifc(path):

@@ -310,6 +310,33 @@ def test_corrupt_ifc_files_are_checked_or_refused_in_one_line_before_freecad(tmp
     assert passed > 0
 
 
+def test_an_ifc_check_that_crashes_is_refused_in_one_line(tmp_path, monkeypatch):
+    # ifcopenshell 0.8 (FreeCAD 1.0.0's NativeIFC needs it) segfaults on some of the
+    # corrupt files above: the freecad command checks the IFC in a child process, so a
+    # crash there is a one-line error, not the end of the command. A stand-in ifcopenshell
+    # that crashes the same way:
+    freecad_cli = pytest.importorskip("invrad_wb.freecad_cli")
+    from invrad_wb.errors import SceneError
+    fake = tmp_path / "fake" / "ifcopenshell"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text("import os, signal\n"
+                                      "def open(path):\n"
+                                      "    os.kill(os.getpid(), signal.SIGSEGV)\n")
+    path = tmp_path / "house.ifc"
+    _small_ifc(path)
+    monkeypatch.setenv("PYTHONPATH", str(fake.parent))
+    with pytest.raises(SceneError) as err:
+        freecad_cli.check_ifc_isolated(str(path))
+    msg = str(err.value)
+    assert "\n" not in msg and "house.ifc" in msg and "SIGSEGV" in msg, msg
+    # a file the check refuses keeps its own message; a good one passes
+    monkeypatch.delenv("PYTHONPATH")
+    freecad_cli.check_ifc_isolated(str(path))
+    (tmp_path / "bad.ifc").write_text("ISO-10303-21;\nnot an ifc\n")
+    with pytest.raises(SceneError, match="bad.ifc: not a readable IFC file"):
+        freecad_cli.check_ifc_isolated(str(tmp_path / "bad.ifc"))
+
+
 def test_corrupt_json_lux_sidecars_are_read_or_refused_in_one_line(tmp_path):
     import trimesh
     sc = g.box_room(size=(3.0, 2.0, 2.5), cell=1.0)

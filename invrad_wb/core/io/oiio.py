@@ -72,6 +72,15 @@ def _require_image_memory(path, spec):
             f"{path}: its {w} x {h} pixels x {c} channel(s)", "use a smaller image")
 
 
+def _error_of(obj):
+    """``obj.geterror()``; OpenImageIO 3 (FreeCAD 1.0's root) raised UnicodeDecodeError
+    from it for a corrupt EXR whose message quotes the file's bytes (fuzz test)."""
+    try:
+        return obj.geterror()
+    except UnicodeDecodeError:
+        return "corrupt file (OpenImageIO's message is not text)"
+
+
 def _one_line(text):
     """OpenImageIO's error text (libpng and OpenEXR give several lines, often repeating)
     as one line: its distinct lines joined by '; '."""
@@ -106,12 +115,12 @@ def read_pixels(path):
     oiio = oiio_module("reading images")
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
-        raise OSError(_one_line(oiio.geterror()) or "unknown image format")
+        raise OSError(_one_line(_error_of(oiio)) or "unknown image format")
     try:
         spec = inp.spec()
         _require_image_memory(path, spec)
         pixels = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
-        error = inp.geterror() if pixels is None else ""
+        error = _error_of(inp) if pixels is None else ""
     finally:
         inp.close()
     if pixels is None or not spec.width or not spec.height:
