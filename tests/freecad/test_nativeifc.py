@@ -114,6 +114,39 @@ class TestNativeFZK(FreeCADTestCase):
         self.doc.undo()
         self.assertEqual(invrad_lights(self.ifc), [])
 
+    def test_locate_on_every_room_is_saved_in_the_spaces_and_undone(self):
+        # issue 9's check: Locate on all 7 rooms of the NativeIFC FZK-Haus, the saved IFC
+        # read back with ifcopenshell has every fixture in its IfcSpace, undo restores
+        import ifcopenshell.util.element as E
+        targets.apply_targets_file(self.doc, TARGETS)
+        before = snapshot(self.doc)
+        n_entities = len(list(self.ifc))
+        undo0 = self.doc.UndoCount
+        t0 = time.perf_counter()
+        res = pipeline.run(self.doc, pipeline.PipelineSettings(flux_lm=2000.0,
+                                                               resolution_m=0.4))
+        print(f"  NativeIFC FZK locate, all rooms: {time.perf_counter() - t0:.1f} s,"
+              f" {len(res.luminaires)} luminaires")
+        self.assertEqual(self.doc.UndoCount - undo0, 1)
+        fx = fixtures.all_fixtures(self.doc)
+        self.assertEqual(len(fx), len(res.luminaires))
+        self.assertEqual({rooms.room_name(fixtures.fixture_room(f)) for f in fx}, FZK_ROOMS)
+        out = self.path("located.ifc")
+        nativeifc.save(self.proj, out)
+        ifc = read(out)
+        lights = invrad_lights(ifc)
+        self.assertEqual(len(lights), len(fx))
+        per_room = {}
+        for e in lights:
+            c = E.get_container(e)
+            self.assertTrue(c.is_a("IfcSpace"), c)
+            per_room[c.LongName or c.Name] = per_room.get(c.LongName or c.Name, 0) + 1
+        self.assertEqual(set(per_room), FZK_ROOMS)
+        self.doc.undo()
+        self.assertEqual(snapshot(self.doc), before)
+        self.assertEqual(len(list(self.ifc)), n_entities)
+        self.assertEqual(invrad_lights(self.ifc), [])
+
     def test_design_writes_fixtures_and_requirements_undone_in_one_step(self):
         import ifcopenshell.util.element as E
         spec = app_design.spec_from_targets_file(DESIGN)
