@@ -5,6 +5,7 @@
 #               on the host's FreeCAD 0.20 and on FreeCAD 1.0 (a cached Debian trixie root;
 #               INVRAD_NO_FREECAD1=1 skips it)
 # Other targets: make setup, make bench, make gui-smoke (GUI under Xvfb, screenshots),
+# make report-pages (the demo's report pages and vote maps as PNG),
 # make examples (regenerate examples/), make clean.
 
 VENV   := .venv
@@ -13,7 +14,8 @@ SITE    = $(shell $(PY) -c 'import site; print(site.getsitepackages()[0])')
 FCPATH  = PYTHONPATH=$(SITE):$(CURDIR) QT_QPA_PLATFORM=offscreen
 OUT    := out
 
-.PHONY: setup demo test test-core test-freecad test-freecad1 gui-smoke bench examples clean
+.PHONY: setup demo report-pages test test-core test-freecad test-freecad1 gui-smoke bench \
+        examples clean
 
 setup:
 	@./.ci/setup.sh
@@ -24,9 +26,20 @@ demo: setup
 	$(PY) -m invrad_wb verify examples/office.ply --luminaires $(OUT)/office/result.json \
 	    --report $(OUT)/office/report
 	$(PY) -m invrad_wb design examples/office.ply --spec examples/office_design.json \
-	    -o $(OUT)/office/design.json --schedule $(OUT)/office/schedule.csv
+	    -o $(OUT)/office/design.json --schedule $(OUT)/office/schedule.csv \
+	    --report $(OUT)/office/design_report
 	@echo "true luminaires: examples/office_true.json; report: $(OUT)/office/report/index.html"
-	@echo "design for EN 12464-1 office requirements: $(OUT)/office/design.json"
+	@echo "design for EN 12464-1 office requirements: $(OUT)/office/design.json," \
+	      "client report $(OUT)/office/design_report/index.html (and report.pdf)"
+
+# what a person sees of the demo, as pictures: every page of both PDF reports and the vote
+# maps' contact sheet, in out/report_pages/
+report-pages: demo
+	rm -rf $(OUT)/report_pages && mkdir -p $(OUT)/report_pages
+	pdftoppm -r 60 -png $(OUT)/office/report/report.pdf $(OUT)/report_pages/verification
+	pdftoppm -r 60 -png $(OUT)/office/design_report/report.pdf $(OUT)/report_pages/design
+	cp $(OUT)/office/votes/room0/contact_sheet.png $(OUT)/report_pages/vote_maps.png
+	@ls $(OUT)/report_pages
 
 test: setup test-core test-freecad test-freecad1
 

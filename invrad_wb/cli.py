@@ -247,8 +247,12 @@ def _locate_one(args, scene_path, output, vote_maps, settings, phot, workers):
                        texture_max_lux=args.texture_max_lux, unit=args.unit)
     _warn_suspicious_targets(scene_path, scene)
     with CliProgress(args.verbose, "locate") as progress:
+        # a plain mesh's single room takes the scene's name (progress, vote-map titles)
+        names = ({int(scene.rooms[0]): os.path.splitext(os.path.basename(scene_path))[0]}
+                 if len(scene.rooms) == 1 else None)
         result = locate(scene, args.flux, settings=settings, backend=args.backend,
-                        progress=progress, photometry=phot, workers=workers, dask=args.dask)
+                        progress=progress, photometry=phot, workers=workers, dask=args.dask,
+                        room_names=names)
     _with_photometry(result.luminaires, phot)
     data = result.to_dict()
     if vote_maps:                  # first: an interrupted map write leaves RESULT.json as it was

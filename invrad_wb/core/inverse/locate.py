@@ -195,6 +195,8 @@ class RoomRun:
     lights: list = field(default_factory=list)
     trace: list = field(default_factory=list)
     cost: float = float("nan")
+    #: the room's name for people (progress, vote-map titles): its given name or 'room N'
+    label: str = None
     #: what rebuilds ``problem``, ``indirect_model`` and ``vote_fn`` (settings, backend,
     #: photometry, has_rho): they hold closures and device objects and are not pickled
     #: (a room run on a worker process comes back without them, see :meth:`restore`)
@@ -959,7 +961,7 @@ def _locate_room(sub, room, s, flux, backend, timings, report, photometry=None,
         return RoomRun(room=room, scene=sub, points=pts, canvas=canvas,
                        votes=np.zeros(canvas.size, np.float32), problem=None,
                        occluders=None, ambient_lux=0.0, flux=flux or 1.0,
-                       free_flux=flux is None)
+                       free_flux=flux is None, label=label)
     lit = pts.lux > 0
     occ = _occluders(sub, s)
     # interreflection
@@ -996,7 +998,7 @@ def _locate_room(sub, room, s, flux, backend, timings, report, photometry=None,
                   problem=prob, occluders=occ, ambient_lux=ambient,
                   indirect_model=indirect_model, vote_fn=vote_fn, flux=flux,
                   free_flux=free, ladder_votes=ladder,
-                  remake=(s, backend, photometry, has_rho))
+                  remake=(s, backend, photometry, has_rho), label=label)
     report(0.5, f"{label}: peaks and refinement")
     t = time.time()
     _postprocess(run, s, flux,

@@ -146,7 +146,8 @@ def _save_rooms(result, folder):
                          "normal": m.normal.tolist(), "max_votes": float(a.max())})
         if canvas.maps:
             p = os.path.join(room_dir, "contact_sheet.png")
-            contact_sheet(p, canvas, maps, top, peaks, found, f"room {run.room}")
+            contact_sheet(p, canvas, maps, top, peaks, found,
+                          getattr(run, "label", None) or f"room {run.room}")
             written.append(p)
         j = os.path.join(room_dir, "maps.json")
         atomic_write_text(j, json.dumps({"room": run.room, "joint_scale_max_votes": top,
