@@ -345,6 +345,20 @@ def test_general_lighting_dims_down_for_the_accents_light(monkeypatch):
     assert wp.mean() >= 500.0 and wp.min() / wp.mean() >= 0.6
 
 
+def test_design_report_of_a_corridor_with_one_row_of_calculation_points(tmp_path):
+    # a 1.6 m wide corridor has one row of EN 12464-1 calculation points: the work-plane
+    # plan cannot be triangulated (qhull refused the collinear points and the whole report
+    # failed); its points are drawn as coloured squares instead
+    sc = g.box_room((10.0, 1.6, 2.6), cell=0.4)
+    sp = spec_from_dict({"catalogue": CAT, "rooms": {"0": {"work_plane": {"lux": 100,
+                                                                          "u0": 0.4}}}})
+    res = design(sc, sp, room_names={0: "Corridor"})
+    pts = res.rooms[0].grid_points
+    assert np.linalg.matrix_rank(pts[:, :2] - pts[:, :2].mean(axis=0), tol=1e-6) == 1
+    res.write_report(tmp_path / "rep", title="Corridor")
+    assert os.path.getsize(tmp_path / "rep" / "plan_room0.png") > 5000
+
+
 def test_a_spot_darker_than_the_general_light_is_reported_not_met():
     base = g.with_reflectances(g.box_room(size=(6.0, 4.0, 3.0), cell=0.15))
     sc, _ = _with_spot(base, (6.0, 2.0, 1.6), 0.6, 60.0, 6.0)

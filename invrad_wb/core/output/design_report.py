@@ -49,38 +49,80 @@ def _plot_luminaires(ax, luminaires, types):
 
 
 def room_plan_png(rd, edges, lux_max, types):
-    """PNG bytes of a room's work-plane plan (false colour, iso-lux, values, luminaires)."""
-    from matplotlib.tri import Triangulation
+    """PNG bytes of a room's work-plane plan: false colour, labelled iso-lux lines and the
+    luminaires in one panel, the values at the calculation points in a second one beside it
+    (below it for a long room), so that no number sits under a marker or an iso-lux label."""
     pts, lux = rd.grid_points, rd.metrics.lux[:len(rd.grid_points)]
     lo, hi = np.min(edges, axis=(0, 1)), np.max(edges, axis=(0, 1))
-    span = hi - lo
-    w = 7.5
-    fig = _figure(w, max(3.0, min(9.0, w * span[1] / max(span[0], 1e-6) * 0.85 + 1.0)))
-    ax = fig.add_subplot(1, 1, 1)
-    tri = Triangulation(pts[:, 0], pts[:, 1]) if len(pts) >= 3 else None
-    if tri is not None:
-        m = ax.tripcolor(tri, lux, shading="gouraud", cmap="viridis", vmin=0, vmax=lux_max)
-        levels = iso_levels(lux, rd.requirement.lux)
-        if len(levels):
-            cs = ax.tricontour(tri, lux, levels=levels, colors="white", linewidths=1.0)
-            ax.clabel(cs, fmt="%d lx", fontsize=8, inline=True)
-        fig.colorbar(m, ax=ax, label="maintained illuminance (lx)", shrink=0.85)
-    step = max(1, int(np.ceil(len(pts) / MAX_LABELS)))
-    for p, v in zip(pts[::step], lux[::step]):
-        ax.text(p[0], p[1], f"{v:.0f}", fontsize=6.5, ha="center", va="center",
-                color="black", bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none",
-                                         alpha=0.6))
+    span = np.maximum(hi - lo, 1e-6)
+    # side by side; one above the other for a long room or one with many grid columns
+    # (the values need the page's width)
+    columns = len(np.unique(np.round(pts[:, 0], 3))) if len(pts) else 0
+    stacked = span[0] > 1.6 * span[1] or columns > 12
+    w = 8.0
+    panel_w = w - 1.3 if stacked else (w - 1.6) / 2
+    panel_h = min(4.2, panel_w * span[1] / span[0])
+    fig = _figure(w, max(2.6, (2 * panel_h + 1.7) if stacked else panel_h + 1.25))
+    ax, ax2 = fig.subplots(2, 1) if stacked else fig.subplots(1, 2)
+    m = _false_colour(ax, pts, lux, lux_max, rd.requirement.lux, edges)
     _outline(ax, edges)
     _plot_luminaires(ax, rd.luminaires, types)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.set_title(f"{rd.name}: work plane {rd.requirement.height_m:g} m above the floor,"
-                 f" Em {rd.metrics.em:.0f} lx, U0 {rd.metrics.u0:.2f}", fontsize=10)
+    ax.set_title(f"Em {rd.metrics.em:.0f} lx, U0 {rd.metrics.u0:.2f}, iso-lux lines",
+                 fontsize=8)
+    step = max(1, int(np.ceil(len(pts) / MAX_LABELS)))
+    for p, v in zip(pts[::step], lux[::step]):
+        ax2.text(p[0], p[1], f"{v:.0f}", fontsize=5.5, ha="center", va="center",
+                 color="black")
+    _outline(ax2, edges)
+    ax2.set_title("values (lx) at the calculation points", fontsize=8)
+    for a_ in (ax, ax2):
+        a_.set_aspect("equal")
+        a_.set_xlabel("x (m)", fontsize=7)
+        a_.set_ylabel("y (m)", fontsize=7)
+        a_.tick_params(labelsize=6.5)
+    fig.subplots_adjust(wspace=0.3, hspace=0.45, bottom=0.17 if rd.luminaires else 0.1)
+    if m is not None:
+        bar = fig.colorbar(m, ax=[ax, ax2], shrink=0.8, pad=0.03)
+        bar.set_label("maintained illuminance (lx)", fontsize=7)
+        bar.ax.tick_params(labelsize=6.5)
     if rd.luminaires:
-        ax.legend(loc="upper left", bbox_to_anchor=(1.22, 1.0), fontsize=8,
-                  title="luminaires", title_fontsize=8, frameon=False)
+        fig.legend(*ax.get_legend_handles_labels(), loc="lower center", fontsize=7,
+                   ncol=min(len(types), 5), frameon=False, title="luminaires",
+                   title_fontsize=7)
     return _png(fig)
+
+
+def _false_colour(ax, pts, lux, lux_max, required, edges=None):
+    """Gouraud false colour of the work plane with labelled iso-lux lines; the mappable
+    (None with fewer than three points)."""
+    from matplotlib.tri import Triangulation
+    if len(pts) == 0:
+        return None
+    centred = pts[:, :2] - pts[:, :2].mean(axis=0)
+    if len(pts) < 3 or np.linalg.matrix_rank(centred, tol=1e-6) < 2:
+        # one row of calculation points (a corridor narrower than two grid cells): no
+        # triangulation; each point's colour as a square
+        return ax.scatter(pts[:, 0], pts[:, 1], c=lux, cmap="viridis", vmin=0, vmax=lux_max,
+                          marker="s", s=60, linewidths=0)
+    tri = Triangulation(pts[:, 0], pts[:, 1])
+    # Delaunay fills the convex hull: no colour over a notch outside the room (an L-shaped
+    # room's missing corner was painted): triangles longer than a grid cell's diagonal
+    # (they bridge the notch) or with their centre outside the outline are left out
+    corner = pts[tri.triangles][..., :2]
+    longest = np.max(np.linalg.norm(corner - np.roll(corner, 1, axis=1), axis=2), axis=1)
+    cell = np.median(np.min(np.linalg.norm(corner - np.roll(corner, 1, axis=1), axis=2),
+                            axis=1))
+    mask = longest > 1.5 * np.sqrt(2.0) * cell
+    if edges is not None:
+        mask |= ~_inside(np.asarray(edges, dtype=float)[:, :, :2], corner.mean(axis=1))
+    if not mask.all():
+        tri.set_mask(mask)
+    m = ax.tripcolor(tri, lux, shading="gouraud", cmap="viridis", vmin=0, vmax=lux_max)
+    levels = iso_levels(lux, required)
+    if len(levels):
+        cs = ax.tricontour(tri, lux, levels=levels, colors="white", linewidths=1.0)
+        ax.clabel(cs, fmt="%d lx", fontsize=7, inline=True)
+    return m
 
 
 def _inside(edges, p):
