@@ -243,6 +243,8 @@ def _blas_threads():
 def test_rooms_run_blas_on_one_thread_in_process_and_on_workers():
     pytest.importorskip("threadpoolctl")
     before = _blas_threads()
+    if not before:        # Debian trixie's numpy: a BLAS threadpoolctl does not see
+        pytest.skip("numpy's BLAS is not one threadpoolctl can control")
     assert W.map_rooms(_blas_threads, [()] * 2, workers=1) == [[1], [1]]
     assert W.map_rooms(_blas_threads, [()] * 2, workers=2) == [[1], [1]]
     # and with fine-grained progress (the in-process path that passes report=)
