@@ -366,6 +366,9 @@ def test_a_spot_darker_than_the_general_light_is_reported_not_met():
     assert not rd.compliant and rd.verdicts["spots"] is False
     assert rd.verdicts["Em"] and rd.verdicts["U0"]
     assert any("general lighting alone gives" in n for n in rd.notes), rd.notes
+    # the spot is named by the wall it is on
+    assert rd.spots[0].goal.surface == "wall x = 6.00 m (facing -x)", rd.spots[0].goal
+    assert any(n.startswith("spot on the wall x = 6.00 m (facing -x) at") for n in rd.notes)
     assert not [l for l in rd.luminaires if l.extra.get("role") == "accent"]
 
 
@@ -376,4 +379,10 @@ def test_targets_everywhere_are_a_goal_not_a_spot():
     assert "spots" not in rd.verdicts
     # six planes with physically exact light: six goals, no spot
     assert [s.goal.kind for s in rd.spots] == ["surface"] * 6
-    assert any("surface goal" in n for n in rd.notes)
+    # each note names its surface: same-size walls are told apart
+    notes = [n for n in rd.notes if n.startswith("surface goal")]
+    assert len(notes) == 6 and len(set(notes)) == 6, notes
+    where = sorted(s.goal.surface.split(" (")[0] for s in rd.spots)
+    assert where[:2] == ["ceiling", "floor"], where
+    assert all(w.startswith("wall ") for w in where[2:]) and len(set(where)) == 6, where
+    assert all(f"on the {s.goal.surface} at" in n for s, n in zip(rd.spots, notes))

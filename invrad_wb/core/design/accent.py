@@ -53,6 +53,9 @@ class Goal:
     target: np.ndarray = field(repr=False)
     area_m2: float = 0.0
     n_vertices: int = 0
+    #: the surface it lies on (most of its area) in words: 'ceiling', 'wall x = 4.00 m
+    #: (facing -x)', ... ('' when unknown)
+    surface: str = ""
 
     @property
     def centre(self):
@@ -65,7 +68,9 @@ class Goal:
 
     def label(self):
         c = self.centre
-        return f"{self.kind} at ({c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f}) m"
+        on = f" on the {self.surface}" if self.surface else ""
+        what = "spot" if self.kind == "spot" else "surface goal"
+        return f"{what}{on} at ({c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f}) m"
 
 
 def find_goals(scene, room):
@@ -94,6 +99,7 @@ def find_goals(scene, room):
                             minlength=n)
     plane_area = np.bincount(scene.face_plane[sel], weights=scene.face_areas[sel],
                              minlength=len(scene.planes))
+    floor_z = float(scene.vertices[faces.reshape(-1), 2].min())
     goals = []
     for comp in np.unique(label[verts]):
         idx = verts[label[verts] == comp]
@@ -110,9 +116,19 @@ def find_goals(scene, room):
         if len(idx) > MAX_GOAL_POINTS:
             idx = idx[np.linspace(0, len(idx) - 1, MAX_GOAL_POINTS).astype(int)]
         goals.append(Goal(kind, scene.vertices[idx], scene.vertex_normals[idx], t[idx],
-                          area, int(np.count_nonzero(label[verts] == comp))))
+                          area, int(np.count_nonzero(label[verts] == comp)),
+                          _surface_words(scene, sel[touched], floor_z)))
     goals.sort(key=lambda g: -g.target_mean)
     return goals
+
+
+def _surface_words(scene, faces, floor_z):
+    """The plane that holds most of ``faces``' area, in words (the report's wording)."""
+    from invrad_wb.core.output.images import describe_plane
+    if not len(faces):
+        return ""
+    area = np.bincount(scene.face_plane[faces], weights=scene.face_areas[faces])
+    return describe_plane(scene.planes[int(np.argmax(area))], floor_z)
 
 
 def within(achieved_mean, target_mean, tol=SPOT_TOLERANCE):
@@ -134,7 +150,8 @@ class SpotResult:
 
     def to_dict(self):
         g = self.goal
-        d = {"kind": g.kind, "centre_m": [round(float(x), 3) for x in g.centre],
+        d = {"kind": g.kind, "surface": g.surface,
+             "centre_m": [round(float(x), 3) for x in g.centre],
              "target_mean_lux": round(g.target_mean, 2),
              "achieved_mean_lux": round(self.achieved_mean, 2),
              "general_lighting_lux": round(self.base_mean, 2),

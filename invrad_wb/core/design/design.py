@@ -343,7 +343,7 @@ def _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search=N
             if sp.note and not sp.ok:
                 rd.notes.append(sp.note)
         else:
-            rd.notes.append(f"surface goal ({g.n_vertices} target points, {g.area_m2:.1f} m2):"
+            rd.notes.append(f"{g.label()} ({g.n_vertices} target points, {g.area_m2:.1f} m2):"
                             f" {sp.achieved_mean:.0f} lx for {g.target_mean:.0f} lx on"
                             " average (a goal to approach, not judged)")
 
