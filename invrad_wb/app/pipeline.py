@@ -67,7 +67,15 @@ class PipelineSettings:
         whose requirements and grids are per room: it keeps every room closed). Off by
         default: on FZK-Haus the Kueche/Wohnen/Flur zone lost uniformity (Wohnen U0 0.71 ->
         0.38, Em -4 % -> -13 % of its target) though the doubled rows along the open
-        borders went; the cause in locate is not found yet
+        borders went. Cause (measured on that zone's answer, 13 luminaires): the
+        zone's fit chose wall lights near the ceiling, whose light is half interreflected,
+        and locate's radiosity model (direct light at each patch's representative point,
+        :class:`~invrad_wb.core.inverse.locate._Indirect`) puts Wohnen's interreflected
+        light at 170 lx where the verification's model (patch means of vertex values)
+        puts 139 lx and a fine sampling of every face 150 lx (Kueche 242 / 221 / 235, Flur
+        73 / 68 / 75; direct light agrees within 2 %): the fit exploits the optimistic
+        estimate. Sampling each patch at its sub-cells (as the patch matrix does) gives
+        245 / 154 / 79. Not yet changed: it moves every interreflection figure
     """
     flux_lm: float
     resolution_m: float = S.RESOLUTION_M
