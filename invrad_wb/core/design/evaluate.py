@@ -136,9 +136,7 @@ class RoomModel:
         """Maintained illuminance (k,) lux at the receivers: direct with shadows plus a
         radiosity solve; and the direct part alone."""
         occl = self.bvh is not None
-        d_v = direct_illuminance(self.mesh.vertices, self.mesh.vertex_normals, luminaires,
-                                 bvh=self.bvh, occlusion=occl, backend=self.backend)
-        b = self.rad.solve(self.rad.patch_direct_from_vertices(d_v))
+        b = self.rad.solve(self.rad.patch_direct(luminaires, self.bvh, occl, self.backend))
         indirect = self._gather(b)
         direct = direct_illuminance(self.points, self.normals, luminaires, bvh=self.bvh,
                                     occlusion=occl, backend=self.backend)
@@ -164,10 +162,8 @@ class RoomModel:
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         near = nearest_site(self.mesh.face_centroids, points)
         op = self.rad.gather(points, normals, self.rad.face_patch[near])
-        d_v = direct_illuminance(self.mesh.vertices, self.mesh.vertex_normals, luminaires,
-                                 bvh=self.bvh, occlusion=self.bvh is not None,
-                                 backend=self.backend)
-        return op(self.rad.solve(self.rad.patch_direct_from_vertices(d_v)))
+        return op(self.rad.solve(self.rad.patch_direct(luminaires, self.bvh,
+                                                       self.bvh is not None, self.backend)))
 
     def calibrate(self, key, luminaires, fast_lux):
         """Learn the indirect light per lumen of a catalogue entry (``key``; None: skip) from

@@ -115,19 +115,26 @@ def render(scene, luminaires, interreflection=True, occlusion=True, backend="aut
     indirect = np.zeros_like(direct)
     if interreflection:
         indirect = indirect_light(scene, direct, backend=backend, patch_size=patch_size,
-                                  occlusion=occlusion)
+                                  occlusion=occlusion, luminaires=luminaires, bvh=bvh)
     total = direct + indirect
     return (total, direct, indirect) if return_parts else total
 
 
 def indirect_light(scene, vertex_direct, backend="auto", patch_size=None, occlusion=True,
-                   by_room=None):
+                   by_room=None, luminaires=None, bvh=None):
     """Interreflected illuminance at the scene's vertices for their direct light.
 
     Parameters
     ----------
     scene : Scene
     vertex_direct : (n,) float64, lux
+    luminaires : list of Luminaire, optional
+        The luminaires of ``vertex_direct``: each patch then gets its mean direct light
+        from them (:meth:`RadiosityModel.patch_direct`: exact near a luminaire) instead of
+        the mean of its vertices' values, which misses most of the light of a luminaire
+        close to a surface (a downlight 0.1 m from two walls: 1132 of its 2000 lm).
+    bvh : BVH, optional
+        The scene's occluders for ``luminaires`` (with ``occlusion``).
     by_room : bool, optional
         One model per room, each dropped after its room (bounded memory), instead of the
         scene's cached model. Default: when the whole model's estimate exceeds half the
@@ -156,7 +163,7 @@ def indirect_light(scene, vertex_direct, backend="auto", patch_size=None, occlus
     if not by_room:
         model = RadiosityModel.for_scene(scene, backend=backend, patch_size=patch_size,
                                          occlusion=occlusion)
-        return model.indirect_at_vertices(vertex_direct)
+        return _indirect_at_vertices(model, vertex_direct, luminaires, bvh, occlusion)
     vertex_direct = np.asarray(vertex_direct, dtype=np.float64)
     out = np.zeros_like(vertex_direct)
     # each room's faces as a scene of its own; its vertices carry their index in this one
@@ -166,13 +173,20 @@ def indirect_light(scene, vertex_direct, backend="auto", patch_size=None, occlus
         parent = sub.vertex_lux.astype(np.int64)
         model = RadiosityModel(sub, backend=backend, patch_size=patch_size,
                                occlusion=occlusion)
-        out[parent] = model.indirect_at_vertices(vertex_direct[parent])
+        out[parent] = _indirect_at_vertices(model, vertex_direct[parent], luminaires, bvh,
+                                            occlusion)
         del model, sub
         # a model and its gather operator refer to each other: without a collection here
         # each room's matrices stay until the cyclic collector runs (measured: +19 MB per
         # room, 64 rooms 976 MB; with it flat at 170 MB)
         gc.collect()
     return out
+
+
+def _indirect_at_vertices(model, vertex_direct, luminaires, bvh, occlusion):
+    if luminaires is None:
+        return model.indirect_at_vertices(vertex_direct)
+    return model.vertex_gather()(model.solve(model.patch_direct(luminaires, bvh, occlusion)))
 
 
 def _direct_by_room(scene, luminaires, bvh, occlusion, backend):

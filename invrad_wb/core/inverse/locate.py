@@ -526,14 +526,11 @@ class _Indirect:
         self.gather = self.model.gather(points.positions, points.normals, patch)
 
     def __call__(self, lights, flux):
-        from invrad_wb.core.forward.direct import direct_illuminance
         lums = [Luminaire(L.position, L.normal, flux, photometry=self.photometry)
                 for L in lights]
-        # direct light at the patches' representative points (a patch's mean in render;
-        # the difference is second order for the interreflected part)
-        pts, nrm = self.model.patch_points()
-        pdir = direct_illuminance(pts + nrm * 1e-4, nrm, lums, bvh=self.bvh,
-                                  occlusion=self.bvh is not None, backend=self.backend)
+        # each patch's mean direct light, exact near a luminaire (as the verification's)
+        pdir = self.model.patch_direct(lums, bvh=self.bvh, occlusion=self.bvh is not None,
+                                       backend=self.backend)
         B = self.model.solve(pdir)
         g = self.gather
         return g(B) if callable(g) else g @ B
