@@ -67,21 +67,14 @@ class PipelineSettings:
         whose requirements and grids are per room: it keeps every room closed). Off by
         default: on FZK-Haus the Kueche/Wohnen/Flur zone lost uniformity (Wohnen U0 0.71 ->
         0.38, Em -4 % -> -13 % of its target) though the doubled rows along the open
-        borders went. Cause (measured on that zone's answer, 13 luminaires): the
-        zone's fit chose wall lights near the ceiling, whose light is half interreflected,
-        and locate's radiosity model (direct light at each patch's representative point,
-        :class:`~invrad_wb.core.inverse.locate._Indirect`) puts Wohnen's interreflected
-        light at 170 lx where the verification's model (patch means of vertex values)
-        puts 139 lx and a fine sampling of every face 150 lx (Kueche 242 / 221 / 235, Flur
-        73 / 68 / 75; direct light agrees within 2 %): the fit exploits the optimistic
-        estimate. Sampling each patch at its sub-cells (as the patch matrix does) gives
-        245 / 154 / 79 and halves the flux errors of bench_locate at rho 0.6, but none
-        of the three estimates conserves flux near a luminaire mounted close to another
-        surface: a 2000 lm wall light 0.1 m under the ceiling of a 5 x 4 x 2.5 m box
-        puts 2000 lm on the surfaces; patch means of vertex values see 1504 lm,
-        representative points 1824, sub-cells 2220 (15/45/153 lattice points per face:
-        1843/1918/1957). A flux-conserving near field (the exact point-to-polygon form
-        factor for patches near a luminaire) is the fix, for locate and verification
+        borders went. Measured on that zone: the fit chooses wall lights near the
+        ceiling (13 of 13), whose light is half interreflected. Part of it was that
+        locate's and the verification's radiosity models disagreed near a luminaire
+        (fixed: RadiosityModel.patch_direct; the zone's Wohnen 249 -> 274 lx, Kueche 426 ->
+        451 lx), but the zone still takes wall lights and Wohnen's U0 stays 0.37 (0.71
+        located alone). Next suspects: the ceiling-grid seeds are one regular grid over
+        the zone's bounding box while its rooms ask 500 / 300 / 100 lx; the cost weighs the
+        mean log deviation, not the darkest points
     """
     flux_lm: float
     resolution_m: float = S.RESOLUTION_M
