@@ -399,39 +399,30 @@ def _near_field_numpy(p, m, ps, pj):
 
 def _near_field_correction(ps, p, n, lums, bvh, occlusion):
     """(P,) lux: for every (luminaire, patch) pair closer than the patch's blend radius,
-    the patch's exact mean (flux x blended form factor / area) less the point sample, both
-    scaled by the luminaire's direct light at the sample over a Lambertian point's."""
+    the patch's exact mean (flux x the gather's form factor / area) less the point sample,
+    both scaled by the luminaire's direct light at the sample over a Lambertian point's."""
     from invrad_wb.core.forward.direct import direct_illuminance
     out = np.zeros(ps.n)
-    b2 = ps.blend_r2
-    inner = _inner_ratio()
     for L in lums:
         c = np.asarray(L.position, dtype=np.float64)
         m = np.asarray(L.normal, dtype=np.float64)
         d2c = np.einsum("ij,ij->i", ps.centroid - c, ps.centroid - c)
-        pj = np.flatnonzero((d2c < b2) & ps.emits)
+        pj = np.flatnonzero((d2c < ps.blend_r2) & ps.emits)
         if not len(pj):
             continue
         # the Lambertian point emitter's light at the samples
         d = p[pj] - c
         r2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-24)
-        ce = d @ m
-        cr = -np.einsum("ij,ij->i", d, n[pj])
-        lam = L.flux_lm * np.maximum(ce, 0.0) * np.maximum(cr, 0.0) / (np.pi * r2 * r2)
-        ok = lam > 0
-        if not ok.any():
+        lam = L.flux_lm * np.maximum(d @ m, 0.0) * np.maximum(
+            -np.einsum("ij,ij->i", d, n[pj]), 0.0) / (np.pi * r2 * r2)
+        pj, lam = pj[lam > 0], lam[lam > 0]
+        if not len(pj):
             continue
-        pj, lam, d2c_j = pj[ok], lam[ok], d2c[pj[ok]]
         real = direct_illuminance(p[pj], n[pj], [L], bvh=bvh, occlusion=occlusion,
                                   backend="numpy")
-        exact = _near_field_numpy(np.broadcast_to(c, (len(pj), 3)).copy(),
-                                  np.broadcast_to(m, (len(pj), 3)).copy(), ps, pj)
-        far = ps.area[pj] * np.maximum((ps.centroid[pj] - c) @ m, 0.0) * np.maximum(
-            -np.einsum("ij,ij->i", ps.centroid[pj] - c, ps.normal[pj]), 0.0) / (
-            np.pi * np.maximum(d2c_j, 1e-24) ** 2)
-        t = np.clip((d2c_j - inner * b2[pj]) / ((1.0 - inner) * b2[pj]), 0.0, 1.0)
-        mean = L.flux_lm * (exact + t * (far - exact)) / ps.area[pj]
-        out[pj] += (real / lam) * (mean - lam)
+        # the luminaire as a receiver of the gather (reciprocity): exact near, blended
+        F = _form_factors_numpy(c[None], m[None], np.array([-1]), ps, None, None)[0]
+        out[pj] += (real / lam) * (L.flux_lm * F[pj] / ps.area[pj] - lam)
     return out
 
 
