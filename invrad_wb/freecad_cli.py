@@ -93,9 +93,12 @@ def add_arguments(p):
     p.add_argument("--rooms", nargs="+", help="only these rooms (labels, names or GlobalIds)")
     p.add_argument("--no-interreflection", action="store_true",
                    help="verify with direct light only")
-    p.add_argument("--zones", action="store_true",
-                   help="locate rooms that meet without a wall (open borders) as one lighting"
-                        " zone (each fixture still goes into the room that contains it)")
+    p.add_argument("--no-zones", action="store_true",
+                   help="locate every room on its own, taking open borders (rooms that meet"
+                        " without a wall) as walls; by default such rooms are located as one"
+                        " lighting zone (each fixture still goes into the room that contains"
+                        " it)")
+    p.add_argument("--zones", action="store_true", help=argparse.SUPPRESS)   # the default
     p.add_argument("--keep", action="store_true",
                    help="keep fixtures of earlier invrad runs in the processed rooms")
     p.add_argument("--settings", help="JSON file with locate settings")
@@ -316,7 +319,7 @@ def run_job(opts, out=None):
         replace=not opts.get("keep"), rooms=opts.get("rooms"), report_dir=opts["report"],
         base_dir=os.path.dirname(opts["targets"]) if opts.get("targets") else
         os.path.dirname(src), design=spec, workers=workers_arg(opts.get("workers", "1")),
-        zones=bool(opts.get("zones")))
+        zones=not opts.get("no_zones"))
     if mesh_size:
         settings.resolution_m = float(mesh_size)
     result = pipeline.run(doc, settings, progress=progress)

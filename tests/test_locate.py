@@ -360,3 +360,27 @@ def test_evolution_strategy_optimiser_also_refines():
     r = locate(scene, 3000.0, backend=BACKEND, optimiser="es")
     m = match(r.luminaires, true)
     assert m["found"] == 2 and m["spurious"] == 0 and m["max_error_cm"] < 10, m
+
+
+def test_seeds_are_refined_pruned_and_dropped_off_the_surfaces():
+    """``locate(seeds=)``: a seed arrangement is snapped to the room's surfaces (one in
+    mid-air that is not a pendant is dropped), refined, pruned of a surplus luminaire and
+    kept when better; the answer is the true luminaire."""
+    from dataclasses import replace
+    scene, true = known_scene("one_ceiling", reflectance=0.0, cell=0.25, backend="numpy")
+    kw = dict(backend="numpy", pixel_m=0.2, dummy_planes=False, votes_per_m2=8)
+    flux = true[0].flux_lm
+    room = int(scene.rooms[0])
+    plain = locate(scene, flux, **kw)
+    t = true[0]
+    shifted = replace(t, position=t.position + np.array([0.4, -0.3, 0.0]))
+    surplus = replace(t, position=t.position + np.array([-1.2, 0.8, 0.0]))
+    mid_air = replace(t, position=t.position - np.array([0.0, 0.0, 0.8]), extra={})
+    r = locate(scene, flux, seeds={room: [shifted, surplus, mid_air]}, **kw)
+    step = [x for x in r.rooms[0].trace if "seeded" in x]
+    assert len(step) == 1 and step[0]["seeded"] == 2 and step[0]["of"] == 3, step
+    # from the seeds the refinement reaches the truth (exact targets: a near-zero cost)
+    assert step[0]["cost_after"] < 1e-3 * r.rooms[0].restore().problem.cost([]), step
+    assert r.rooms[0].cost <= plain.rooms[0].cost * (1 + 1e-9)
+    m = match(r.luminaires, true)
+    assert m["found"] == 1 and m["spurious"] == 0 and m["max_error_cm"] < 5, m

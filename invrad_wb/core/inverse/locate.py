@@ -203,6 +203,8 @@ class RoomRun:
     remake: tuple = None
     #: ``scene`` is this room's own subset (its caches may be dropped), not the caller's
     own_scene: bool = False
+    #: luminaires to start a refinement from as well (:meth:`_RoomFit.seeded`)
+    seeds: list = field(default_factory=list)
 
     def __getstate__(self):
         state = dict(self.__dict__)
@@ -571,6 +573,8 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
     # luminaires on the ceiling and keep the best refined answer
     if s.overlap_levels > 1 and fit_quality(fit.prob, lights) > s.poor_fit:
         lights, cost = fit.grid(lights, cost, cands, flux)
+    if run.seeds:
+        lights, cost = fit.seeded(lights, cost, cands, run.seeds)
     # final scores: how much worse the fit is without each luminaire
     prob = fit.prob
     cost = prob.cost(lights) if lights else cost
@@ -741,6 +745,33 @@ class _RoomFit:
         return lights, cost
 
 
+    def seeded(self, lights, cost, cands, seeds):
+        """Start from given luminaires (:class:`Luminaire`, in the room's frame) as well:
+        snapped to the room's surfaces (pendants stay in mid-air; others off every
+        surface are dropped), refined, pruned or added to from ``cands``, settled; kept
+        if better than (``lights``, ``cost``)."""
+        start = []
+        for lum in seeds:
+            n = np.asarray(lum.normal, dtype=np.float64)
+            L = Light(kind="free", position=np.asarray(lum.position, np.float64).copy(),
+                      normal=n / np.linalg.norm(n), map_index=-1,
+                      flux_scale=float(lum.flux_lm) / self.run.flux if self.run.flux else 1.0)
+            L = _snap_to_surfaces([L], self.run.canvas, self.run.scene)[0]
+            if L.kind == "surface" or (getattr(lum, "extra", None) or {}).get("mount") == "pendant":
+                start.append(self.prob.with_indirect(L))
+        if not start:
+            return lights, cost
+        got, c = self.opt(start)
+        alt, c_alt, t2 = self._greedy(cands, initial=got)
+        alt, c_alt = self.tidy(alt, c_alt)
+        alt, c_alt = self.settle(alt, c_alt, cands)
+        self.trace += [{"seeded": len(start), "of": len(seeds), "cost_before": cost,
+                        "cost_after": c_alt}] + t2
+        if c_alt < cost:
+            return alt, c_alt
+        return lights, cost
+
+
 def _seed_counts(run, flux, most=24):
     """Luminaire counts to try as regular arrangements, around the lumen-method estimate.
 
@@ -826,7 +857,8 @@ def _collect(rooms):
 
 
 def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=None,
-           photometry=None, room_names=None, workers=1, dask=None, **overrides):
+           photometry=None, room_names=None, workers=1, dask=None, seeds=None,
+           **overrides):
     """Find luminaire positions that produce a scene's target illuminance.
 
     Parameters
@@ -855,6 +887,11 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
         is the same (:func:`~invrad_wb.core.accel.workers.map_rooms`).
     dask : None, 'local' or a Dask scheduler address
         Rooms run on a Dask cluster instead.
+    seeds : dict room id -> list of Luminaire, optional
+        An arrangement to start from as well (e.g. the rooms of a lighting zone located
+        one by one): refined in the room, pruned and added to from the vote candidates,
+        and kept if its cost is lower than the votes' answer (:meth:`_RoomFit.seeded`).
+        Seeds that are not on a surface of the room (nor pendants) are dropped.
     **overrides :
         Individual settings, e.g. ``pixel_m=0.05``.
 
@@ -883,9 +920,11 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
     labels = [names.get(int(r)) or f"room {int(r)}" for r in room_ids]
     single = len(scene.rooms) <= 1
 
+    seeds = {int(k): list(v) for k, v in (seeds or {}).items()}
+
     def task(room, label):
         return (scene if single else scene.room_subset(room), room, s, flux, backend,
-                photometry, label, not single)
+                photometry, label, not single, seeds.get(room))
 
     tasks = [lambda r=int(r), lb=lb: task(r, lb) for r, lb in zip(room_ids, labels)]
     done = map_rooms(_room_task, tasks, labels, workers=workers, dask=dask,
@@ -926,12 +965,14 @@ def check_flux(flux_lm):
 
 
 def _room_task(sub, room, s, flux, backend, photometry, label, subset_scene=True,
-               report=None):
+               seeds=None, report=None):
     """One room on any worker: ``(RoomRun, seconds per stage)``. ``subset_scene``: ``sub``
-    is the room's own copy (its caches may go), not the caller's scene."""
+    is the room's own copy (its caches may go), not the caller's scene; ``seeds``: the
+    room's seed luminaires (see :func:`locate`)."""
     timings = {k: 0.0 for k in ("sampling", "maps", "votes", "postprocess", "radiosity")}
     run = _locate_room(sub, room, s, flux, backend, timings,
-                       report or (lambda f, msg: None), photometry, label=label)
+                       report or (lambda f, msg: None), photometry, label=label,
+                       seeds=seeds)
     # memory bounded by the largest room, not the building: a room's refinement problem
     # and radiosity model (tens of MB) go once it is done (repeak rebuilds them)
     run.own_scene = subset_scene
@@ -939,7 +980,7 @@ def _room_task(sub, room, s, flux, backend, photometry, label, subset_scene=True
 
 
 def _locate_room(sub, room, s, flux, backend, timings, report, photometry=None,
-                 label=None):
+                 label=None, seeds=None):
     """Steps 1-5 of the module docstring for one room (``sub``: its faces only); returns
     its :class:`RoomRun`.
 
@@ -995,7 +1036,8 @@ def _locate_room(sub, room, s, flux, backend, timings, report, photometry=None,
                   problem=prob, occluders=occ, ambient_lux=ambient,
                   indirect_model=indirect_model, vote_fn=vote_fn, flux=flux,
                   free_flux=free, ladder_votes=ladder,
-                  remake=(s, backend, photometry, has_rho), label=label)
+                  remake=(s, backend, photometry, has_rho), label=label,
+                  seeds=list(seeds or []))
     report(0.5, f"{label}: peaks and refinement")
     t = time.time()
     _postprocess(run, s, flux,
