@@ -232,3 +232,28 @@ def test_narrow_beam_votes_peak_on_the_luminaires():
         assert min(raw_errors()) > 0.5
     finally:
         L.vote_profile = lambertian
+
+
+def test_rectangular_luminous_opening_is_read_along_its_axes(tmp_path):
+    """The luminous opening's length and width, along the luminaire's C0 and C90 axes:
+    IES LM-63 gives length along 0-180 degrees; EULUMDAT length along the longitudinal
+    C90-C270 axis; a round opening (IES negative dimensions, EULUMDAT width 0) has none."""
+    src = os.path.join(os.path.dirname(__file__), "data", "photometry")
+    with open(os.path.join(src, "lambertian.ies")) as fh:
+        ies = fh.read()
+    assert " 2 0.1 0.1 0.05" in ies
+    (tmp_path / "panel.ies").write_text(ies.replace(" 2 0.1 0.1 0.05", " 2 0.3 1.2 0.05"))
+    (tmp_path / "round.ies").write_text(ies.replace(" 2 0.1 0.1 0.05", " 2 -0.2 -0.2 0.05"))
+    p = read_photometry(str(tmp_path / "panel.ies"))
+    assert p.luminous_extent_m == pytest.approx((1.2, 0.3))
+    assert p.luminous_area_m2 == pytest.approx(0.36)
+    assert read_photometry(str(tmp_path / "round.ies")).luminous_extent_m is None
+    with open(os.path.join(src, "lambertian.ldt"), newline="") as fh:
+        lines = fh.read().split("\r\n")
+    assert lines[15:17] == ["100", "0"]           # luminous area: length 100 mm, round
+    assert read_photometry(os.path.join(src, "lambertian.ldt")).luminous_extent_m is None
+    lines[15:17] = ["1200", "300"]
+    (tmp_path / "panel.ldt").write_bytes("\r\n".join(lines).encode())
+    p = read_photometry(str(tmp_path / "panel.ldt"))
+    assert p.luminous_extent_m == pytest.approx((0.3, 1.2))
+    assert p.luminous_area_m2 == pytest.approx(0.36)

@@ -8,7 +8,9 @@ Each luminaire becomes an Arch Equipment with ``IfcType = "Light Fixture"``:
   washer's -Z is horizontal). ``LightDirection`` repeats it as a global unit vector.
 * **Body** (:func:`fixture_size`, :func:`fixture_shape`): sized from the luminaire's
   luminous area: a downlight disc of its emitter radius, or of its photometry file's
-  luminous opening (a square panel when that opening is 0.09 m2 or more); a point emitter
+  luminous opening (a panel when that opening is 0.09 m2 or more: the file's length and
+  width along the luminaire's C0 and C90 axes, a square of its area when it gives none);
+  a point emitter
   without photometry gets a ``settings.FIXTURE_RADIUS_M`` disc. It is
   ``settings.FIXTURE_THICKNESS_M`` thick, from local z = -thickness to 0, i.e. just below
   the mounting surface, in the room. A **pendant** (facing down, more than
@@ -41,7 +43,7 @@ from invrad_wb.app.document import describe, object_type, transaction
 from invrad_wb.app.units import direction, m_to_mm, mm_to_m, vector_mm
 
 LIGHT_FIXTURE = "Light Fixture"
-#: A luminous opening this large (m2) or larger is drawn as a square panel, not a disc.
+#: A luminous opening this large (m2) or larger is drawn as a panel, not a disc.
 PANEL_MIN_AREA_M2 = 0.09
 #: Smallest disc radius drawn (metres), so that a small spot stays visible.
 MIN_RADIUS_M = 0.05
@@ -64,16 +66,28 @@ def new_guid():
     return ifcopenshell.guid.new()
 
 
-def fixture_rotation(normal):
-    """FreeCAD Rotation taking local -Z to the unit ``normal`` (the light direction)."""
-    import FreeCAD
+def fixture_axes(normal):
+    """The fixture's local x, y, z axes in the building (unit vectors): z = -``normal`` (the
+    light leaves along local -Z) and x the luminaire's C0 direction, the photometry frame
+    of :func:`invrad_wb.core.model.scene.plane_basis` (+X for a downlight, horizontal on a
+    wall), so that a rectangular body lies the way its intensity table does."""
+    from invrad_wb.core.model.scene import plane_basis
     n = np.asarray(normal, dtype=np.float64)
     n = n / np.linalg.norm(n)
-    if n[2] < -1 + 1e-12:
-        return FreeCAD.Rotation()
-    if n[2] > 1 - 1e-12:          # facing up: turn half around X (keeps +X along +X)
-        return FreeCAD.Rotation(FreeCAD.Vector(1, 0, 0), 180)
-    return FreeCAD.Rotation(FreeCAD.Vector(0, 0, -1), direction(n))
+    u, v = plane_basis(n)
+    return u, -v, -n
+
+
+def fixture_rotation(normal):
+    """FreeCAD Rotation taking local -Z to the unit ``normal`` (the light direction) and
+    local X to the luminaire's C0 axis (:func:`fixture_axes`)."""
+    import FreeCAD
+    x, y, z = fixture_axes(normal)
+    m = FreeCAD.Matrix()
+    m.A11, m.A12, m.A13 = float(x[0]), float(y[0]), float(z[0])
+    m.A21, m.A22, m.A23 = float(x[1]), float(y[1]), float(z[1])
+    m.A31, m.A32, m.A33 = float(x[2]), float(y[2]), float(z[2])
+    return FreeCAD.Rotation(m)
 
 
 def fixture_size(lum):
@@ -81,13 +95,17 @@ def fixture_size(lum):
 
     Returns
     -------
-    ("disc", radius_m) or ("panel", side_m, side_m)
+    ("disc", radius_m) or ("panel", along local x (C0) m, along local y (C90) m)
     """
     if lum.radius_m > 0:
         return ("disc", float(lum.radius_m))
-    area = getattr(getattr(lum, "photometry", None), "luminous_area_m2", None)
+    phot = getattr(lum, "photometry", None)
+    area = getattr(phot, "luminous_area_m2", None)
     if area and area > 0:
         if area >= PANEL_MIN_AREA_M2:
+            ext = getattr(phot, "luminous_extent_m", None)
+            if ext:
+                return ("panel", float(ext[0]), float(ext[1]))
             side = float(np.sqrt(area))
             return ("panel", side, side)
         return ("disc", max(float(np.sqrt(area / np.pi)), MIN_RADIUS_M))
@@ -106,7 +124,7 @@ def fixture_shape(size, drop_m=0.0, thickness_m=S.FIXTURE_THICKNESS_M):
 
     Returns
     -------
-    Part.Solid: the body from local z = -thickness to 0 (a disc or a square panel), fused
+    Part.Solid: the body from local z = -thickness to 0 (a disc or a panel), fused
     with the rod and canopy of a pendant (local z = 0 .. drop).
     """
     import FreeCAD

@@ -196,22 +196,27 @@ def body_context(ifc):
 
 
 def fixture_matrix(lum):
-    """4x4 placement (metres): origin at the luminaire, local -Z along its normal."""
-    z = -np.asarray(lum.normal, dtype=np.float64)
-    z /= np.linalg.norm(z)
-    ref = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = ref - z * (ref @ z)
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
+    """4x4 placement (metres): origin at the luminaire, local -Z along its normal, local X
+    its C0 axis (:func:`invrad_wb.app.fixtures.fixture_axes`, as the FreeCAD fixture)."""
+    from invrad_wb.app.fixtures import fixture_axes
     m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, y, z, lum.position
+    m[:3, 0], m[:3, 1], m[:3, 2] = fixture_axes(lum.normal)
+    m[:3, 3] = lum.position
     return m
 
 
 def add_body(ifc, ent, lum, ctx, unit_scale):
-    r = (lum.radius_m if lum.radius_m > 0 else S.FIXTURE_RADIUS_M) / unit_scale
+    """The fixture's ``Body``: its disc or panel (:func:`invrad_wb.app.fixtures.
+    fixture_size`, the FreeCAD fixture's plan) extruded along local -Z."""
+    from invrad_wb.app.fixtures import fixture_size
+    size = fixture_size(lum)
     t = S.FIXTURE_THICKNESS_M / unit_scale
-    prof = ifc.create_entity("IfcCircleProfileDef", ProfileType="AREA", Radius=r)
+    if size[0] == "panel":
+        prof = ifc.create_entity("IfcRectangleProfileDef", ProfileType="AREA",
+                                 XDim=size[1] / unit_scale, YDim=size[2] / unit_scale)
+    else:
+        prof = ifc.create_entity("IfcCircleProfileDef", ProfileType="AREA",
+                                 Radius=size[1] / unit_scale)
     pos = ifc.create_entity("IfcAxis2Placement3D",
                             Location=ifc.create_entity("IfcCartesianPoint", (0.0, 0.0, 0.0)))
     solid = ifc.create_entity("IfcExtrudedAreaSolid", SweptArea=prof, Position=pos,

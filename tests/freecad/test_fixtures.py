@@ -99,6 +99,37 @@ class TestFixtures(FreeCADTestCase):
         self.assertAlmostEqual(bb.YLength, 600.0, places=3)
         self.assertAlmostEqual(fx[1].Shape.BoundBox.XLength, 150.0, places=3)
 
+    def test_rectangular_panel_lies_along_its_photometry_axes(self):
+        """A 1.2 x 0.3 m opening (1.2 m along C0): on the ceiling its length runs along
+        +X, the C0 axis of the intensity table there; on a wall facing +X along the
+        wall's horizontal C0 axis (+Y), in the FreeCAD body and in the IFC placement."""
+        from invrad_wb.app.ifcexport import fixture_matrix
+        from invrad_wb.core.model.scene import plane_basis
+
+        class Phot:
+            luminous_area_m2 = 0.36
+            luminous_extent_m = (1.2, 0.3)
+        ceiling = down(2.0, 1.5)
+        wall = Luminaire([0.0, 1.5, 1.8], [1.0, 0.0, 0.0], 2000.0)
+        for lum in (ceiling, wall):
+            lum.photometry = Phot()
+            self.assertEqual(fixtures.fixture_size(lum), ("panel", 1.2, 0.3))
+        fx = fixtures.insert_fixtures(self.doc, [(self.space, [ceiling, wall])])
+        bb = fx[0].Shape.BoundBox
+        self.assertAlmostEqual(bb.XLength, 1200.0, places=3)
+        self.assertAlmostEqual(bb.YLength, 300.0, places=3)
+        bb = fx[1].Shape.BoundBox
+        self.assertAlmostEqual(bb.YLength, 1200.0, places=3)
+        self.assertAlmostEqual(bb.ZLength, 300.0, places=3)
+        self.assertLess(bb.XLength, 100.0)          # its thickness, off the wall
+        for lum, obj in ((ceiling, fx[0]), (wall, fx[1])):
+            u, _ = plane_basis(lum.normal)
+            x = obj.Placement.Rotation.multVec(FreeCAD.Vector(1, 0, 0))
+            np.testing.assert_allclose([x.x, x.y, x.z], u, atol=1e-9)
+            np.testing.assert_allclose(fixture_matrix(lum)[:3, 0], u, atol=1e-12)
+            mz = obj.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, -1))
+            np.testing.assert_allclose([mz.x, mz.y, mz.z], lum.normal, atol=1e-9)
+
     def test_label_names_room_and_catalogue_type(self):
         typed = down(2.0, 1.5)
         typed.extra["type"] = "DL-2000"

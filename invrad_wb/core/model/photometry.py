@@ -39,9 +39,15 @@ class Photometry:
     path : str or None, the file it came from
     name : str
     luminous_area_m2 : float or None, area of the luminous opening (for luminance / UGR)
+    luminous_extent_m : (along C0, along C90) metres of a rectangular luminous opening, or
+        None (round, or not given). The C0 axis is the luminaire's local x (the frame of
+        :meth:`intensity_per_lm`). IES LM-63 gives length along the 0-180 degree axis and
+        width across it; EULUMDAT gives length along the luminaire's longitudinal axis,
+        the C90-C270 plane in the European convention, and width across it.
     """
 
-    def __init__(self, cd, flux_lm=None, path=None, name=None, luminous_area_m2=None):
+    def __init__(self, cd, flux_lm=None, path=None, name=None, luminous_area_m2=None,
+                 luminous_extent_m=None):
         cd = np.asarray(cd, dtype=np.float64)
         if cd.shape != (361, 181) or not np.all(np.isfinite(cd)) or np.any(cd < 0):
             raise LuminaireError(f"{path or name}: intensity table must be finite, >= 0"
@@ -56,6 +62,12 @@ class Photometry:
         self.name = name or (os.path.basename(path) if path else "photometry")
         self.luminous_area_m2 = (float(luminous_area_m2) if luminous_area_m2
                                  and luminous_area_m2 > 0 else None)
+        ext = None
+        if luminous_extent_m is not None:
+            ext = tuple(float(x) for x in luminous_extent_m)
+            if len(ext) != 2 or not all(np.isfinite(x) and x > 0 for x in ext):
+                ext = None
+        self.luminous_extent_m = ext
 
     @classmethod
     def lambertian(cls):
@@ -144,8 +156,12 @@ def _read(path):
     cd = np.asarray(grid.values, dtype=np.float64)        # (361 phis, 181 thetas)
     h = f.header
     to_m = 0.3048 if int(getattr(h.units, "value", h.units)) == 1 else 1.0   # 1: feet
-    area = abs(float(h.width) * float(h.length)) * to_m ** 2
-    return Photometry(np.nan_to_num(cd), path=path, luminous_area_m2=area)
+    width, length = float(h.width), float(h.length)
+    area = abs(width * length) * to_m ** 2
+    # LM-63: negative dimensions describe round and elliptical openings
+    extent = (length * to_m, width * to_m) if width > 0 and length > 0 else None
+    return Photometry(np.nan_to_num(cd), path=path, luminous_area_m2=area,
+                      luminous_extent_m=extent)
 
 
 def _read_ldt(path):
@@ -176,7 +192,9 @@ def _read_ldt(path):
     cd = resample(c, g, v * lamp_lm / 1000.0)       # cd/klm of lamp flux -> candela
     a, b = float(h.length_lum_area) / 1000.0, float(h.width_lum_area) / 1000.0   # mm
     area = a * b if b > 0 else np.pi * a * a / 4.0         # width 0: round, diameter a
-    return Photometry(cd, path=path, luminous_area_m2=area)
+    # length along the longitudinal axis (C90-C270), width along C0-C180
+    extent = (b, a) if a > 0 and b > 0 else None
+    return Photometry(cd, path=path, luminous_area_m2=area, luminous_extent_m=extent)
 
 
 def resample(c_deg, g_deg, cd):
