@@ -157,6 +157,16 @@ def test_shade_targets_are_reported_apart():
     sh = target == 0
     assert np.allclose(d[sh], achieved[sh] / 300.0)
     assert np.allclose(d[~sh], achieved[~sh] / 300.0 - 1.0)
+    # a spot's rim (targets of a few lux): judged against 10 % of the reference, not
+    # against its own few lux, so that spill light there is no +1000 % ring
+    rim = np.array([300.0, 60.0, 30.0, 5.0, 0.5, 0.0, np.nan])
+    got = np.array([300.0, 90.0, 60.0, 35.0, 30.5, 15.0, 80.0])
+    d = R.relative_deviation(rim, got, 300.0)
+    np.testing.assert_allclose(d[:6], [0.0, 0.5, 1.0, 1.0, 1.0, 0.05])
+    assert np.isnan(d[6])
+    # no reference: plain (E - T) / T
+    np.testing.assert_allclose(R.relative_deviation(rim[:5], got[:5], np.nan),
+                               [0.0, 0.5, 1.0, 6.0, 60.0])
     # light deep in the shade changes the shade metrics only
     deep = x > 2.2
     brighter = achieved.copy()

@@ -252,7 +252,7 @@ def edge_triangles(tri_values, vmax, step=None):
     return mixed | (rng > (EDGE_STEP if step is None else step) * vmax)
 
 
-def target_mesh(building, vmax, levels=None, base_dir=None):
+def target_mesh(building, vmax, levels=None, base_dir=None, carry=()):
     """A display mesh for the targets, finer along their edges, with the targets on it.
 
     The building's sampling mesh draws a spot's round edge as stair steps one mesh cell
@@ -260,11 +260,14 @@ def target_mesh(building, vmax, levels=None, base_dir=None):
     triangles across an edge (:func:`edge_triangles`) are split (:func:`subdivide`) and
     the room's targets evaluated again on the new vertices, ``levels`` times (default
     :data:`EDGE_LEVELS`: steps 8 times smaller); the rest of the mesh is unchanged.
+    ``carry``: per-vertex arrays of the building scene (the achieved light) taken along,
+    linearly interpolated at the new vertices (as the coarse mesh would draw them).
 
     Returns
     -------
     dict: vertices (n, 3) m, normals (n, 3), faces (k, 3), groups (k,) as
-    :func:`face_groups`, virtual (k,) bool (work planes), values (n,) lux
+    :func:`face_groups`, virtual (k,) bool (work planes), values (n,) lux, carried: the
+    ``carry`` arrays on the display mesh's vertices
     """
     from invrad_wb.core.model import targets as CT
     sc = building.scene
@@ -272,6 +275,8 @@ def target_mesh(building, vmax, levels=None, base_dir=None):
     groups_all = face_groups(building)
     virt_all = np.asarray(sc.face_virtual, dtype=bool)
     V, N, F, G, W, L = [], [], [], [], [], []
+    carry = [np.asarray(c, dtype=np.float64) for c in carry]
+    C = [[] for _ in carry]
     nv = 0
     for p in building.rooms:
         n_surf = len(p.mesh.triangles)
@@ -287,13 +292,14 @@ def target_mesh(building, vmax, levels=None, base_dir=None):
             groups = groups_all[rows]
             vals = sc.vertex_lux[uniq] if sc.vertex_lux is not None else np.full(len(v),
                                                                                   np.nan)
+            cv = [c[uniq] for c in carry]
             if part == "surf" and p.targets:
                 tf = np.asarray(p.mesh.triangle_face)
                 for _ in range(levels):
                     mark = edge_triangles(vals[t], vmax)
                     if not mark.any():
                         break
-                    v, t, parent, nrm = subdivide(v, t, mark, nrm)
+                    v, t, parent, nrm, *cv = subdivide(v, t, mark, nrm, *cv)
                     tf, groups = tf[parent], groups[parent]
                     vals = CT.evaluate(v, t, tf, p.targets, source=p.space.Label,
                                        label=p.mesh.face_label, base_dir=base_dir)
@@ -304,10 +310,13 @@ def target_mesh(building, vmax, levels=None, base_dir=None):
             G.append(groups)
             W.append(np.full(len(t), part == "wp") & virt_all[rows][0])
             L.append(vals)
+            for acc, c in zip(C, cv):
+                acc.append(c)
             nv += len(v)
     return {"vertices": np.concatenate(V), "normals": np.concatenate(N),
             "faces": np.concatenate(F), "groups": np.concatenate(G),
-            "virtual": np.concatenate(W), "values": np.concatenate(L)}
+            "virtual": np.concatenate(W), "values": np.concatenate(L),
+            "carried": [np.concatenate(acc) for acc in C]}
 
 
 def room_labels(building, height_m=None):
@@ -967,13 +976,16 @@ def show_achieved(doc, building, achieved, vmax=None):
 _ACHIEVED = {}      # doc name -> (building, achieved lux) of the last achieved view
 
 
-def deviation(target, achieved):
+def deviation(target, achieved, reference=None):
     """Relative deviation per vertex, (E - T) / T, as the report computes it (shade
-    points: E over the mean positive target); NaN where there is no target."""
+    points, and a spot's rim below 10 % of it: against the ``reference``, default the
+    mean positive target); NaN where there is no target."""
     from invrad_wb.core.output.report import relative_deviation
     t = np.asarray(target, dtype=np.float64)
-    pos = t[np.isfinite(t) & (t > 0)]
-    return relative_deviation(t, achieved, float(pos.mean()) if pos.size else np.nan)
+    if reference is None:
+        pos = t[np.isfinite(t) & (t > 0)]
+        reference = float(pos.mean()) if pos.size else np.nan
+    return relative_deviation(t, achieved, reference)
 
 
 def deviation_colours(values, limit=DEVIATION_LIMIT):
@@ -1002,9 +1014,15 @@ def show_deviation(doc, limit=DEVIATION_LIMIT):
     if got is None:
         return None
     building, achieved = got
-    dev = deviation(building.scene.vertex_lux, achieved)
+    target = building.scene.vertex_lux
+    pos = target[np.isfinite(target) & (target > 0)] if target is not None else []
+    ref = float(np.mean(pos)) if len(pos) else np.nan
+    # on the targets' display mesh (finer along a spot's edge): a smooth rim, not the
+    # stair steps of the sampling mesh between vertices with and without a target
+    mesh = target_mesh(building, document_scale(doc, target), carry=[achieved])
+    dev = deviation(mesh["values"], mesh["carried"][0], ref)
     return show(doc, building, dev, "Deviation from\ntarget", "deviation", targets=False,
-                vmax=float(limit), deviation=True)
+                vmax=float(limit), mesh=mesh, deviation=True)
 
 
 def toggle_deviation(doc=None):

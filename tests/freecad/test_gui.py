@@ -367,6 +367,20 @@ class TestDisplayNumpy(FreeCADTestCase):
         self.assertEqual(len(g["rgb"]), len(m["vertices"]))
         self.assertGreater(len(m["faces"]), len(sc.faces))
         self.assertLess(len(m["faces"]), 3 * len(sc.faces))    # refined along the rim only
+        # the deviation view draws on this mesh: the achieved light is carried along,
+        # interpolated linearly (exact for a linear field), and the deviation's edge is
+        # the targets' smooth one
+        ach = 300.0 + 100.0 * sc.vertices[:, 0] - 50.0 * sc.vertices[:, 2]
+        m2 = display.target_mesh(b, vmax, carry=[ach])
+        np.testing.assert_array_equal(m2["faces"], m["faces"])
+        np.testing.assert_allclose(m2["carried"][0], 300.0 + 100.0 * m2["vertices"][:, 0]
+                                   - 50.0 * m2["vertices"][:, 2], rtol=1e-12)
+        dev = display.deviation(m2["values"], m2["carried"][0])
+        np.testing.assert_array_equal(np.isfinite(dev), np.isfinite(m2["values"]))
+        # a rim fading to 0 lx is judged against 10 % of the mean target, not its own lux
+        pos = m2["values"][np.isfinite(m2["values"]) & (m2["values"] > 0)]
+        self.assertLess(np.nanmax(np.abs(dev)),
+                        (m2["carried"][0].max() + pos.max()) / (0.1 * pos.mean()))
 
     def test_room_names_per_storey_and_clear_of_objects(self):
         import Part

@@ -277,10 +277,17 @@ def _shade_metrics(out, f, shade, where):
 def relative_deviation(target_vertex_lux, achieved_vertex_lux, reference_lux):
     """Per-vertex deviation as a fraction: (E - T) / T; on shade (T = 0) E / reference.
 
+    A target below :data:`REL_DEV_MIN_TARGET` of the reference (the rim of a spot fading
+    to nothing) is judged against that fraction of the reference instead of itself:
+    (E - T) / max(T, 0.1 reference). Relative to its own few lux the light a spot's rim
+    gets from the luminaire lighting the spot read as +200 % and more, a saturated ring
+    around every spot; the report's largest relative deviation leaves such points out
+    for the same reason.
+
     Parameters
     ----------
     reference_lux : float or (n,) float64, the mean target used for shade points
-        (NaN: shade points get NaN)
+        (NaN: shade points get NaN, and no floor applies)
 
     Returns
     -------
@@ -291,7 +298,8 @@ def relative_deviation(target_vertex_lux, achieved_vertex_lux, reference_lux):
     ref = np.broadcast_to(np.asarray(reference_lux, dtype=np.float64), t.shape)
     out = np.full(t.shape, np.nan)
     lit = np.isfinite(t) & (t > 0)
-    out[lit] = (e[lit] - t[lit]) / t[lit]
+    floor = np.where(np.isfinite(ref) & (ref > 0), REL_DEV_MIN_TARGET * ref, 0.0)
+    out[lit] = (e[lit] - t[lit]) / np.maximum(t[lit], floor[lit])
     sh = np.isfinite(t) & (t == 0) & np.isfinite(ref) & (ref > 0)
     out[sh] = e[sh] / ref[sh]
     return out
