@@ -384,3 +384,49 @@ def test_seeds_are_refined_pruned_and_dropped_off_the_surfaces():
     assert r.rooms[0].cost <= plain.rooms[0].cost * (1 + 1e-9)
     m = match(r.luminaires, true)
     assert m["found"] == 1 and m["spurious"] == 0 and m["max_error_cm"] < 5, m
+
+
+def _requirement_room():
+    """A 6 x 4 x 2.8 m room asking 500 lx on one half of its floor and 300 lx on the other
+    (a kitchen open to a living room: a requirement, not the light of real luminaires),
+    but a 0.5 m band along the walls (EN 12464-1's task area); walls and ceiling without
+    a target."""
+    scene = g.box_room((6.0, 4.0, 2.8), cell=0.25, reflectance=0.0)
+    v = scene.vertices
+    task = ((v[:, 2] < 1e-6) & (v[:, 0] > 0.49) & (v[:, 0] < 5.51) & (v[:, 1] > 0.49)
+            & (v[:, 1] < 3.51))
+    return scene.with_vertex_lux(np.where(task, np.where(v[:, 0] < 3.0, 500.0, 300.0),
+                                          np.nan))
+
+
+def test_crowded_pairs_are_spread_where_the_fit_allows():
+    """A requirement leaves a flat cost: luminaires crowded into a pair are moved apart
+    (to at least half the lumen-method spacing) for at most 3 % more data cost; an exact
+    fit keeps its answer however close its luminaires are."""
+    from invrad_wb.core.inverse import locate as LC
+    r = locate(_requirement_room(), 2000.0, backend=BACKEND)
+    run = r.rooms[0].restore()
+    spacing = LC._lumen_spacing(run)
+    assert spacing == pytest.approx(np.sqrt(0.5 * 2000.0 / 400.0), rel=0.05)
+    fit = LC._RoomFit(run, LocateSettings())
+    prob = fit.prob
+    crowded = [L.copy() for L in run.lights]
+    crowded[1] = crowded[0].with_params(crowded[0].params() + np.array([0.3, 0.0]))
+    assert LC._closest_pair(crowded) == pytest.approx(0.3)
+    assert LC.fit_quality(prob, crowded) > LC.NEAR_EXACT_FIT
+    got, c = fit.spread(crowded, prob.cost(crowded))
+    assert LC._closest_pair(got) >= LC.SPREAD_TRIGGER * spacing
+    data = lambda ls: prob.cost(ls) - prob.separation_cost(ls)
+    assert data(got) <= (1 + LC.SPREAD_TOLERANCE) * data(crowded)
+    assert c == pytest.approx(prob.cost(got))
+    # exact targets: three luminaires of different fluxes located with one flux, a
+    # brighter one found as two 0.3 m apart (a near-exact fit): nothing moves
+    scene2, true = known_scene("three_fluxes", reflectance=0.0, cell=0.25, backend=BACKEND)
+    r2 = locate(scene2, true[0].flux_lm, backend=BACKEND, pixel_m=0.2, dummy_planes=False,
+                votes_per_m2=8)
+    run2 = r2.rooms[0].restore()
+    fit2 = LC._RoomFit(run2, LocateSettings())
+    assert LC._closest_pair(run2.lights) < LC.SPREAD_TRIGGER * LC._lumen_spacing(run2)
+    assert LC.fit_quality(fit2.prob, run2.lights) < LC.NEAR_EXACT_FIT
+    got2, _ = fit2.spread(run2.lights, run2.cost)
+    assert [tuple(L.position) for L in got2] == [tuple(L.position) for L in run2.lights]

@@ -734,6 +734,7 @@ class Smoke:
 
     def run_fzk(self):
         import FreeCADGui
+        import numpy as np
         from fctest import FZK
         from invrad_wb.app import fixtures, ifcimport, rooms, targets
         from invrad_wb.gui import display, messages, runner
@@ -777,6 +778,18 @@ class Smoke:
                 bad.append((fx.Label, round(clear, 3), inside))
         self.check("FZK-Haus: every fixture inside its room, ceiling lights clear of the"
                    " walls", not bad, bad)
+        # no doubled fixtures: along the open Kueche/Wohnen border (a lighting zone) or
+        # anywhere else, two fixtures facing the same way stand at least 0.6 m apart
+        # (half the lumen-method spacing of 1500 lm luminaires for 500 lx is 0.61 m)
+        pos = [(fx.Label, np.array([fx.Placement.Base.x, fx.Placement.Base.y,
+                                    fx.Placement.Base.z]) / 1000.0,
+                np.array([fx.LightDirection.x, fx.LightDirection.y, fx.LightDirection.z]))
+               for fx in fixtures.all_fixtures(doc)]
+        close = [(a[0], b[0], round(float(np.linalg.norm(a[1] - b[1])), 2))
+                 for i, a in enumerate(pos) for b in pos[i + 1:]
+                 if a[2] @ b[2] > 0.5 and np.linalg.norm(a[1] - b[1]) < 0.6]
+        self.check("FZK-Haus: no doubled fixtures (none closer than 0.6 m)", not close,
+                   close)
         view.viewTop()
         view.fitAll()
         self.shot("fzk_located_top")

@@ -142,9 +142,13 @@ class TestZoneLocate(OpenPlan):
         lux = {self.kitchen: 500.0, self.living: 300.0}
         for sp, e in lux.items():
             targets.set_work_plane(sp, e)
+        # the defaults: open borders make a lighting zone, seeded by its rooms alone
         res = pipeline.run(self.doc, PipelineSettings(flux_lm=FLUX, resolution_m=0.3,
-                                                      report_dir=self.path("report"),
-                                                      zones=True))
+                                                      report_dir=self.path("report")))
+        self.assertIsNotNone(res.building.zone_scene)
+        seeded = [t for run in res.locate_result.rooms for t in run.trace if "seeded" in t]
+        self.assertEqual(len(seeded), 1, "the Kitchen + Living zone starts from its rooms")
+        self.assertGreater(seeded[0]["of"], 0)
         names = {self.kitchen: "Kitchen", self.living: "Living"}
         placed = {}
         for sp in lux:
