@@ -603,3 +603,19 @@ def test_light_does_not_leak_through_a_shared_wall():
     x = s.vertices[v, 0]
     assert E[v][np.abs(x - 3.75) < 1e-9].max() == 0.0         # a cell inside: dark
     assert E[v][np.abs(x - 4.0) < 1e-9].max() == 0.0          # on the wall: was 52 lx
+
+
+def test_an_open_border_is_named_and_not_drawn_as_a_wall():
+    """A room's side that opens into another room (virtual, no target, no surface) is an
+    'open border', not a 'work plane', and the unfolded net leaves it out."""
+    from invrad_wb.core.model.scene import Scene
+    s = g.box_room((6, 4, 3), cell=0.5, reflectance=0.5)
+    side = np.abs(s.face_centroids[:, 0] - 6.0) < 1e-9            # the wall x = 6
+    o = Scene(s.vertices, s.faces, face_room=s.face_room, face_reflectance=s.face_reflectance,
+              face_virtual=side)
+    (open_plane,) = [p for p in o.planes if p.is_virtual]
+    assert describe_plane(open_plane, 0.0) == "open border"
+    r = im.unfolded_raster(o, 0, metres_per_pixel=0.05)
+    assert not np.any(r.plane == open_plane.index)
+    drawn = {int(k) for k in np.unique(r.plane) if k >= 0}
+    assert drawn == {p.index for p in o.planes if not p.is_virtual}

@@ -129,6 +129,18 @@ def face_groups(building):
     return groups
 
 
+def open_faces(building):
+    """(m,) bool: the faces of open borders (a room's boundary where it meets another
+    room with no wall: virtual, no target); the overlay does not draw them."""
+    sc = building.scene
+    virt = np.asarray(sc.face_virtual, dtype=bool)
+    out = np.zeros(len(sc.faces), dtype=bool)
+    for p in building.rooms:
+        rows = slice(p.faces.start, p.faces.start + len(p.mesh.triangles))
+        out[rows] = virt[rows]
+    return out
+
+
 def boundary_edges(faces, groups):
     """(k, 2) vertex index pairs: edges used by one triangle only within their group."""
     e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
@@ -165,16 +177,20 @@ def overlay_geometry(building, values, offset_m=0.01, targets=True, vmax=None, m
         sc = building.scene
         mesh = {"vertices": sc.vertices, "normals": sc.vertex_normals, "faces": sc.faces,
                 "groups": face_groups(building),
-                "virtual": np.asarray(sc.face_virtual, dtype=bool)}
+                "virtual": np.asarray(sc.face_virtual, dtype=bool),
+                "open": open_faces(building)}
     v = np.asarray(values, dtype=np.float64)
     if vmax is None:
         finite = v[np.isfinite(v)]
         vmax = nice_max(finite.max() if finite.size else 1.0)
     pts = (mesh["vertices"] + offset_m * mesh["normals"]) * 1000.0
     faces, virt = mesh["faces"], mesh["virtual"]
-    return {"points": pts, "surfaces": faces[~virt], "work_plane": faces[virt],
+    # open borders are not surfaces: drawn, they would stand as a false-colour wall
+    # between two rooms that have none
+    keep = ~np.asarray(mesh.get("open", np.zeros(len(faces), dtype=bool)), dtype=bool)
+    return {"points": pts, "surfaces": faces[~virt & keep], "work_plane": faces[virt & keep],
             "rgb": colours(v, vmax, targets) if rgb is None else np.asarray(rgb),
-            "edges": boundary_edges(faces, mesh["groups"]),
+            "edges": boundary_edges(faces[keep], mesh["groups"][keep]),
             "vmax": float(vmax)}
 
 
@@ -266,15 +282,17 @@ def target_mesh(building, vmax, levels=None, base_dir=None, carry=()):
     Returns
     -------
     dict: vertices (n, 3) m, normals (n, 3), faces (k, 3), groups (k,) as
-    :func:`face_groups`, virtual (k,) bool (work planes), values (n,) lux, carried: the
-    ``carry`` arrays on the display mesh's vertices
+    :func:`face_groups`, virtual (k,) bool (work planes), open (k,) bool (open borders,
+    :func:`open_faces`), values (n,) lux, carried: the ``carry`` arrays on the display
+    mesh's vertices
     """
     from invrad_wb.core.model import targets as CT
     sc = building.scene
     levels = EDGE_LEVELS if levels is None else int(levels)
     groups_all = face_groups(building)
     virt_all = np.asarray(sc.face_virtual, dtype=bool)
-    V, N, F, G, W, L = [], [], [], [], [], []
+    open_all = open_faces(building)
+    V, N, F, G, W, L, O = [], [], [], [], [], [], []
     carry = [np.asarray(c, dtype=np.float64) for c in carry]
     C = [[] for _ in carry]
     nv = 0
@@ -290,6 +308,7 @@ def target_mesh(building, vmax, levels=None, base_dir=None, carry=()):
             v, nrm = sc.vertices[uniq], sc.vertex_normals[uniq]
             t = np.asarray(inv).reshape(-1, 3)
             groups = groups_all[rows]
+            opened = open_all[rows]
             vals = sc.vertex_lux[uniq] if sc.vertex_lux is not None else np.full(len(v),
                                                                                   np.nan)
             cv = [c[uniq] for c in carry]
@@ -300,7 +319,7 @@ def target_mesh(building, vmax, levels=None, base_dir=None, carry=()):
                     if not mark.any():
                         break
                     v, t, parent, nrm, *cv = subdivide(v, t, mark, nrm, *cv)
-                    tf, groups = tf[parent], groups[parent]
+                    tf, groups, opened = tf[parent], groups[parent], opened[parent]
                     vals = CT.evaluate(v, t, tf, p.targets, source=p.space.Label,
                                        label=p.mesh.face_label, base_dir=base_dir)
                 nrm = nrm / np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-12)
@@ -310,13 +329,14 @@ def target_mesh(building, vmax, levels=None, base_dir=None, carry=()):
             G.append(groups)
             W.append(np.full(len(t), part == "wp") & virt_all[rows][0])
             L.append(vals)
+            O.append(opened)
             for acc, c in zip(C, cv):
                 acc.append(c)
             nv += len(v)
     return {"vertices": np.concatenate(V), "normals": np.concatenate(N),
             "faces": np.concatenate(F), "groups": np.concatenate(G),
             "virtual": np.concatenate(W), "values": np.concatenate(L),
-            "carried": [np.concatenate(acc) for acc in C]}
+            "open": np.concatenate(O), "carried": [np.concatenate(acc) for acc in C]}
 
 
 def room_labels(building, height_m=None):

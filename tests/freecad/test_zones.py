@@ -109,6 +109,21 @@ class TestOpenBorders(OpenPlan):
         self.assertFalse(any(p.is_virtual for p in sc.planes
                              if p.room == 1 and abs(p.normal[2]) < 0.1
                              and set(p.faces) & set(np.flatnonzero(real))))
+        # the false-colour overlay draws no open border (no wall where there is none),
+        # on the sampling mesh (achieved view) and on the targets' display mesh
+        from invrad_wb.gui import display
+        np.testing.assert_array_equal(display.open_faces(b), wall)
+        vals = np.nan_to_num(sc.vertex_lux)
+        g = display.overlay_geometry(b, vals, vmax=500.0)
+        drawn = np.concatenate([g["surfaces"], g["work_plane"]])
+        self.assertEqual(len(drawn), len(sc.faces) - int(wall.sum()))
+        key = {tuple(sorted(f)) for f in sc.faces[wall]}
+        self.assertFalse(key & {tuple(sorted(f)) for f in drawn})
+        m = display.target_mesh(b, 500.0)
+        self.assertEqual(int(m["open"].sum()), int(wall.sum()))   # no target edge there
+        g = display.overlay_geometry(b, m["values"], vmax=500.0, mesh=m)
+        self.assertEqual(len(g["surfaces"]) + len(g["work_plane"]),
+                         len(m["faces"]) - int(wall.sum()))
         # the walls of the other pairs are real; no zones asked: none made
         self.assertFalse((sc.face_virtual & (sc.face_room >= 2)
                           & (np.abs(sc.face_normals[:, 2]) < 0.1)).any())

@@ -311,6 +311,8 @@ def describe_plane(plane, floor_z=None):
     n = plane.normal
     z = float(plane.origin[2])
     if plane.is_virtual:
+        if abs(n[2]) < 0.1:                # a vertical virtual face: where rooms meet
+            return "open border"
         if floor_z is not None and abs(n[2]) > 0.9:
             return f"work plane at {z - floor_z:.2f} m"
         return "work plane"
@@ -432,7 +434,10 @@ def unfolded_layout(scene, room):
     -------
     :class:`UnfoldedLayout`
     """
-    planes = [p for p in scene.planes if p.room == room]
+    # open borders (vertical virtual faces where the room meets another with no wall)
+    # have no target and are no surface: not drawn
+    planes = [p for p in scene.planes if p.room == room
+              and not (p.is_virtual and abs(p.normal[2]) < 0.1)]
     if not planes:
         raise ValueError(f"room {room} has no planes")
     floor_z = room_floor_z(scene, room)
