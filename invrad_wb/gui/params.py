@@ -3,7 +3,7 @@
 Group ``User parameter:BaseApp/Preferences/Mod/InvRad`` (Tools > Edit parameters):
 
 * ``Run``: the pipeline options of :class:`invrad_wb.app.pipeline.PipelineSettings` that a
-  user chooses (flux, mesh resolution, interreflection, backend, replace);
+  user chooses (flux, mesh resolution, interreflection, backend, replace, zones);
 * ``Locate``: every field of :class:`invrad_wb.core.inverse.locate.LocateSettings`, under its own
   name; options whose default is "automatic" (``None`` in the core, e.g. ``votes_per_m2``)
   are stored as text, empty meaning automatic;
@@ -29,6 +29,8 @@ RUN = {
     "interreflection": ("bool", True),
     "backend": ("str", "auto"),
     "replace": ("bool", True),
+    # rooms open to each other (no wall between them) located as one lighting zone
+    "zones": ("bool", True),
     "report_dir": ("str", ""),
     # rooms on worker processes (the Python FreeCAD embeds): 'auto' = one per core; '1' =
     # in FreeCAD's process. No widget: Tools > Edit parameters > Mod/InvRad > workers
@@ -260,4 +262,5 @@ def pipeline_settings(rooms=None, report_dir=None, insert=True, run=None, locate
     return PipelineSettings(flux_lm=r["flux_lm"], resolution_m=r["resolution_m"],
                             interreflection=r["interreflection"], locate=loc,
                             backend=r["backend"], replace=r["replace"], rooms=rooms,
-                            report_dir=report_dir, insert=insert, workers=workers)
+                            report_dir=report_dir, insert=insert, workers=workers,
+                            zones=r["zones"])

@@ -140,7 +140,8 @@ def do_command(*lines):
 class LocatePanel:
     """Every locate setting; OK saves them and, if ``run``, locates the luminaires."""
 
-    RUN_FIELDS = ("flux_lm", "resolution_m", "interreflection", "backend", "replace")
+    RUN_FIELDS = ("flux_lm", "resolution_m", "interreflection", "backend", "replace",
+                  "zones")
 
     def __init__(self, doc, rooms=None, run=True):
         self.doc = doc

@@ -206,6 +206,11 @@ class TestParams(ParamsIsolated):
         run = params.load_run()
         self.assertEqual(run["flux_lm"], 3000.0)
         self.assertTrue(run["interreflection"])
+        from invrad_wb.app.pipeline import PipelineSettings
+        self.assertIs(run["zones"], PipelineSettings(flux_lm=1.0).zones)
+        self.assertIs(params.pipeline_settings().zones, True)
+        params.save_run({"zones": False})
+        self.assertIs(params.pipeline_settings().zones, False)
 
     def test_round_trip_of_every_kind(self):
         loc = dict(vote_model="ellipse", pixel_m=0.05, votes_per_m2=250.0,
