@@ -43,8 +43,8 @@ OPTIONAL = {"votes_per_m2": "float", "dummy_count": "int", "dummy_lowest_m": "fl
 
 #: Choices of the text-valued options (value, label), the task panel's combo boxes.
 CHOICES = {
-    "vote_model": [("exact", "Exact contours"), ("ellipse", "Ellipses (thesis)")],
-    "weighting": [("illumination", "Illumination"), ("distance", "Distance"),
+    "vote_model": [("exact", "Exact"), ("ellipse", "Ellipses")],
+    "weighting": [("illumination", "By light"), ("distance", "By distance"),
                   ("both", "Both"), ("none", "None")],
     # short labels: the task panel is narrow (the tooltips say more)
     "occlusion": [("auto", "Auto"), (True, "On"), (False, "Off")],
