@@ -50,6 +50,23 @@ def test_locate_on_two_workers_is_identical_to_one_room_after_another(four_rooms
     assert not multiprocessing.active_children()
 
 
+def test_seeds_reach_the_workers(four_rooms):
+    """``locate(seeds=)`` on worker processes: each room's seeds travel with its task, and
+    the answer is the one of a single process."""
+    scene, true = four_rooms
+    flux = true[0].flux_lm
+    from dataclasses import replace
+    seeds = {int(t.room): [replace(t, position=t.position + np.array([0.3, -0.2, 0.0]))]
+             for t in true[:2]}
+    serial = locate(scene, flux, rooms=[int(t.room) for t in true[:2]], seeds=seeds)
+    parallel = locate(scene, flux, rooms=[int(t.room) for t in true[:2]], seeds=seeds,
+                      workers=2)
+    assert _lums(parallel) == _lums(serial)
+    for run in parallel.rooms:
+        step = [x for x in run.trace if "seeded" in x]
+        assert len(step) == 1 and step[0]["seeded"] == 1, run.trace
+
+
 def test_design_on_two_workers_is_identical_to_one_room_after_another():
     sc, _ = g.floor_of_rooms(rooms=((4.0, 3.0), (5.0, 4.0), (3.0, 3.0)), cell=0.4)
     sp = spec_from_dict({"catalogue": CAT, "rooms": {"*": {"room_type": "office"}}})
