@@ -384,6 +384,10 @@ def test_seeds_are_refined_pruned_and_dropped_off_the_surfaces():
     assert r.rooms[0].cost <= plain.rooms[0].cost * (1 + 1e-9)
     m = match(r.luminaires, true)
     assert m["found"] == 1 and m["spurious"] == 0 and m["max_error_cm"] < 5, m
+    # a seed without a position is refused before any work, naming it
+    lost = replace(t, position=np.array([np.nan, 1.0, 2.0]))
+    with pytest.raises(SettingsError, match=f"seed 2 of room {room}"):
+        locate(scene, flux, seeds={room: [shifted, lost]}, **kw)
 
 
 def _requirement_room():

@@ -26,6 +26,7 @@ leaves the document exactly as it was.
 
 GUI commands call :func:`run` (or :func:`prepare` to preview meshes and targets).
 """
+from collections import Counter
 from dataclasses import dataclass, field, replace
 import os
 import time
@@ -425,16 +426,13 @@ def zone_seeds(building, settings, flux, progress, locate, **extra):
     zone's seed arrangement (``locate(..., seeds=)``); {} without such zones.
 
     Located as one zone from its votes alone, the Kueche/Wohnen/Flur zone of FZK-Haus
-    took 13 wall lights (U0 0.31 / 0.35 / 0.50 for its rooms);
-    the seeded zone keeps 8 ceiling lights of 11 (U0 0.42 / 0.47 / 0.45) at a lower
+    took 13 wall lights (U0 0.31 / 0.35 / 0.50 for its rooms); the seeded zone keeps 8 ceiling lights of 11 (U0 0.42 / 0.47 / 0.45) at a lower
     cost (0.0106 vs 0.0114), with no doubled row along the open borders.
     """
     if building.zone_scene is None:
         return {}
     zone = {p.room_id: p.zone for p in building.rooms}
-    size = {}
-    for z in zone.values():
-        size[z] = size.get(z, 0) + 1
+    size = Counter(zone.values())
     rooms = [r for r, z in zone.items() if size[z] > 1]
     if not rooms:
         return {}

@@ -996,16 +996,21 @@ def show_achieved(doc, building, achieved, vmax=None):
 _ACHIEVED = {}      # doc name -> (building, achieved lux) of the last achieved view
 
 
+def _mean_target(target):
+    """The mean positive target (lux), NaN without one: the deviation's reference."""
+    t = np.asarray(target, dtype=np.float64) if target is not None else np.zeros(0)
+    pos = t[np.isfinite(t) & (t > 0)]
+    return float(pos.mean()) if pos.size else np.nan
+
+
 def deviation(target, achieved, reference=None):
     """Relative deviation per vertex, (E - T) / T, as the report computes it (shade
     points, and a spot's rim below 10 % of it: against the ``reference``, default the
     mean positive target); NaN where there is no target."""
     from invrad_wb.core.output.report import relative_deviation
     t = np.asarray(target, dtype=np.float64)
-    if reference is None:
-        pos = t[np.isfinite(t) & (t > 0)]
-        reference = float(pos.mean()) if pos.size else np.nan
-    return relative_deviation(t, achieved, reference)
+    ref = _mean_target(t) if reference is None else reference
+    return relative_deviation(t, achieved, ref)
 
 
 def deviation_colours(values, limit=DEVIATION_LIMIT):
@@ -1035,8 +1040,7 @@ def show_deviation(doc, limit=DEVIATION_LIMIT):
         return None
     building, achieved = got
     target = building.scene.vertex_lux
-    pos = target[np.isfinite(target) & (target > 0)] if target is not None else []
-    ref = float(np.mean(pos)) if len(pos) else np.nan
+    ref = _mean_target(target)
     # on the targets' display mesh (finer along a spot's edge): a smooth rim, not the
     # stair steps of the sampling mesh between vertices with and without a target
     mesh = target_mesh(building, document_scale(doc, target), carry=[achieved])

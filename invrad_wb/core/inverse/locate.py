@@ -745,7 +745,6 @@ class _RoomFit:
             return alt, c_alt
         return lights, cost
 
-
     def seeded(self, lights, cost, cands, seeds):
         """Start from given luminaires (:class:`Luminaire`, in the room's frame) as well:
         snapped to the room's surfaces (pendants stay in mid-air; others off every
@@ -772,7 +771,6 @@ class _RoomFit:
             return alt, c_alt
         return lights, cost
 
-
     def spread(self, lights, cost):
         """Luminaires crowded in pairs moved apart where that costs the fit (almost)
         nothing: requirements (500 lx here, 300 lx beyond an open border) leave a flat
@@ -796,7 +794,7 @@ class _RoomFit:
         if not (gap < SPREAD_TRIGGER * spacing):
             return lights, cost
         base = cost - prob.separation_cost(lights)
-        keep = (prob.separation_m, getattr(prob, "_sep_w", None))
+        keep = prob.separation_m
         for frac in (1.0, 0.75, 0.5):
             d0 = frac * spacing
             if d0 <= gap:
@@ -807,7 +805,7 @@ class _RoomFit:
                 got, c = self.converge(got, c)
                 data = c - prob.separation_cost(got)
             finally:
-                prob.separation_m = keep[0]
+                prob.separation_m = keep
             self.trace.append({"spread_m": round(d0, 3), "closest_before": round(gap, 3),
                                "closest_after": round(_closest_pair(got), 3),
                                "data_cost_before": base, "data_cost_after": data})
@@ -997,7 +995,7 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
     labels = [names.get(int(r)) or f"room {int(r)}" for r in room_ids]
     single = len(scene.rooms) <= 1
 
-    seeds = {int(k): list(v) for k, v in (seeds or {}).items()}
+    seeds = _checked_seeds(seeds)
 
     def task(room, label):
         return (scene if single else scene.room_subset(room), room, s, flux, backend,
@@ -1017,6 +1015,23 @@ def locate(scene, flux_lm, settings=None, progress=None, backend="auto", rooms=N
                           timings={k: round(v, 4) for k, v in timings.items()}, flux_lm=flux,
                           rooms=runs, backend=backend)
     return result
+
+
+def _checked_seeds(seeds):
+    """``{room id: [Luminaire]}`` with finite positions and non-zero normals (else
+    SettingsError naming the room and the seed)."""
+    out = {}
+    for room, lums in (seeds or {}).items():
+        out[int(room)] = list(lums)
+        for i, lum in enumerate(out[int(room)]):
+            p = np.asarray(getattr(lum, "position", None), dtype=np.float64)
+            n = np.asarray(getattr(lum, "normal", None), dtype=np.float64)
+            if (p.shape != (3,) or n.shape != (3,) or not np.all(np.isfinite(p))
+                    or not np.all(np.isfinite(n)) or not np.linalg.norm(n) > 0):
+                raise SettingsError(f"seed {i + 1} of room {room}: a luminaire needs a"
+                                    f" finite position and a non-zero normal, got"
+                                    f" {getattr(lum, 'position', lum)!r}")
+    return out
 
 
 def _checked_settings(settings, overrides):
