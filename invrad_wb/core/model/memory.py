@@ -19,9 +19,18 @@ setting to change, when it exceeds the budget (or computed in pieces that fit): 
 then gets a one-line error instead of swapping or a MemoryError traceback after minutes.
 ``bench/bench_memory.py`` measures the peaks against these estimates.
 
-The budget is half of the machine's physical memory by default; ``INVRAD_MEMORY_LIMIT``
-overrides it with a size (``"6G"``, ``"800M"``, ``"2.5GB"``, a number of bytes) or a
-fraction of the physical memory (``"0.8"``).
+The budget is the smallest of what the process may really use (:func:`budget`), as
+cgroup-aware runtimes do (the JVM and Go read the container's limit, not the machine's RAM):
+
+* half of the machine's physical memory;
+* the room left under the address-space and data-segment limits (``ulimit -v``, ``ulimit
+  -d``: ``RLIMIT_AS``/``RLIMIT_DATA``), past what the process has mapped already;
+* the room left under the memory limit of the process's cgroup (v2 ``memory.max``, v1
+  ``memory.limit_in_bytes``, its own and its ancestors'), past what the group uses;
+* ``INVRAD_MEMORY_LIMIT``: a size (``"6G"``, ``"800M"``, ``"2.5GB"``, a number of bytes) or a
+  fraction of the physical memory (``"0.8"``).
+
+A refusal names the bound that decided, so that the message says which setting to change.
 """
 import os
 import re
@@ -33,6 +42,11 @@ DEFAULT_FRACTION = 0.5
 #: Physical memory assumed where the system does not say (bytes).
 FALLBACK_PHYSICAL = 8 << 30
 ENV = "INVRAD_MEMORY_LIMIT"
+#: Share of the room left under a hard limit (rlimit, cgroup) one run may plan to use: the
+#: estimates are peaks, but the interpreter, libraries and page tables need some too
+HARD_FRACTION = 0.9
+#: A limit at or above this is "no limit" (cgroup v1 writes 2^63 rounded to a page)
+UNLIMITED = 1 << 60
 
 _UNITS = {"": 1, "B": 1, "K": 1 << 10, "KB": 1 << 10, "KIB": 1 << 10, "M": 1 << 20,
           "MB": 1 << 20, "MIB": 1 << 20, "G": 1 << 30, "GB": 1 << 30, "GIB": 1 << 30,
@@ -71,14 +85,171 @@ def parse_size(text, physical=None):
 
 
 def limit_bytes():
-    """The budget in bytes (``INVRAD_MEMORY_LIMIT`` or half the physical memory)."""
+    """The budget in bytes: the smallest of the bounds in :func:`budget`."""
+    return budget()[0]
+
+
+def budget():
+    """``(bytes, why)``: the memory one run may plan to use, and the bound that decided it
+    (words naming the setting that changes it)."""
+    physical = physical_memory()
+    bounds = [(int(DEFAULT_FRACTION * physical),
+               f"half the physical memory; {ENV} to change it")]
     env = os.environ.get(ENV, "").strip()
     if env:
         try:
-            return parse_size(env)
+            bounds.append((parse_size(env, physical), f"{ENV}={env}"))
         except ValueError as exc:
             raise MemoryLimitError(f"{ENV}={env!r}: {exc}") from None
-    return int(DEFAULT_FRACTION * physical_memory())
+    bounds += rlimit_bounds()
+    bounds += cgroup_bounds()
+    return min(bounds, key=lambda b: b[0])
+
+
+def _statm():
+    """(virtual size, data segment) of this process in bytes, or None."""
+    try:
+        with open("/proc/self/statm") as fh:
+            f = fh.read().split()
+        page = os.sysconf("SC_PAGE_SIZE")
+        return int(f[0]) * page, int(f[5]) * page
+    except (OSError, ValueError, IndexError, AttributeError):
+        return None
+
+
+def rlimit_bounds(limits=None, used=None):
+    """Bounds from ``RLIMIT_AS`` (``ulimit -v``) and ``RLIMIT_DATA`` (``ulimit -d``): the room
+    left under each soft limit past what this process has mapped, times
+    :data:`HARD_FRACTION`.
+
+    ``limits`` (``{"AS": bytes, "DATA": bytes}``) and ``used`` (``(virtual, data)`` bytes)
+    replace the system's answers in tests."""
+    if limits is None:
+        limits = {}
+        try:
+            import resource
+        except ImportError:             # not on Windows
+            return []
+        for name in ("AS", "DATA"):
+            lim = getattr(resource, "RLIMIT_" + name, None)
+            if lim is not None:
+                soft = resource.getrlimit(lim)[0]
+                if soft != resource.RLIM_INFINITY and soft >= 0:
+                    limits[name] = soft
+    if not limits:
+        return []
+    if used is None:
+        used = _statm() or (0, 0)
+    out = []
+    for name, flag, now in (("AS", "-v", used[0]), ("DATA", "-d", used[1])):
+        if name in limits and limits[name] < UNLIMITED:
+            room = max(0, limits[name] - now)
+            out.append((int(HARD_FRACTION * room),
+                        f"{HARD_FRACTION:.0%} of what the address-space limit of"
+                        f" {human(limits[name])} leaves (ulimit {flag}; {human(now)} in use)"
+                        if name == "AS" else
+                        f"{HARD_FRACTION:.0%} of what the data-segment limit of"
+                        f" {human(limits[name])} leaves (ulimit {flag}; {human(now)} in use)"))
+    return out
+
+
+def _read_int(path):
+    try:
+        with open(path) as fh:
+            text = fh.read().strip()
+    except OSError:
+        return None
+    if text == "max":
+        return None
+    try:
+        return int(text)
+    except ValueError:
+        return None
+
+
+def _read_stat(path, key):
+    try:
+        with open(path) as fh:
+            for line in fh:
+                k, _, v = line.partition(" ")
+                if k == key:
+                    return int(v)
+    except (OSError, ValueError):
+        pass
+    return None
+
+
+def cgroup_limit(proc_cgroup="/proc/self/cgroup", mountinfo="/proc/self/mountinfo"):
+    """``(limit bytes, used bytes, file)`` of the tightest memory limit of this process's
+    cgroup and its ancestors (cgroup v2 ``memory.max`` or v1 ``memory.limit_in_bytes``), or
+    None where there is none (or no cgroup file system). ``used`` is what the group uses
+    that cannot be dropped (anonymous memory; else the whole usage)."""
+    try:
+        with open(proc_cgroup) as fh:
+            lines = fh.read().splitlines()
+        with open(mountinfo) as fh:
+            mounts = fh.read().splitlines()
+    except OSError:
+        return None
+    v2_path = v1_path = None
+    for line in lines:
+        parts = line.split(":", 2)
+        if len(parts) != 3:
+            continue
+        if parts[0] == "0" and parts[1] == "":
+            v2_path = parts[2]
+        elif "memory" in parts[1].split(","):
+            v1_path = parts[2]
+    v2_mount = v1_mount = None
+    for m in mounts:
+        left, _, right = m.partition(" - ")
+        f, r = left.split(), right.split()
+        if len(f) < 5 or len(r) < 1:
+            continue
+        if r[0] == "cgroup2" and v2_mount is None:
+            v2_mount = (f[3], f[4])
+        elif r[0] == "cgroup" and len(r) >= 3 and "memory" in r[2].split(","):
+            v1_mount = (f[3], f[4])
+    found = []
+    for path, mount, limit_file, usage_file, stat_key in (
+            (v2_path, v2_mount, "memory.max", "memory.current", "anon"),
+            (v1_path, v1_mount, "memory.limit_in_bytes", "memory.usage_in_bytes",
+             "total_rss")):
+        if path is None or mount is None:
+            continue
+        root, point = mount
+        rel = path
+        if root != "/" and (rel == root or rel.startswith(root.rstrip("/") + "/")):
+            rel = rel[len(root.rstrip("/")):]          # the mount shows a subtree
+        folder = os.path.join(point, rel.lstrip("/"))
+        if not os.path.isdir(folder):                  # a namespace hides the path
+            folder = point
+        own = folder
+        while True:
+            lim = _read_int(os.path.join(folder, limit_file))
+            if lim is not None and 0 < lim < UNLIMITED:
+                used = _read_stat(os.path.join(own, "memory.stat"), stat_key)
+                if used is None:
+                    used = _read_int(os.path.join(own, usage_file)) or 0
+                found.append((lim, used, os.path.join(folder, limit_file)))
+            if os.path.normpath(folder) == os.path.normpath(point):
+                break
+            folder = os.path.dirname(folder)
+    if not found:
+        return None
+    return min(found, key=lambda f: f[0] - f[1])
+
+
+def cgroup_bounds(**paths):
+    """The cgroup bound (see :func:`cgroup_limit`): :data:`HARD_FRACTION` of what the
+    group's limit leaves."""
+    c = cgroup_limit(**paths)
+    if c is None:
+        return []
+    lim, used, path = c
+    return [(int(HARD_FRACTION * max(0, lim - used)),
+             f"{HARD_FRACTION:.0%} of what the cgroup memory limit of {human(lim)} leaves"
+             f" ({path}; {human(used)} in use): the container's memory setting")]
 
 
 def human(n):
@@ -100,10 +271,10 @@ def require(nbytes, what, change=""):
     what : str, what it is for, naming the value that makes it large
     change : str, what the user can change (appended to the message)
     """
-    limit = limit_bytes()
+    limit, why = budget()
     if not nbytes <= limit:          # also refuses NaN
         tail = f"; {change}" if change else ""
         raise MemoryLimitError(
             f"{what} would need about {human(nbytes)} of memory, over the limit of"
-            f" {human(limit)} ({ENV} to change it){tail}")
+            f" {human(limit)} ({why}){tail}")
     return nbytes
