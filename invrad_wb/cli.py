@@ -24,6 +24,7 @@ import time
 
 import numpy as np
 
+from invrad_wb.core.model.targets import no_luminaire_reason, require_targets
 from invrad_wb.errors import InvradError
 from invrad_wb.outputs import check_file, check_folder
 from invrad_wb.progress import CliProgress, add_parallel_args, workers_arg
@@ -245,6 +246,7 @@ def _locate_one(args, scene_path, output, vote_maps, settings, phot, workers):
     from invrad_wb.core.io.sceneio import read_scene
     scene = read_scene(scene_path, lux=args.lux, texture=args.texture,
                        texture_max_lux=args.texture_max_lux, unit=args.unit)
+    require_targets(scene, scene_path, args.lux, args.texture)
     _warn_suspicious_targets(scene_path, scene)
     with CliProgress(args.verbose, "locate") as progress:
         # a plain mesh's single room takes the scene's name (progress, vote-map titles)
@@ -269,13 +271,16 @@ def _locate_one(args, scene_path, output, vote_maps, settings, phot, workers):
     if vote_maps:
         print(f"vote maps: {len(files)} files in {vote_maps}")
     if not result.luminaires:
-        lit = np.nan_to_num(scene.vertex_targets(), nan=0.0) > 0
-        if lit.any():
+        reason = no_luminaire_reason(scene)
+        if reason is None:
+            lit = np.nan_to_num(scene.vertex_targets(), nan=0.0) > 0
             print(f"invrad: no luminaire{of} explains the targets of"
                   f" {scene_path} ({int(lit.sum())} lit target points): check the flux, the"
                   " units (--unit) and that the targets are reachable from the room's"
                   " surfaces", file=sys.stderr)
             return 3
+        print(f"invrad: no luminaire needed: {scene_path}: {reason}",
+              file=sys.stderr)
     return 0
 
 
@@ -286,6 +291,7 @@ def _cmd_verify(args):
     check_folder(args.report, "--report")
     phot = _photometry(args)
     scene = _read(args)
+    require_targets(scene, args.scene, args.lux, args.texture)
     _warn_suspicious_targets(args.scene, scene)
     lums = _with_photometry(load_luminaires(args.luminaires), phot)
     _check_placement(args.luminaires, scene, lums)

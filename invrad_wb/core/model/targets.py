@@ -573,3 +573,39 @@ def work_plane(vertices, triangles, floor, target, source=None, check_inside=Tru
 def _compact(vertices, triangles):
     used, inv = np.unique(triangles.reshape(-1), return_inverse=True)
     return vertices[used], inv.reshape(-1, 3).astype(np.int64)
+
+
+def require_targets(scene, source, lux=None, texture=None):
+    """Refuse (:class:`SceneError`, one line naming the file) a scene without any target
+    illuminance: every vertex NaN ("no target") and, with a texture, every pixel NaN or
+    masked. Locating or verifying against no target would only print 0 luminaires.
+
+    ``source`` is the scene file; ``lux``/``texture`` the sidecar or image that gave the
+    targets (named instead, since that is the file to fix)."""
+    t = scene.vertex_targets()
+    if np.isfinite(t).any():
+        return
+    tex = getattr(scene, "lux_texture", None)
+    if tex is not None and np.isfinite(np.asarray(tex, dtype=float)).any():
+        return
+    if texture:
+        raise SceneError("every pixel of the illuminance texture is NaN or transparent (no"
+                         " target anywhere): nothing to light", str(texture))
+    if lux:
+        raise SceneError(f"no value of the lux sidecar gives a target on {source} (all NaN"
+                         " or unmatched): nothing to light", str(lux))
+    raise SceneError(f"every target of its {len(t)} vertices is NaN (no target anywhere):"
+                     " nothing to light; give target lux per vertex, a --lux sidecar or a"
+                     " --texture", str(source))
+
+
+def no_luminaire_reason(scene):
+    """Why a result without luminaires is right, or None when the targets ask for light.
+
+    A scene whose every target is 0 lx (shade) asks for darkness: no luminaire is the
+    answer."""
+    t = scene.vertex_targets()
+    fin = np.isfinite(t)
+    if fin.any() and not (t[fin] > 0).any():
+        return f"every one of its {int(fin.sum())} targets is 0 lx (shade): no light is asked for"
+    return None
