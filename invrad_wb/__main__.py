@@ -1,6 +1,10 @@
 """``python -m invrad_wb``: the command line (see :mod:`invrad_wb.cli`)."""
 import sys
 
-from invrad_wb.cli import main
+from invrad_wb.runguard import stop_early_on_signals
+
+stop_early_on_signals()         # SIGTERM while the modules load: one line, no traceback
+
+from invrad_wb.cli import main  # noqa: E402
 
 sys.exit(main())

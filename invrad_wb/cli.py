@@ -461,16 +461,18 @@ def main(argv=None):
         if not any(h.name == handler.name for h in log.handlers):
             log.addHandler(handler)
         log.setLevel(logging.INFO)
+    from invrad_wb.runguard import RunGuard, exit_status, interrupted_text, output_error
     try:
-        rc = args.func(args)
+        with RunGuard():              # signals like Ctrl-C; a failed run's outputs removed
+            rc = args.func(args)
     except InvradError as exc:
         if getattr(exc, "traceback_text", None):      # an internal error of a child process
             return _internal_error(exc, exc.traceback_text, argv)
         print(f"invrad: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("invrad: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:              # also SIGTERM, SIGHUP (runguard)
+        print(f"invrad: {interrupted_text(exc)}", file=sys.stderr)
+        return exit_status(exc)
     except BrokenPipeError:
         # the reader of our output went away (``| head``): not an error of ours
         try:
@@ -479,6 +481,10 @@ def main(argv=None):
             pass
         return 141
     except Exception as exc:             # a bug: one line, the traceback in a log file
+        line = output_error(exc)         # ... unless the disk is full or read-only
+        if line:
+            print(f"invrad: error: {line}", file=sys.stderr)
+            return 2
         import traceback
         return _internal_error(exc, traceback.format_exc(), argv)
     return rc if isinstance(rc, int) else 0

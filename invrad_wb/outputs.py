@@ -9,10 +9,14 @@ in ``-o`` costs a second, not the whole run, and never replaces a file it should
 * a folder output must not be an existing file, and its parent must be writable;
 * a symbolic link is written through (the file it points to is replaced atomically; the
   link stays a link): :func:`resolve`.
+
+Each checked path is declared to the run guard (:func:`invrad_wb.runguard.declare`), which
+removes what a failed run created there and nothing that existed before.
 """
 import os
 
 from invrad_wb.errors import InvradError
+from invrad_wb.runguard import declare
 
 
 def resolve(path):
@@ -37,6 +41,7 @@ def check_file(path, what="output", inputs=()):
         # by its mode bits too: root may write anything, but a file marked read-only
         # says its owner wants it kept
         raise InvradError(f"{path}: {what} exists and is read-only; not replacing it")
+    declare(path, real, "file")
     return real
 
 
@@ -47,6 +52,7 @@ def check_folder(path, what="output folder"):
     if os.path.exists(real) and not os.path.isdir(real):
         raise InvradError(f"{path}: {what} is an existing file, not a folder")
     _check_parent(path, os.path.dirname(os.path.abspath(real)) or ".", what)
+    declare(path, real, "folder")
     return real
 
 

@@ -62,6 +62,31 @@ def check_workers(workers):
     return n
 
 
+#: memory a worker process needs before its room (Python, numpy, an OpenCL context:
+#: 120 MB resident measured) and a small room's work: the budget's share per worker
+WORKER_BASE_BYTES = 256 << 20
+
+
+def bound_workers(nw, rooms):
+    """The worker processes to start for ``rooms`` rooms when ``nw`` were asked for: at
+    most one per room, per usable core and per :data:`WORKER_BASE_BYTES` of the memory
+    budget. Fewer than asked for (other than by the room count) is said in a warning."""
+    from invrad_wb.core.model import memory
+    n = max(1, min(nw, rooms))
+    cores = usable_cores()
+    budget, why = memory.budget()
+    by_memory = max(1, int(budget // WORKER_BASE_BYTES))
+    if n > cores or n > by_memory:
+        limit = min(cores, by_memory)
+        reason = (f"{cores} usable core(s)" if cores <= by_memory else
+                  f"a memory budget of {memory.human(budget)} ({why}) at"
+                  f" {memory.human(WORKER_BASE_BYTES)} per worker")
+        import warnings
+        warnings.warn(f"{nw} workers asked for, {limit} started: {reason}", stacklevel=3)
+        n = limit
+    return n
+
+
 def worker_python():
     """The Python interpreter for worker processes, or None when there is none.
 
@@ -185,10 +210,13 @@ def map_rooms(fn, tasks, labels=None, workers=1, dask=None, progress=None, repor
     n = len(tasks)
     labels = list(labels) if labels is not None else [f"room {i + 1}" for i in range(n)]
     nw = check_workers(workers)
+    if dask and dask != "local":
+        return _map_dask(fn, tasks, labels, nw, dask, progress)
+    nw = bound_workers(nw, n)
     if dask:
         return _map_dask(fn, tasks, labels, nw, dask, progress)
     if nw > 1 and n > 1 and worker_python() is not None:
-        return _map_pool(fn, tasks, labels, min(nw, n), progress)
+        return _map_pool(fn, tasks, labels, nw, progress)
     out = []
     for i, task in enumerate(tasks):
         args = task() if callable(task) else task
@@ -216,15 +244,20 @@ def _map_pool(fn, tasks, labels, nw, progress):
     # BLAS runs rooms on one thread here as in the workers (room_threads): a thread
     # count can change float rounding, and the result must not depend on the workers
     embedded = os.path.realpath(exe) != os.path.realpath(sys.executable or "")
-    with _plain_main(embedded), _environ(worker_environ(nw)):
-        pool = ctx.Pool(nw)
-    started = _worker_pids(pool)
+    _start_resource_tracker()
     import threading
     woken = threading.Event()                       # a room finished (or failed)
 
     def wake(_):
         woken.set()
+    pool = None
     try:
+        # a stop signal (Ctrl-C, SIGTERM) waits while the workers start: one spawned but
+        # not yet told what to run would print an EOFError traceback; it comes right after
+        with _stop_signals_deferred():
+            with _plain_main(embedded), _environ(worker_environ(nw)):
+                pool = ctx.Pool(nw, initializer=worker_init, initargs=(os.getpid(),))
+        started = _worker_pids(pool)
         pending, nxt, done = {}, 0, 0
         while done < n:
             # each worker has its next room queued (2 N in flight, N running): a worker
@@ -257,8 +290,86 @@ def _map_pool(fn, tasks, labels, nw, progress):
         pool.close()
         pool.join()
     finally:
-        pool.terminate()                            # cancel or error: stop every worker
+        if pool is not None:
+            pool.terminate()                        # cancel or error: stop every worker
     return out
+
+
+def _start_resource_tracker():
+    """Start multiprocessing's resource tracker with SIGHUP blocked, as Python blocks
+    SIGINT and SIGTERM for it: a closed terminal (SIGHUP to the process group) would kill
+    it, and it would be relaunched with KeyError tracebacks while the run stops."""
+    import signal
+    try:
+        from multiprocessing import resource_tracker
+    except ImportError:
+        return
+    hup = getattr(signal, "SIGHUP", None)
+    if hup is None or not hasattr(signal, "pthread_sigmask"):
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {hup})
+    try:
+        resource_tracker.ensure_running()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _stop_signals():
+    import signal
+    return {getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n)}
+
+
+@contextlib.contextmanager
+def _stop_signals_deferred():
+    """SIGINT, SIGTERM and SIGHUP held back while the block runs, then delivered again
+    (to whatever handler was there). Workers started meanwhile do not inherit this (a
+    blocked signal mask would be inherited, and would keep ``pool.terminate`` from
+    stopping a worker that is still starting). Main thread only (elsewhere: no-op)."""
+    import signal
+    import threading
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught, saved = [], {}
+
+    def hold(signum, frame):
+        caught.append(signum)
+    try:
+        for sig in _stop_signals():
+            saved[sig] = signal.getsignal(sig)
+            if saved[sig] is signal.SIG_IGN or saved[sig] is None:
+                del saved[sig]
+                continue
+            signal.signal(sig, hold)
+        yield
+    finally:
+        for sig, old in saved.items():
+            signal.signal(sig, old)
+        for sig in dict.fromkeys(caught):
+            os.kill(os.getpid(), sig)           # now to the real handler
+
+
+def worker_init(parent=None):
+    """Set-up of a local worker process: the parent alone decides when to stop.
+
+    Ctrl-C reaches every process of the terminal's group: a worker ignores SIGINT (no
+    KeyboardInterrupt traceback of its own); the parent stops it (``pool.terminate``:
+    SIGTERM, which ends it at once). Linux: a worker is killed when the parent dies,
+    whatever the way (SIGKILL, out of memory), instead of computing on for nobody and
+    printing BrokenPipeError tracebacks when it hands its result in."""
+    import signal
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+            libc = ctypes.CDLL(None, use_errno=True)
+            PR_SET_PDEATHSIG = 1
+            libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+            if parent is not None and os.getppid() != parent:   # it died before this line
+                os._exit(1)
+        except (OSError, AttributeError):
+            pass
 
 
 def _worker_pids(pool):
@@ -274,6 +385,7 @@ def _map_dask(fn, tasks, labels, nw, address, progress):
                             " with: pip install 'dask[distributed]'") from exc
     n = len(tasks)
     cluster = None
+    before = _clusters()
     try:
         if address == "local":
             import dask
@@ -289,16 +401,25 @@ def _map_dask(fn, tasks, labels, nw, address, progress):
                                        dashboard_address=None, host="127.0.0.1")
             client = Client(cluster)
         else:
+            timeout = dask_timeout()
+            probe_scheduler(address, timeout)
             try:
-                client = Client(address, timeout=10)
+                client = Client(address, timeout=timeout)
             except OSError as exc:
                 raise SettingsError(f"cannot reach the Dask scheduler {address!r}: {exc}") \
                     from exc
-    except BaseException:
-        if cluster is not None:
+    except BaseException as exc:
+        if isinstance(exc, KeyboardInterrupt):          # Ctrl-C, SIGTERM while starting
+            _quiet_dask()
+            for c in _clusters() - before:              # also one half made
+                _kill_local_workers(c)
+                with contextlib.suppress(Exception):
+                    c.close(timeout=DASK_CLOSE_S)
+        elif cluster is not None:
             cluster.close()
         raise
     out = [None] * n
+    stopping = False
     try:
         futures = {}
         for i, task in enumerate(tasks):
@@ -318,11 +439,103 @@ def _map_dask(fn, tasks, labels, nw, address, progress):
                 if not finished:
                     _tell(progress, done / n, f"{done}/{n} rooms on Dask")
                     time.sleep(POLL_S)
-        except BaseException:
-            client.cancel(list(futures))
+        except BaseException as exc:
+            stopping = isinstance(exc, KeyboardInterrupt)    # Ctrl-C, SIGTERM, SIGHUP
+            if stopping:
+                _quiet_dask()
+            if stopping and cluster is not None:
+                _kill_local_workers(cluster)        # before the cancel: nothing to wait on
+            with contextlib.suppress(Exception):
+                client.cancel(list(futures))
             raise
     finally:
-        client.close()
+        with contextlib.suppress(Exception) if stopping else contextlib.nullcontext():
+            client.close(timeout=DASK_CLOSE_S if stopping else None)
         if cluster is not None:
-            cluster.close()
+            with contextlib.suppress(Exception) if stopping else contextlib.nullcontext():
+                cluster.close(timeout=DASK_CLOSE_S if stopping else None)
     return out
+
+
+#: seconds a stopping run waits for its Dask client and local cluster to close
+DASK_CLOSE_S = 2
+
+
+#: seconds to wait for a Dask scheduler (``$INVRAD_DASK_TIMEOUT`` changes it)
+DASK_TIMEOUT_S = 10.0
+ENV_DASK_TIMEOUT = "INVRAD_DASK_TIMEOUT"
+
+
+def dask_timeout():
+    """Seconds to wait for a Dask scheduler: ``$INVRAD_DASK_TIMEOUT`` or
+    :data:`DASK_TIMEOUT_S`."""
+    text = os.environ.get(ENV_DASK_TIMEOUT, "").strip()
+    if not text:
+        return DASK_TIMEOUT_S
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (value > 0 and value < 1e6):
+        raise SettingsError(f"{ENV_DASK_TIMEOUT}={text!r}: give the seconds to wait for the"
+                            " Dask scheduler (a positive number)")
+    return value
+
+
+def probe_scheduler(address, timeout):
+    """Refuse at once a ``tcp://``/``tls://`` scheduler address nobody listens on.
+
+    ``distributed.Client`` retries a refused connection until its timeout (10 s): a typo
+    in the port would cost that wait. One plain TCP connection tells a refused port or an
+    unknown host at once; a host that does not answer costs ``timeout``."""
+    import socket
+    from urllib.parse import urlsplit
+    text = address if "://" in address else "tcp://" + address
+    try:
+        parts = urlsplit(text)
+        host, port = parts.hostname, parts.port
+    except ValueError as exc:
+        raise SettingsError(f"--dask {address!r}: not a scheduler address ({exc}); give"
+                            " tcp://host:port or 'local'") from None
+    if parts.scheme not in ("tcp", "tls") or not host:
+        return                          # other transports: distributed decides
+    try:
+        socket.create_connection((host, port or 8786), timeout=timeout).close()
+    except OSError as exc:
+        why = exc.strerror or type(exc).__name__
+        if isinstance(exc, socket.timeout):
+            why = f"no answer in {timeout:g} s ({ENV_DASK_TIMEOUT} to wait longer)"
+        raise SettingsError(f"cannot reach the Dask scheduler {address!r}: {why}") from None
+
+
+def _clusters():
+    """The Dask clusters of this process (also those still starting)."""
+    try:
+        from distributed.deploy.spec import SpecCluster
+        return set(SpecCluster._instances)
+    except (ImportError, AttributeError, TypeError):
+        return set()
+
+
+def _quiet_dask():
+    """A stopping run's Dask shutdown logs connection errors of workers it killed on
+    purpose: not the user's business (the run says in one line that it stopped)."""
+    import logging
+    for name in ("distributed", "tornado", "asyncio"):
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+
+
+def _kill_local_workers(cluster):
+    """Stop a local Dask cluster's worker processes at once: a graceful close waits for
+    the room they compute (the nanny kills them only after 4 s)."""
+    import signal
+    # and no second close at exit (distributed's atexit hook asserts on a cluster whose
+    # bounded close is still under way)
+    with contextlib.suppress(Exception):
+        cluster.shutdown_on_close = False
+    for nanny in list(getattr(cluster, "workers", {}).values()):
+        with contextlib.suppress(Exception):
+            nanny.auto_restart = False
+            pid = nanny.process.process.pid
+            if pid:
+                os.kill(pid, getattr(signal, "SIGKILL", signal.SIGTERM))

@@ -28,10 +28,46 @@ def atomic_path(path, suffix=None):
         # mkstemp makes the file private (0600); give it the mode a plain open() would
         os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
+        _name_output(exc, path)
         raise
+
+
+def _name_output(exc, path):
+    """An OSError while writing ``path`` says which output it was (``exc.output_path``):
+    its own file name is a temporary one, or none at all (``write()`` on a full disk), and
+    a caller reporting it should name the output, not that."""
+    if isinstance(exc, OSError) and not getattr(exc, "output_path", None):
+        with contextlib.suppress(AttributeError, TypeError):
+            exc.output_path = path
+
+
+def write_error(path, tmp, detail):
+    """An ``OSError`` for a library's failed write of ``path`` (OpenImageIO returns False
+    and a message, no errno): the errno read from the file system where it failed (full:
+    ENOSPC, read-only: EROFS, else EIO), and the message with the temporary file's name
+    replaced by ``path``."""
+    import errno
+    code = errno.EIO
+    try:
+        st = os.statvfs(os.path.dirname(os.path.abspath(tmp)))
+        if st.f_flag & getattr(os, "ST_RDONLY", 1):
+            code = errno.EROFS
+        elif st.f_bavail * st.f_frsize < FULL_BYTES:
+            code = errno.ENOSPC
+    except (OSError, AttributeError):
+        pass
+    detail = str(detail).replace(os.fspath(tmp), os.fspath(path))
+    text = os.strerror(code) + (f" ({detail})" if code == errno.EIO and detail else "")
+    exc = OSError(code, text, os.fspath(path))
+    exc.output_path = os.fspath(path)
+    return exc
+
+
+#: free space below which a failed write is taken for a full disk (a block or two)
+FULL_BYTES = 64 << 10
 
 
 _STALE = re.compile(r"^\.invrad-(?:old-)?(\d+)-")
@@ -115,9 +151,10 @@ def atomic_dir(path):
         yield tmp
         os.chmod(tmp, 0o777 & ~_umask())
         replace_dir(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         import shutil
         shutil.rmtree(tmp, ignore_errors=True)
+        _name_output(exc, path)
         raise
 
 

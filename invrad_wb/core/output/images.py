@@ -37,7 +37,7 @@ import numpy as np
 
 from invrad_wb.core.io.oiio import oiio_module, read_pixels
 
-from invrad_wb.core.io.atomic import atomic_path
+from invrad_wb.core.io.atomic import atomic_path, write_error
 from invrad_wb.core.geometry.raster import locate_points
 
 # ---------------------------------------------------------------------------- colours
@@ -553,12 +553,12 @@ def _write(path, pixels, fmt, suffix, channel_names=None, compression=None):
     with atomic_path(path, suffix=suffix) as tmp:
         out = oiio.ImageOutput.create(tmp)
         if out is None:
-            raise OSError(f"cannot write {path}: {oiio.geterror()}")
+            raise write_error(path, tmp, oiio.geterror())
         try:
             if not out.open(tmp, spec):
-                raise OSError(f"cannot write {path}: {out.geterror()}")
+                raise write_error(path, tmp, out.geterror())
             if not out.write_image(pixels):
-                raise OSError(f"cannot write {path}: {out.geterror()}")
+                raise write_error(path, tmp, out.geterror())
         finally:
             out.close()
     return path

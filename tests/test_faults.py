@@ -1,0 +1,309 @@
+"""Fault injection (SQLite's way): signals at several points of a run, a full file system, a
+read-only one, an I/O error while writing. Each asserts the exit status, a one-line
+message, no traceback, no process left, no output the run created left behind, and the
+user's earlier files byte-identical. (The address-space limit: tests/test_memory_limits.py.)
+"""
+import contextlib
+import errno
+import hashlib
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PY = [sys.executable, "-m", "invrad_wb"]
+
+
+# --------------------------------------------------------------------------- helpers
+@pytest.fixture(scope="module")
+def scenes(tmp_path_factory):
+    """Two small four-room scenes in a folder (a batch), and one's known luminaires."""
+    d = tmp_path_factory.mktemp("scenes")
+    batch = d / "batch"
+    batch.mkdir()
+    truth = d / "truth.json"
+    subprocess.run(PY + ["example", "four_rooms", "-o", str(batch / "a.ply"), "--cell", "0.4",
+                         "--truth", str(truth)], cwd=ROOT, check=True, capture_output=True)
+    (batch / "b.ply").write_bytes((batch / "a.ply").read_bytes())
+    return batch, truth
+
+
+@pytest.fixture(scope="module")
+def small(tmp_path_factory):
+    """A one-room scene (twice, in a batch folder) and its known luminaire."""
+    d = tmp_path_factory.mktemp("small")
+    batch = d / "batch"
+    batch.mkdir()
+    truth = d / "truth.json"
+    subprocess.run(PY + ["example", "one_ceiling", "-o", str(batch / "a.ply"), "--cell",
+                         "0.5", "--truth", str(truth)], cwd=ROOT, check=True,
+                   capture_output=True)
+    (batch / "b.ply").write_bytes((batch / "a.ply").read_bytes())
+    return batch, truth
+
+
+def _tree(path):
+    """{relative path: sha256} of every file under path (the user's earlier files)."""
+    out = {}
+    for root, _, files in os.walk(path):
+        for f in files:
+            p = os.path.join(root, f)
+            with open(p, "rb") as fh:
+                out[os.path.relpath(p, path)] = hashlib.sha256(fh.read()).hexdigest()
+    return out
+
+
+def _children(pid):
+    """Every process below pid (workers, their helpers)."""
+    out, todo = set(), [pid]
+    while todo:
+        p = todo.pop()
+        try:
+            tasks = os.listdir(f"/proc/{p}/task")
+        except OSError:
+            continue
+        for t in tasks:
+            try:
+                with open(f"/proc/{p}/task/{t}/children") as fh:
+                    kids = {int(x) for x in fh.read().split()}
+            except OSError:
+                continue
+            todo += sorted(kids - out)
+            out |= kids
+    return out
+
+
+def _alive(pid):
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def _one_line(stderr):
+    lines = [l for l in stderr.splitlines() if l.strip()]
+    assert "Traceback" not in stderr and "internal error" not in stderr, stderr
+    assert len(lines) == 1, stderr
+    return lines[0]
+
+
+def _wait_for(cond, timeout=120.0):
+    t = time.time()
+    while time.time() - t < timeout:
+        if cond():
+            return True
+        time.sleep(0.05)
+    return False
+
+
+needs_proc = pytest.mark.skipif(not os.path.isdir("/proc/self/task"),
+                                reason="needs Linux /proc to find worker processes")
+
+
+def _signalled(args, sig, when, tmp_path, group=False):
+    """Run the CLI, send ``sig`` when ``when`` ('start': at once; 'workers': once worker
+    processes run; 'room': once a batch announced its first scene), return
+    (returncode, stderr, worker pids)."""
+    out = open(tmp_path / "stdout.txt", "w+")
+    p = subprocess.Popen(PY + [str(a) for a in args], cwd=ROOT, stdout=out,
+                         stderr=subprocess.PIPE, text=True, start_new_session=True)
+    kids = set()
+    try:
+        if when == "workers":
+            assert _wait_for(lambda: len(_children(p.pid)) >= 2 or p.poll() is not None)
+        elif when == "room":
+            assert _wait_for(lambda: "[1/" in open(tmp_path / "stdout.txt").read()
+                             or p.poll() is not None)
+        else:
+            time.sleep(0.3)
+        assert p.poll() is None, "the run ended before the signal"
+        kids = _children(p.pid)
+        if group:       # a terminal's Ctrl-C or hang-up reaches the whole process group
+            os.killpg(p.pid, sig)
+        else:
+            p.send_signal(sig)
+        _, err = p.communicate(timeout=60)
+    finally:
+        if p.poll() is None:
+            p.kill()
+        out.close()
+    time.sleep(0.2)
+    return p.returncode, err, kids
+
+
+# --------------------------------------------------------------------------- signals
+@needs_proc
+@pytest.mark.parametrize("sig,status,group,when", [
+    ("SIGTERM", 143, False, "workers"),
+    ("SIGINT", 130, True, "workers"),
+    ("SIGHUP", 129, True, "room"),
+    ("SIGTERM", 143, False, "start"),
+])
+def test_a_signal_stops_a_batch_cleanly(scenes, tmp_path, sig, status, group, when):
+    batch, _ = scenes
+    before = _tree(batch)
+    out, maps = tmp_path / "results", tmp_path / "maps"
+    rc, err, kids = _signalled(["locate", batch, "--flux", "3000", "-o", out, "--vote-maps",
+                                maps, "--workers", "2"], getattr(signal, sig), when,
+                               tmp_path, group)
+    assert rc == status, err
+    line = _one_line(err)
+    assert line in ("invrad: interrupted", f"invrad: stopped by {sig}; outputs left as they"
+                    " were before the run"), line
+    assert not [k for k in kids if _alive(k)], "worker processes left running"
+    # the folders the run made are gone (they held nothing finished); no staging folder
+    assert not maps.exists() and (not out.exists() or os.listdir(out)), os.listdir(tmp_path)
+    assert _tree(batch) == before
+
+
+@needs_proc
+def test_sigterm_stops_design_workers_and_keeps_earlier_outputs(scenes, tmp_path):
+    batch, _ = scenes
+    spec = tmp_path / "spec.json"
+    spec.write_text('{"catalogue": [{"name": "D", "flux_lm": 2000, "watts": 15,'
+                    ' "mounting": ["ceiling"]}], "rooms": {"0": {"room_type": "office"},'
+                    ' "1": {"room_type": "office"}, "2": {"room_type": "office"},'
+                    ' "3": {"room_type": "office"}}}')
+    earlier = tmp_path / "design.json"
+    earlier.write_text('{"earlier": true}\n')
+    report = tmp_path / "report"
+    report.mkdir()
+    (report / "index.html").write_text("<p>earlier report</p>\n")
+    before = _tree(tmp_path)
+    rc, err, kids = _signalled(["design", batch / "a.ply", "--spec", spec, "-o", earlier,
+                                "--report", report, "--workers", "2"], signal.SIGTERM,
+                               "workers", tmp_path)
+    assert rc == 143 and "SIGTERM" in _one_line(err)
+    assert not [k for k in kids if _alive(k)]
+    after = _tree(tmp_path)
+    after.pop("stdout.txt", None)
+    before.pop("stdout.txt", None)
+    assert after == before, "an earlier output was touched"
+
+
+# --------------------------------------------------------------------------- file systems
+@contextlib.contextmanager
+def _tmpfs(path, size, readonly=False):
+    """A small tmpfs at path (root only), unmounted after; skips where it cannot mount."""
+    path.mkdir(exist_ok=True)
+    if os.geteuid() != 0:
+        pytest.skip("mounting a small file system needs root (tmpfs size=...)")
+    p = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
+                       capture_output=True, text=True)
+    if p.returncode:
+        pytest.skip(f"cannot mount a tmpfs here: {p.stderr.strip() or p.returncode}")
+    try:
+        yield path
+    finally:
+        subprocess.run(["umount", str(path)], capture_output=True)
+
+
+def _fill(folder):
+    """Fill a file system to the last byte."""
+    fd = os.open(folder / "filler", os.O_WRONLY | os.O_CREAT)
+    try:
+        with contextlib.suppress(OSError):
+            while True:
+                os.write(fd, b"\0" * 4096)
+    finally:
+        os.close(fd)
+
+
+def _run(*args):
+    return subprocess.run(PY + [str(a) for a in args], cwd=ROOT, capture_output=True,
+                          text=True, timeout=300)
+
+
+def test_a_full_disk_is_one_line_and_removes_what_the_run_created(small, tmp_path):
+    batch, truth = small
+    scene = batch / "a.ply"
+    with _tmpfs(tmp_path / "small", "256k") as fs:
+        earlier = fs / "r.json"
+        earlier.write_text('{"earlier": true}\n')
+        (fs / "old_report").mkdir()
+        (fs / "old_report" / "index.html").write_text("<p>earlier</p>\n")
+        _fill(fs)
+        before = _tree(fs)
+        # vote maps into a new folder; the result would replace an earlier file
+        p = _run("locate", scene, "--flux", "3000", "-o", earlier, "--vote-maps",
+                 fs / "votes")
+        line = _one_line(p.stderr)
+        assert p.returncode == 2, p.stderr
+        assert line.startswith(f"invrad: error: {fs / 'votes'}: cannot write the output")
+        assert "No space left on device" in line and ".invrad-" not in line
+        assert _tree(fs) == before and sorted(os.listdir(fs)) == ["filler", "old_report",
+                                                                   "r.json"]
+        # a report replacing an earlier one
+        p = _run("verify", scene, "--luminaires", truth, "--report", fs / "old_report")
+        line = _one_line(p.stderr)
+        assert p.returncode == 2 and f"{fs / 'old_report'}: cannot write" in line, p.stderr
+        assert _tree(fs) == before and sorted(os.listdir(fs)) == ["filler", "old_report",
+                                                                   "r.json"]
+        # a batch: its -o folder and --vote-maps folder, made by the run, are removed
+        p = _run("locate", batch, "--flux", "3000", "-o", fs / "results", "--vote-maps",
+                 fs / "maps")
+        assert p.returncode == 2 and "No space left on device" in p.stderr, p.stderr
+        assert "Traceback" not in p.stderr and "internal error" not in p.stderr
+        assert _tree(fs) == before and sorted(os.listdir(fs)) == ["filler", "old_report",
+                                                                   "r.json"]
+
+
+def test_a_read_only_file_system_is_refused_before_work(small, tmp_path):
+    batch, truth = small
+    with _tmpfs(tmp_path / "ro", "1m") as fs:
+        (fs / "r.json").write_text("{}\n")
+        subprocess.run(["mount", "-o", "remount,ro", str(fs)], check=True)
+        before = _tree(fs)
+        for args in (["locate", batch / "a.ply", "--flux", "3000", "-o", fs / "r.json"],
+                     ["verify", batch / "a.ply", "--luminaires", truth, "--report",
+                      fs / "rep"]):
+            t = time.time()
+            p = _run(*args)
+            line = _one_line(p.stderr)
+            assert p.returncode == 2 and str(fs) in line, p.stderr
+            assert "Read-only file system" in line or "not writable" in line, line
+        assert _tree(fs) == before
+
+
+def test_an_io_error_while_writing_names_the_output_not_a_temporary_file(small, tmp_path,
+                                                                        monkeypatch, capsys):
+    """An EIO from the device while RESULT.json is written (after the checks passed)."""
+    from invrad_wb import cli
+    from invrad_wb.core.io import atomic
+    batch, _ = small
+
+    def failing_fsync(fd):
+        raise OSError(errno.EIO, os.strerror(errno.EIO))
+    monkeypatch.setattr(atomic.os, "fsync", failing_fsync)
+    out = tmp_path / "new" / "r.json"
+    (tmp_path / "earlier.txt").write_text("kept\n")
+    rc = cli.main(["locate", str(batch / "a.ply"), "--flux", "3000", "-o", str(out)])
+    assert rc == 2
+    line = _one_line(capsys.readouterr().err)
+    assert line == f"invrad: error: {out}: cannot write the output: Input/output error"
+    assert not (tmp_path / "new").exists(), "the folder the run made is left"
+    assert sorted(os.listdir(tmp_path)) == ["earlier.txt"]
+    assert (tmp_path / "earlier.txt").read_text() == "kept\n"
+
+
+def test_output_errors_are_named_by_the_path_the_user_gave(tmp_path):
+    from invrad_wb import runguard
+    from invrad_wb.outputs import check_file, check_folder
+    with pytest.raises(OSError) as e:
+        with runguard.RunGuard():
+            check_folder(tmp_path / "maps", "--vote-maps")
+            check_file(tmp_path / "r.json", "-o")
+            (tmp_path / "maps").mkdir()
+            exc = OSError(errno.ENOSPC, os.strerror(errno.ENOSPC),
+                          str(tmp_path / "maps" / ".invrad-123-abc" / "x.png"))
+            raise exc
+    assert runguard.output_error(e.value) == (f"{tmp_path / 'maps'}: cannot write the"
+                                              " output: No space left on device")
+    assert not (tmp_path / "maps").exists()
+    # an error that is not about an output stays what it is
+    assert runguard.output_error(FileNotFoundError(errno.ENOENT, "x", "/nope")) is None
