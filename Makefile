@@ -55,7 +55,7 @@ test-freecad:
 # did not import: not investigated)
 test-freecad1:
 	@if [ -n "$$INVRAD_NO_FREECAD1" ]; then echo "FreeCAD 1.0 tests skipped (INVRAD_NO_FREECAD1)";\
-	else ./.ci/test-freecad1.sh && \
+	else ./.ci/test-fc1-concurrency.sh && ./.ci/test-freecad1.sh && \
 	echo "core tests with Python 3.13 and numpy 2 (the FreeCAD 1.0 root's venv)" && \
 	INVRAD_FC1_NATIVEIFC=0 ./.ci/test-freecad1.sh python -m pytest -q -p no:cacheprovider tests \
 	    --ignore=tests/test_packaging.py; fi

@@ -32,8 +32,16 @@ mirror="$(sed -n 's/^URIs: *//p' /etc/apt/sources.list.d/debian.sources 2>/dev/n
 mirror="${mirror:-http://deb.debian.org/debian}"
 command -v debootstrap >/dev/null 2>&1 || {
   apt-get update -qq; DEBIAN_FRONTEND=noninteractive apt-get install -y -qq debootstrap >/dev/null; }
-echo "invrad setup: FreeCAD 1.0 in a Debian trixie root at $root (first time: a few minutes)"
+# one build at a time (several checkouts may start at once): wait, then check again
 mkdir -p "$(dirname "$root")"
+exec 6>>"$root.build"
+flock -x 6
+if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$reqs" ] && nifc_ok && pyside6_ok; then
+  echo "$root"; exit 0
+fi
+# shellcheck source=fc1-mounts.sh
+. "$here/.ci/fc1-mounts.sh"
+echo "invrad setup: FreeCAD 1.0 in a Debian trixie root at $root (first time: a few minutes)"
 [ -x "$root/usr/bin/apt-get" ] || debootstrap --variant=minbase trixie "$root" "$mirror" >/dev/null
 cp /etc/resolv.conf "$root/etc/resolv.conf"
 # pip inside the root uses this machine's pip settings (index, certificates: a proxy's CA
@@ -42,8 +50,9 @@ cp /etc/resolv.conf "$root/etc/resolv.conf"
 cert="${PIP_CERT:-/etc/ssl/certs/ca-certificates.crt}"
 mkdir -p "$root/etc/ssl/certs"
 [ -f "$cert" ] && cp "$cert" "$root/etc/ssl/certs/invrad-host-ca.crt"
-mountpoint -q "$root/proc" || mount -t proc proc "$root/proc"
-trap 'umount "$root/proc" 2>/dev/null || true' EXIT
+# a user of the root while building (fc1-mounts.sh): /proc is not unmounted under another run
+fc1_enter "$root"
+trap 'fc1_leave "$root"' EXIT
 # weasyprint (with Pango) for the reports' PDF, poppler-utils for the tests' PDF checks;
 # PySide6 for the Qt 6 name check (tests/freecad/test_qt_names.py)
 pkgs=(freecad-python3 python3-venv python3-pip pocl-opencl-icd ocl-icd-libopencl1

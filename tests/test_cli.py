@@ -163,14 +163,15 @@ def test_a_metres_file_read_as_millimetres_is_refused(tmp_path):
 def test_an_internal_error_says_what_to_report_and_logs_its_traceback(tmp_path,
                                                                      monkeypatch, capsys):
     from invrad_wb import cli
+    from invrad_wb.cli import common, info
 
     def broken(args):
         return {}["no such key"]           # a bug, not an input error
-    monkeypatch.setattr(cli, "_cmd_info", broken)
-    monkeypatch.setenv(cli.ENV_LOG_DIR, str(tmp_path / "logs"))
+    monkeypatch.setattr(info, "run", broken)
+    monkeypatch.setenv(common.ENV_LOG_DIR, str(tmp_path / "logs"))
     rc = cli.main(["info", "examples/office.ply"])
     err = capsys.readouterr().err
-    assert rc == cli.EXIT_INTERNAL
+    assert rc == common.EXIT_INTERNAL
     lines = [l for l in err.splitlines() if l.strip()]
     assert len(lines) == 1 and "Traceback" not in err, err
     assert lines[0].startswith("invrad: internal error: KeyError: 'no such key'")
@@ -181,17 +182,16 @@ def test_an_internal_error_says_what_to_report_and_logs_its_traceback(tmp_path,
     assert "Traceback" in log and "in broken" in log and "info examples/office.ply" in log
     # no folder for logs: the traceback is kept on stderr after the line, never lost
     (tmp_path / "file").write_text("")
-    monkeypatch.setenv(cli.ENV_LOG_DIR, str(tmp_path / "file" / "logs"))
+    monkeypatch.setenv(common.ENV_LOG_DIR, str(tmp_path / "file" / "logs"))
     monkeypatch.setattr("tempfile.gettempdir", lambda: str(tmp_path / "file" / "tmp"))
-    assert cli.main(["info", "examples/office.ply"]) == cli.EXIT_INTERNAL
+    assert cli.main(["info", "examples/office.ply"]) == common.EXIT_INTERNAL
     err = capsys.readouterr().err
     assert "the traceback follows" in err.splitlines()[0] and "in broken" in err
 
 
 def test_an_internal_error_under_freecadcmd_is_reported_the_same_way(tmp_path):
     # a stand-in for freecadcmd that fails the way child_main reports an internal error
-    pytest.importorskip("invrad_wb.freecad_cli")
-    from invrad_wb import freecad_cli
+    freecad_cli = pytest.importorskip("invrad_wb.cli.freecad_cmd")
     fake = tmp_path / "freecadcmd"
     fake.write_text(
         f"#!{sys.executable}\n"

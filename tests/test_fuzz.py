@@ -142,11 +142,12 @@ GOOD_SETTINGS = json.dumps({"vote_model": "exact", "pixel_m": 0.1, "votes_per_m2
 
 def test_corrupt_locate_settings_files_are_read_or_refused_in_one_line(tmp_path):
     from invrad_wb import cli
+    from invrad_wb.cli.locate import _settings_from_args
 
     def read(path):
         args = cli.build_parser().parse_args(["locate", "s.ply", "--flux", "3000", "-o",
                                               "r.json", "--settings", str(path)])
-        return cli._settings_from_args(args)
+        return _settings_from_args(args)
     read_good = tmp_path / "good.json"
     read_good.write_bytes(GOOD_SETTINGS)
     assert read(read_good).threshold == 24
@@ -154,7 +155,7 @@ def test_corrupt_locate_settings_files_are_read_or_refused_in_one_line(tmp_path)
 
 
 def test_corrupt_freecad_settings_files_are_read_or_refused_in_one_line(tmp_path):
-    freecad_cli = pytest.importorskip("invrad_wb.freecad_cli")
+    freecad_cli = pytest.importorskip("invrad_wb.cli.freecad_cmd")
     good = tmp_path / "good.json"
     good.write_bytes(GOOD_SETTINGS)
     assert freecad_cli.read_settings_file(good)["threshold"] == 24
@@ -292,7 +293,7 @@ def _ifc_mutations(data, rng, n):
 
 
 def test_corrupt_ifc_files_are_checked_or_refused_in_one_line_before_freecad(tmp_path):
-    freecad_cli = pytest.importorskip("invrad_wb.freecad_cli")
+    freecad_cli = pytest.importorskip("invrad_wb.cli.freecad_cmd")
     pytest.importorskip("ifcopenshell")
     good = tmp_path / "good.ifc"
     _small_ifc(good)
@@ -315,7 +316,7 @@ def test_an_ifc_check_that_crashes_is_refused_in_one_line(tmp_path, monkeypatch)
     # corrupt files above: the freecad command checks the IFC in a child process, so a
     # crash there is a one-line error, not the end of the command. A stand-in ifcopenshell
     # that crashes the same way:
-    freecad_cli = pytest.importorskip("invrad_wb.freecad_cli")
+    freecad_cli = pytest.importorskip("invrad_wb.cli.freecad_cmd")
     from invrad_wb.errors import SceneError
     fake = tmp_path / "fake" / "ifcopenshell"
     fake.mkdir(parents=True)

@@ -167,7 +167,7 @@ def test_a_folder_that_refuses_files_is_caught_before_work(tmp_path, monkeypatch
 ])
 def test_freecad_command_checks_its_input_before_freecad_starts(tmp_path, content, extra,
                                                                  words):
-    pytest.importorskip("invrad_wb.freecad_cli")
+    pytest.importorskip("invrad_wb.cli.freecad_cmd")
     import zipfile
     src = tmp_path / "in.FCStd"
     if content is None:
@@ -359,7 +359,7 @@ def test_a_killed_verify_leaves_no_hidden_folder_after_the_next_run(tmp_path):
 ])
 def test_freecad_command_checks_settings_flux_and_the_ifc_before_freecad_starts(tmp_path,
                                                                                 case, words):
-    pytest.importorskip("invrad_wb.freecad_cli")
+    pytest.importorskip("invrad_wb.cli.freecad_cmd")
     pytest.importorskip("ifcopenshell")
     src = tmp_path / "in.ifc"
     fzk = open(os.path.join(ROOT, "tests", "data", "AC20-FZK-Haus.ifc"), "rb").read()

@@ -11,6 +11,7 @@ import json
 import os
 import sys
 
+from invrad_wb.cli.common import batch_scenes, run_batch
 from invrad_wb.progress import CliProgress, add_parallel_args, workers_arg
 
 #: exit status of a design that does not meet every requirement
@@ -73,7 +74,6 @@ def _print_room(r):
 
 
 def run(args):
-    from invrad_wb.cli import _batch_scenes, run_batch
     from invrad_wb.core.design.spec import read_spec
     from invrad_wb.outputs import check_file, check_folder
     spec = read_spec(args.spec)
@@ -88,7 +88,7 @@ def run(args):
         return _design_one(args, scenes[0], args.output, args.schedule, args.report, spec,
                            workers)
     # many scenes in one process: one OpenCL context, kernels built once
-    scenes = _batch_scenes(scenes)
+    scenes = batch_scenes(scenes)
     check_folder(args.output, "-o (a folder for RESULT.json files with several scenes)")
     for opt, what in ((args.schedule, "--schedule"), (args.report, "--report")):
         if opt:

@@ -41,8 +41,14 @@ def honour_pythonpath():
 
 
 honour_pythonpath()
+if __name__ == "freecad_cmd":
+    # run as a script by freecadcmd, which puts this folder on sys.path: its modules
+    # (design, locate, common...) must not pass for top-level ones
+    _here = os.path.dirname(os.path.abspath(__file__))
+    sys.path[:] = [p for p in sys.path if os.path.abspath(p or os.curdir) != _here]
 
 from invrad_wb.errors import Cancelled, InvradError, SettingsError  # noqa: E402
+from invrad_wb.cli.common import internal_error  # noqa: E402
 from invrad_wb.progress import workers_arg  # noqa: E402
 
 ENV_JOB = "INVRAD_FREECAD_JOB"
@@ -179,11 +185,16 @@ def find_freecadcmd(explicit=None):
                        " $INVRAD_FREECADCMD")
 
 
+def _checkout_root():
+    """The folder that holds the ``invrad_wb`` package."""
+    return os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
 def child_environment():
     """Environment for freecadcmd: this interpreter's packages and the checkout in front."""
     import site
     import sysconfig
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    root = _checkout_root()
     paths = [sysconfig.get_paths()["purelib"]]
     try:
         paths += site.getsitepackages()
@@ -248,7 +259,7 @@ def relaunch(opts):
     exc = cls(status.get("error", f"FreeCAD run failed (status {rc})"))
     if status.get("traceback"):
         # an internal error under freecadcmd: the command line's catch-all logs it and
-        # says what to report (invrad_wb.cli._internal_error), as for its own
+        # says what to report (invrad_wb.cli.common.internal_error), as for its own
         exc.traceback_text = status["traceback"]
     raise exc
 
@@ -428,14 +439,14 @@ def check_ifc_isolated(path):
     from invrad_wb.errors import SceneError
     code = ("import sys\n"
             "from invrad_wb.errors import InvradError\n"
-            "from invrad_wb.freecad_cli import check_ifc\n"
+            "from invrad_wb.cli.freecad_cmd import check_ifc\n"
             "try:\n"
             "    check_ifc(sys.argv[1])\n"
             "except InvradError as exc:\n"
             "    print(exc, file=sys.stderr); sys.exit(2)\n")
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(
-        [p for p in [os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+        [p for p in [_checkout_root(),
                      env.get("PYTHONPATH")] if p])
     p = subprocess.run([sys.executable, "-c", code, path], capture_output=True, text=True,
                        env=env)
@@ -559,16 +570,15 @@ def _save_output(doc, result, src, ext, dst, dext, say):
 
 
 def _standalone(argv=None):
-    """``python -m invrad_wb.freecad_cli ...`` without the main CLI."""
+    """``python -m invrad_wb.cli.freecad_cmd ...`` without the main CLI."""
     ap = argparse.ArgumentParser(prog="python -m invrad_wb freecad")
     add_arguments(ap)
     args = ap.parse_args(argv)
-    from invrad_wb.cli import _internal_error
     try:
         return main(args)
     except InvradError as exc:
         if getattr(exc, "traceback_text", None):
-            return _internal_error(exc, exc.traceback_text, argv)
+            return internal_error(exc, exc.traceback_text, argv)
         print(f"invrad: error: {exc}", file=sys.stderr)
         return 130 if isinstance(exc, Cancelled) else 2
     except KeyboardInterrupt:
@@ -576,12 +586,12 @@ def _standalone(argv=None):
         return 130
     except Exception as exc:
         import traceback
-        return _internal_error(exc, traceback.format_exc(), argv)
+        return internal_error(exc, traceback.format_exc(), argv)
 
 
-if __name__ == "freecad_cli" and os.environ.get(ENV_JOB):
+if __name__ == "freecad_cmd" and os.environ.get(ENV_JOB):
     # executed as a script by freecadcmd (which names the module after the file)
-    from invrad_wb import freecad_cli as _this
+    from invrad_wb.cli import freecad_cmd as _this
     _this.child_main()
 elif __name__ == "__main__":
     sys.exit(_standalone())

@@ -1,0 +1,158 @@
+"""``invrad locate SCENE [--flux LM] -o RESULT.json [--vote-maps DIR]``: find luminaire
+positions (and, without ``--flux``, each one's flux); several scenes in one process."""
+from dataclasses import asdict, fields
+import json
+import os
+import sys
+
+import numpy as np
+
+from invrad_wb.cli.common import (batch_scenes, bool_arg, photometry_arg, run_batch,
+                                  scene_args, strict_json, warn_suspicious_targets,
+                                  with_photometry)
+from invrad_wb.core.model.targets import no_luminaire_reason, require_targets
+from invrad_wb.errors import InvradError
+from invrad_wb.outputs import check_file, check_folder
+from invrad_wb.progress import CliProgress, add_parallel_args, workers_arg
+
+
+def add_parser(sub):
+    p = sub.add_parser("locate", help="find luminaire positions for the scene's targets")
+    scene_args(p, many=True)
+    p.add_argument("--flux", type=float,
+                   help="flux of one luminaire, lm (default: the --photometry file's; without"
+                        " either, each luminaire's flux is fitted)")
+    p.add_argument("-o", "--output", required=True,
+                   help="RESULT.json (with several scenes: a folder)")
+    p.add_argument("--vote-maps", help="folder for vote-map images (several scenes: one"
+                                       " subfolder each)")
+    p.add_argument("--settings", help="JSON file with locate settings")
+    p.add_argument("-v", "--verbose", action="store_true", help="one line per step")
+    add_parallel_args(p)
+    g = p.add_argument_group("locate settings (defaults need only the flux)")
+    g.add_argument("--vote-model", dest="vote_model", choices=("exact", "ellipse"))
+    g.add_argument("--resolution", dest="pixel_m", type=float, metavar="M",
+                   help="vote-map resolution, metres per pixel (0.1); not the room mesh"
+                        " size, which is `freecad --mesh-size`")
+    g.add_argument("--votes-per-m2", dest="votes_per_m2", type=float)
+    g.add_argument("--weighting", choices=("illumination", "distance", "both", "none"))
+    g.add_argument("--vote-strength", dest="vote_strength", type=float)
+    g.add_argument("--occlusion", type=bool_arg, help="auto/true/false")
+    g.add_argument("--dummy-planes", dest="dummy_planes", type=bool_arg)
+    g.add_argument("--dummy-spacing", dest="dummy_spacing_m", type=float)
+    g.add_argument("--dummy-count", dest="dummy_count", type=int)
+    g.add_argument("--two-sided-dummies", dest="two_sided_dummies", type=bool_arg)
+    g.add_argument("--all-planes", dest="all_planes", type=bool_arg)
+    g.add_argument("--threshold", type=float, help="0-254 (24)")
+    g.add_argument("--neighbourhood", dest="neighbourhood_m", type=float, help="metres (0.3)")
+    g.add_argument("--refine", type=bool_arg, help="joint refinement (true)")
+    g.add_argument("--optimiser", choices=("lm", "es"))
+    g.add_argument("--indirect", choices=("radiosity", "ambient", "none"))
+    p.set_defaults(func=run)
+
+
+def _settings_from_args(args):
+    from invrad_wb.core.inverse.locate import LocateSettings
+    s = LocateSettings()
+    for f in fields(LocateSettings):
+        v = getattr(args, f.name, None)
+        if v is not None:
+            setattr(s, f.name, v)
+    if getattr(args, "settings", None):
+        try:
+            with open(args.settings, "r", encoding="utf-8") as fh:
+                d = json.load(fh)
+        except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise InvradError(f"{args.settings}: cannot read settings: {exc}")
+        if not isinstance(d, dict):
+            raise InvradError(f"{args.settings}: settings must be a JSON object of"
+                              f" name: value, got {type(d).__name__}")
+        try:
+            s = LocateSettings.from_dict({**asdict(s), **d})
+        except InvradError as exc:
+            raise InvradError(f"{args.settings}: {exc}")
+    return s.check()
+
+
+def run(args):
+    scenes = args.scene
+    batch = len(scenes) > 1 or os.path.isdir(scenes[0])
+    settings = _settings_from_args(args)
+    phot = photometry_arg(args)
+    workers = workers_arg(args.workers)
+    if args.flux is None and phot is not None and phot.flux_lm:
+        args.flux = phot.flux_lm
+        print(f"flux of one luminaire: {args.flux:.0f} lm, from {args.photometry}")
+    elif args.flux is None:
+        print("no --flux: the number, positions and flux of each luminaire are fitted")
+    if not batch:
+        check_file(args.output, "-o", inputs=scenes)
+        if args.vote_maps:
+            check_folder(args.vote_maps, "--vote-maps")
+        return _locate_one(args, scenes[0], args.output, args.vote_maps, settings, phot,
+                           workers)
+    # many scenes in one process: one OpenCL context, kernels built once
+    if args.lux or args.texture:
+        raise InvradError("--lux/--texture name one scene's sidecar: with several scenes"
+                          " give PLY files that carry their targets")
+    scenes = batch_scenes(scenes)
+    check_folder(args.output, "-o (a folder for RESULT.json files with several scenes)")
+    if args.vote_maps:
+        check_folder(args.vote_maps, "--vote-maps")
+    os.makedirs(args.output, exist_ok=True)
+
+    def one(path, stem):
+        out = os.path.join(args.output, stem + ".json")
+        check_file(out, "-o", inputs=[path])
+        return _locate_one(args, path, out, args.vote_maps and
+                           os.path.join(args.vote_maps, stem), settings, phot, workers)
+    failed, seconds = run_batch(scenes, one)
+    print(f"{len(scenes) - len(failed)} of {len(scenes)} scene(s) located in"
+          f" {seconds:.1f} s -> {args.output}")
+    if failed:
+        print("invrad: no result for: " + ", ".join(p for p, _ in failed), file=sys.stderr)
+        return max(rc for _, rc in failed)
+
+
+def _locate_one(args, scene_path, output, vote_maps, settings, phot, workers):
+    """One scene: locate, write RESULT.json (and vote maps), print the luminaires."""
+    from invrad_wb.core.io.atomic import atomic_write_text
+    from invrad_wb.core.inverse.locate import locate
+    from invrad_wb.core.io.sceneio import read_scene
+    scene = read_scene(scene_path, lux=args.lux, texture=args.texture,
+                       texture_max_lux=args.texture_max_lux, unit=args.unit)
+    require_targets(scene, scene_path, args.lux, args.texture)
+    warn_suspicious_targets(scene_path, scene)
+    with CliProgress(args.verbose, "locate") as progress:
+        # a plain mesh's single room takes the scene's name (progress, vote-map titles)
+        names = ({int(scene.rooms[0]): os.path.splitext(os.path.basename(scene_path))[0]}
+                 if len(scene.rooms) == 1 else None)
+        result = locate(scene, args.flux, settings=settings, backend=args.backend,
+                        progress=progress, photometry=phot, workers=workers, dask=args.dask,
+                        room_names=names)
+    with_photometry(result.luminaires, phot)
+    data = result.to_dict()
+    if vote_maps:                  # first: an interrupted map write leaves RESULT.json as it was
+        files = result.save_vote_maps(vote_maps)
+    atomic_write_text(output, strict_json(data))
+    for l in result.luminaires:
+        p = ", ".join(f"{x:.3f}" for x in l.position)
+        n = ", ".join(f"{round(float(x), 2) + 0.0:.2f}" for x in l.normal)   # never -0.00
+        print(f"room {l.room}: luminaire at ({p}) m facing ({n}), {l.flux_lm:.0f} lm,"
+              f" score {l.score:.3f} [{l.extra.get('mount', '')}]")
+    of = "" if args.flux is None else f" of {args.flux:g} lm"
+    print(f"{len(result.luminaires)} luminaire(s){of} in"
+          f" {result.timings['total']:.2f} s ({result.backend}) -> {output}")
+    if vote_maps:
+        print(f"vote maps: {len(files)} files in {vote_maps}")
+    if not result.luminaires:
+        reason = no_luminaire_reason(scene)
+        if reason is None:
+            lit = np.nan_to_num(scene.vertex_targets(), nan=0.0) > 0
+            print(f"invrad: no luminaire{of} explains the targets of"
+                  f" {scene_path} ({int(lit.sum())} lit target points): check the flux, the"
+                  " units (--unit) and that the targets are reachable from the room's"
+                  " surfaces", file=sys.stderr)
+            return 3
+        print(f"invrad: no luminaire needed: {scene_path}: {reason}", file=sys.stderr)
+    return 0
