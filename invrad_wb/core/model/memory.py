@@ -32,6 +32,7 @@ cgroup-aware runtimes do (the JVM and Go read the container's limit, not the mac
 
 A refusal names the bound that decided, so that the message says which setting to change.
 """
+import functools
 import os
 import re
 
@@ -184,13 +185,32 @@ def cgroup_limit(proc_cgroup="/proc/self/cgroup", mountinfo="/proc/self/mountinf
     cgroup and its ancestors (cgroup v2 ``memory.max`` or v1 ``memory.limit_in_bytes``), or
     None where there is none (or no cgroup file system). ``used`` is what the group uses
     that cannot be dropped (anonymous memory; else the whole usage)."""
+    found = []
+    for limit_file, usage_file, stat_file, stat_key in _cgroup_files(proc_cgroup, mountinfo):
+        lim = _read_int(limit_file)
+        if lim is not None and 0 < lim < UNLIMITED:
+            used = _read_stat(stat_file, stat_key)
+            if used is None:
+                used = _read_int(usage_file) or 0
+            found.append((lim, used, limit_file))
+    if not found:
+        return None
+    return min(found, key=lambda f: f[0] - f[1])
+
+
+@functools.lru_cache(maxsize=8)
+def _cgroup_files(proc_cgroup, mountinfo):
+    """The files of the memory limits that apply to this process (its cgroup's and its
+    ancestors'): ``(limit file, usage file, stat file, stat key)`` each. Found once per
+    process (which cgroup and mounts do not change during a run); their numbers are read
+    at each call."""
     try:
         with open(proc_cgroup) as fh:
             lines = fh.read().splitlines()
         with open(mountinfo) as fh:
             mounts = fh.read().splitlines()
     except OSError:
-        return None
+        return ()
     v2_path = v1_path = None
     for line in lines:
         parts = line.split(":", 2)
@@ -210,7 +230,7 @@ def cgroup_limit(proc_cgroup="/proc/self/cgroup", mountinfo="/proc/self/mountinf
             v2_mount = (f[3], f[4])
         elif r[0] == "cgroup" and len(r) >= 3 and "memory" in r[2].split(","):
             v1_mount = (f[3], f[4])
-    found = []
+    files = []
     for path, mount, limit_file, usage_file, stat_key in (
             (v2_path, v2_mount, "memory.max", "memory.current", "anon"),
             (v1_path, v1_mount, "memory.limit_in_bytes", "memory.usage_in_bytes",
@@ -226,18 +246,14 @@ def cgroup_limit(proc_cgroup="/proc/self/cgroup", mountinfo="/proc/self/mountinf
             folder = point
         own = folder
         while True:
-            lim = _read_int(os.path.join(folder, limit_file))
-            if lim is not None and 0 < lim < UNLIMITED:
-                used = _read_stat(os.path.join(own, "memory.stat"), stat_key)
-                if used is None:
-                    used = _read_int(os.path.join(own, usage_file)) or 0
-                found.append((lim, used, os.path.join(folder, limit_file)))
+            if os.path.exists(os.path.join(folder, limit_file)):
+                files.append((os.path.join(folder, limit_file),
+                              os.path.join(own, usage_file),
+                              os.path.join(own, "memory.stat"), stat_key))
             if os.path.normpath(folder) == os.path.normpath(point):
                 break
             folder = os.path.dirname(folder)
-    if not found:
-        return None
-    return min(found, key=lambda f: f[0] - f[1])
+    return tuple(files)
 
 
 def cgroup_bounds(**paths):
