@@ -262,7 +262,6 @@ def test_a_read_only_file_system_is_refused_before_work(small, tmp_path):
         for args in (["locate", batch / "a.ply", "--flux", "3000", "-o", fs / "r.json"],
                      ["verify", batch / "a.ply", "--luminaires", truth, "--report",
                       fs / "rep"]):
-            t = time.time()
             p = _run(*args)
             line = _one_line(p.stderr)
             assert p.returncode == 2 and str(fs) in line, p.stderr
