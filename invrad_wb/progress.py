@@ -59,7 +59,8 @@ def add_parallel_args(p):
                         " the result does not depend on N")
     p.add_argument("--dask", metavar="ADDRESS",
                    help="rooms on a Dask cluster: a scheduler address (tcp://host:8786) or"
-                        " 'local' (a local cluster of --workers processes)")
+                        " 'local' (a local cluster of --workers processes); the wait for a"
+                        " scheduler is $INVRAD_DASK_TIMEOUT seconds (10)")
 
 
 def workers_arg(value):

@@ -22,13 +22,16 @@ def add_parser(sub):
 
 def run(args):
     from invrad_wb.core.model.luminaires import load_luminaires
-    from invrad_wb.core.forward.render import render
+    from invrad_wb.core.forward.render import render, work_note
     from invrad_wb.core.io.sceneio import write_scene
     check_file(args.output, "-o", inputs=[args.scene, args.luminaires])
     phot = photometry_arg(args)
     scene = read_scene_arg(args)
     lums = with_photometry(load_luminaires(args.luminaires), phot)
     check_placement(args.luminaires, scene, lums)
+    note = work_note(scene, lums, not args.no_interreflection)   # luminaires x points
+    if note:
+        print(f"invrad: {note}", file=sys.stderr)
     t = time.time()
     total, direct, indirect = render(scene, lums, interreflection=not args.no_interreflection,
                                      occlusion=not args.no_occlusion, backend=args.backend,

@@ -20,7 +20,7 @@ def add_parser(sub):
 
 def run(args):
     from invrad_wb.core.model.luminaires import load_luminaires
-    from invrad_wb.core.forward.render import render
+    from invrad_wb.core.forward.render import render, work_note
     from invrad_wb.core.output.report import build_report
     check_folder(args.report, "--report")
     phot = photometry_arg(args)
@@ -29,6 +29,9 @@ def run(args):
     warn_suspicious_targets(args.scene, scene)
     lums = with_photometry(load_luminaires(args.luminaires), phot)
     check_placement(args.luminaires, scene, lums)
+    note = work_note(scene, lums, not args.no_interreflection)   # luminaires x points
+    if note:
+        print(f"invrad: {note}", file=sys.stderr)
     achieved = render(scene, lums, interreflection=not args.no_interreflection,
                       backend=args.backend)
     paths = build_report(scene, scene.vertex_targets(), achieved, lums, args.report,

@@ -82,6 +82,33 @@ def radiosity_memory(scene, patch_size=None):
     return total + chunk, rooms
 
 
+#: shadow rays (emitter samples x receiving points) above which a render is announced
+#: with its size before it starts: about ten seconds on a two-core CPU (PoCL)
+LARGE_RENDER_RAYS = 2e7
+
+
+def render_work(scene, luminaires, interreflection=True):
+    """(shadow rays, points) of :func:`render`: every emitter sample towards every vertex
+    and, with interreflections, every patch's sample point (the direct light's cost, which
+    grows as luminaires x points)."""
+    from invrad_wb.core.forward.direct import emitter_memory
+    _, samples = emitter_memory(luminaires)
+    points = len(scene.vertices)
+    if interreflection:
+        points += int(sum(p for _, p, _ in radiosity_memory(scene)[1].values()))
+    return float(samples) * points, points
+
+
+def work_note(scene, luminaires, interreflection=True):
+    """One line announcing a large render (luminaires x points), or None for a small one."""
+    rays, points = render_work(scene, luminaires, interreflection)
+    if rays < LARGE_RENDER_RAYS:
+        return None
+    return (f"{len(luminaires)} luminaire(s) x {points} points: about {rays:.2g} shadow rays;"
+            " this takes a while (fewer luminaires, a coarser mesh or an OpenCL GPU is"
+            " faster)")
+
+
 def render(scene, luminaires, interreflection=True, occlusion=True, backend="auto",
            patch_size=None, return_parts=False):
     """Illuminance (lux) at each vertex of ``scene``.
