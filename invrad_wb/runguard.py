@@ -93,8 +93,8 @@ def stop_early_on_signals():
             os._exit(exc.exit_status)
     for s in SIGNALS:
         try:
-            if s == getattr(signal, "SIGHUP", None) and signal.getsignal(s) == signal.SIG_IGN:
-                continue
+            if signal.getsignal(s) == signal.SIG_IGN:
+                continue            # nohup, a background job: the caller asked to ignore it
             signal.signal(s, stop)
         except (ValueError, OSError):
             pass
@@ -147,8 +147,8 @@ class RunGuard:
             for s in SIGNALS:
                 try:
                     old = signal.getsignal(s)
-                    if s == getattr(signal, "SIGHUP", None) and old == signal.SIG_IGN:
-                        continue    # started under nohup: the user asked to survive hangups
+                    if old == signal.SIG_IGN:
+                        continue    # nohup, a background job: the caller asked to ignore it
                     signal.signal(s, self._handler)
                     self._saved[s] = old
                 except (ValueError, OSError):

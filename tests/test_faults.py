@@ -306,3 +306,22 @@ def test_output_errors_are_named_by_the_path_the_user_gave(tmp_path):
     assert not (tmp_path / "maps").exists()
     # an error that is not about an output stays what it is
     assert runguard.output_error(FileNotFoundError(errno.ENOENT, "x", "/nope")) is None
+
+
+def test_the_guard_leaves_ignored_signals_ignored_and_restores_handlers():
+    """``nohup`` (SIGHUP ignored) and background jobs (SIGINT ignored) keep what their
+    caller asked for; the handlers before the run come back after it."""
+    from invrad_wb import runguard
+    old_hup = signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    old_term = signal.getsignal(signal.SIGTERM)
+    try:
+        with runguard.RunGuard():
+            assert signal.getsignal(signal.SIGHUP) == signal.SIG_IGN
+            assert signal.getsignal(signal.SIGTERM) != old_term
+            with pytest.raises(runguard.Terminated) as e:
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(5)                      # the handler raises before this ends
+            assert e.value.exit_status == 143
+        assert signal.getsignal(signal.SIGTERM) == old_term
+    finally:
+        signal.signal(signal.SIGHUP, old_hup)
