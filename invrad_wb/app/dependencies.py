@@ -110,14 +110,17 @@ def addon_target():
 def install_command(requirements, root=C.ROOT, pip=False):
     """The one command that installs ``requirements`` (list of pip requirement strings):
     ``make setup`` in a checkout (unless ``pip``: what it installs would not do), else
-    pip into the Addon Manager's folder (in FreeCAD) or the user's site-packages."""
+    pip into FreeCAD's add-on package folder (:func:`target_dir`) or the user's
+    site-packages."""
     if is_checkout(root) and not pip:
         return f"cd {shlex.quote(root)} && make setup"
     python = "python%d.%d" % sys.version_info[:2]
     reqs = " ".join(shlex.quote(r) for r in requirements)
-    target = addon_target()
+    target = target_dir()
     if target:
-        return f"{python} -m pip install --target {shlex.quote(target)} {reqs}"
+        # --upgrade: without it pip --target leaves a package already there (and says
+        # it succeeded). dependencies.install() does this for every package at once.
+        return f"{python} -m pip install --upgrade --target {shlex.quote(target)} {reqs}"
     return f"{python} -m pip install --user {reqs}"
 
 
