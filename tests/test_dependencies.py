@@ -32,6 +32,12 @@ for a in args[3:]:
     elif not a.startswith("-"):
         reqs.append(a)
 names = [r.split("[")[0].split(">")[0].split("<")[0].split("=")[0] for r in reqs]
+if os.environ.get("FAKE_PIP_OFFLINE"):
+    print("WARNING: Retrying (Retry(total=4)) after connection broken by 'NewConnection"
+          "Error('<HTTPSConnection>: Failed to establish a new connection: [Errno 101]"
+          " Network is unreachable')': /simple/%s/" % names[0])
+    print("ERROR: Could not find a version that satisfies the requirement %s" % reqs[0])
+    sys.exit(1)
 if "badpkg" in names:
     print("ERROR: Could not find a version that satisfies the requirement badpkg")
     print("ERROR: No matching distribution found for badpkg")
@@ -96,6 +102,17 @@ def test_a_package_that_cannot_be_installed_is_named_with_the_reason(fake):
     failed = [l for l in lines if "badpkg: FAILED" in l]
     assert len(failed) == 1 and "works without it" in failed[0]
     assert not r.ok
+
+
+def test_without_network_every_package_fails_once_with_the_reason(fake, monkeypatch):
+    monkeypatch.setenv("FAKE_PIP_OFFLINE", "1")
+    lines = []
+    r = deps.install(target=fake["target"], python=fake["python"], say=lines.append)
+    assert r.failed == ["good-one", "other"] and not r.restart_needed
+    assert len(_calls(fake["log"])) == 1           # not retried package by package
+    assert r.reasons["other"].startswith("the package index cannot be reached"
+                                         " ([Errno 101] Network is unreachable)")
+    assert len([l for l in lines if "FAILED" in l]) == 2
 
 
 def test_no_python_for_pip_fails_every_package_in_one_line_each(fake, monkeypatch):

@@ -536,6 +536,10 @@ def _install(result, target, python, tell, step):
         if rc == 0:
             for st in todo:
                 _settle(result, tell, st.package, target, out)
+        elif pip_runner.network_error(out):
+            # offline, a proxy or a certificate: each package would fail alike, slowly
+            for st in todo:
+                _fail(result, tell, st.package, pip_runner.network_error(out))
         else:
             tell("pip could not install them together (" + pip_runner.error_line(out)
                  + "); one by one:")

@@ -17,6 +17,7 @@ so ``PIP_CERT``, ``PIP_INDEX_URL``, a proxy or ``pip.conf`` apply as for any pip
 Nothing here imports FreeCAD or raises: failures come back as one-line reasons.
 """
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -129,6 +130,28 @@ def error_line(text):
     pick = errors[0] if errors else (lines[-1] if lines else "no output")
     pick = pick.replace("ERROR: ", "", 1)
     return pick if len(pick) <= 300 else pick[:297] + "..."
+
+
+#: what pip prints when it cannot reach the index (then every package fails alike)
+_NETWORK_SIGNS = ("NewConnectionError", "ConnectTimeout", "ConnectionError", "ProxyError",
+                  "SSLError", "CERTIFICATE_VERIFY_FAILED", "Could not fetch URL",
+                  "Temporary failure in name resolution", "Name or service not known",
+                  "Network is unreachable", "Connection refused", "ReadTimeoutError")
+
+
+def network_error(text):
+    """One line saying why pip could not reach the package index, or None when its
+    output shows no such failure (a retry warning or a failed fetch)."""
+    for line in (text or "").splitlines():
+        if any(sign in line for sign in _NETWORK_SIGNS):
+            m = re.search(r"(\[Errno [^\]]+\][^'\")]*|CERTIFICATE_VERIFY_FAILED[^'\")]*|"
+                          r"Temporary failure in name resolution|Name or service not known|"
+                          r"Read timed out|timed out)", line)
+            why = m.group(1).strip() if m else line.strip()[:200]
+            return (f"the package index cannot be reached ({why}); check the network,"
+                    " or pip's index/proxy/certificate settings (PIP_INDEX_URL, HTTPS_PROXY,"
+                    " PIP_CERT)")
+    return None
 
 
 def run(cmd, on_line=None):
