@@ -15,6 +15,8 @@ from invrad_wb.app import dependencies
 from invrad_wb.gui import messages
 
 TITLE = "InvRad: Python packages"
+#: the dialog while it is open (one at a time)
+_OPEN = None
 
 
 def offer(statuses=None):
@@ -31,8 +33,14 @@ def offer(statuses=None):
     if messages.QUIET or not FreeCAD.GuiUp:
         return todo
     import FreeCADGui
-    from invrad_wb.gui.qtcompat import run_exec
-    run_exec(_dialog(todo, FreeCADGui.getMainWindow()))
+    global _OPEN
+    if _OPEN is not None and _OPEN.isVisible():
+        _OPEN.raise_()
+        return todo
+    # not modal: the workbench's activation goes on (nothing waits on the user, a GUI
+    # script or test is not blocked), and FreeCAD stays usable while pip runs
+    _OPEN = _dialog(todo, FreeCADGui.getMainWindow())
+    _OPEN.show()
     return todo
 
 
