@@ -35,13 +35,12 @@ class InvRadWorkbench(FreeCADGui.Workbench):
 
     def Initialize(self):
         # FreeCAD's GUI clears PYTHONPATH: the venv of `make setup` goes at the END of
-        # sys.path (other workbenches keep importing what they did); then one message per
-        # missing dependency, naming the command that installs it
+        # sys.path (other workbenches keep importing what they did); then everything still
+        # missing in one dialog that offers to install it (invrad_wb/gui/install_dialog.py)
         from invrad_wb.app import dependencies
-        from invrad_wb.gui import messages
         dependencies.add_site_packages()
-        for level, text in dependencies.problems():
-            messages.show(level, "InvRad", text, box=(level == "error"))
+        from invrad_wb.gui import install_dialog
+        install_dialog.offer()
         from invrad_wb.gui import commands
         commands.register()
         self.appendToolbar("InvRad", commands.TOOLBAR)

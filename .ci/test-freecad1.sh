@@ -30,7 +30,12 @@ mount --bind "$here" "$root/$mnt"
 # freecad command survives by checking in a child process)
 nifc="/opt/invrad-nativeifc:"
 [ "${INVRAD_FC1_NATIVEIFC:-1}" = 0 ] && nifc=""
+# pip inside the root reaches the index with this machine's CA bundle (setup-freecad1.sh
+# copies it there): the install test (tests/freecad/test_install_fc.py) runs pip
+pipcert=""
+[ -f "$root/etc/ssl/certs/invrad-host-ca.crt" ] && pipcert=/etc/ssl/certs/invrad-host-ca.crt
 chroot "$root" env -i HOME=/root PATH=/opt/invrad-venv/bin:/usr/sbin:/usr/bin:/sbin:/bin \
   LANG=C.UTF-8 PYTHONPATH="$nifc$site:/$mnt" QT_QPA_PLATFORM=offscreen \
+  ${pipcert:+PIP_CERT=$pipcert} \
   INVRAD_PYTHON=/opt/invrad-venv/bin/python \
   bash -c 'cd "$0" && exec "$@"' "/$mnt" "$@"

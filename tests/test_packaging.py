@@ -3,6 +3,7 @@ workbench's dependency set-up (sys.path appended, never reordered; install comma
 import glob
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -163,3 +164,68 @@ def test_missing_opencl_driver_is_a_warning_with_its_install_command(tmp_path):
     assert "no OpenCL driver" in in_checkout[0][1]
     assert in_checkout[0][1].endswith("make setup")
     assert installed_copy[0][1].endswith(dependencies.OPENCL_DRIVER_APT)
+
+
+# --------------------------------------------------------------------------- package.xml
+#: FreeCAD's Addon Manager pip-installs only names on its allow-list; these are on the lists
+#: of FreeCAD 0.20 and 1.0 (src/Mod/AddonManager/ALLOWED_PYTHON_PACKAGES.txt)
+ADDON_MANAGER_ALLOWED = {"numpy", "scipy", "matplotlib", "pillow", "lxml", "requests",
+                         "pandas", "PyYAML"}
+#: FreeCAD's internal workbenches as the Addon Manager names them (its Addon.py:
+#: INTERNAL_WORKBENCHES, lower-case keys on 0.20 and 1.0)
+ADDON_MANAGER_INTERNAL = {"arch", "draft", "fem", "mesh", "openscad", "part", "partdesign",
+                          "plot", "points", "robot", "sketcher", "spreadsheet", "techdraw"}
+#: requirements.txt's entries that are for tests and builds only
+NOT_AT_RUN_TIME = {"pytest", "setuptools", "pyradiance"}
+
+
+def _package_xml_depends():
+    ns = {"p": "https://wiki.freecad.org/Package_Metadata"}
+    root = ET.parse(os.path.join(ROOT, "package.xml")).getroot()
+    return [(d.get("type"), d.text.strip()) for d in root.iter(f"{{{ns['p']}}}depend")]
+
+
+def _allowed_here():
+    """The allow-list of the FreeCAD installed on this machine, if there is one."""
+    for path in ("/usr/share/freecad/Mod/AddonManager/ALLOWED_PYTHON_PACKAGES.txt",
+                 "/usr/lib/freecad/Mod/AddonManager/ALLOWED_PYTHON_PACKAGES.txt"):
+        if os.path.isfile(path):
+            with open(path, encoding="utf-8") as fh:
+                return {l.strip() for l in fh if l.strip() and not l.startswith("#")}
+    return None
+
+
+def test_package_xml_declares_only_what_the_addon_manager_installs_without_a_warning():
+    deps = _package_xml_depends()
+    python = [name for kind, name in deps if kind == "python"]
+    assert {"numpy", "scipy", "matplotlib"} <= set(python)
+    allowed = _allowed_here()
+    by_module = {p.module: p for p in dependencies.packages()}
+    for name in python:
+        # on the allow-list (it refuses and warns otherwise) ...
+        assert name in ADDON_MANAGER_ALLOWED, name
+        if allowed is not None:
+            assert name in allowed, name
+        # ... and importable by that very name (its check is __import__(name))
+        assert name in by_module, name
+    # an internal workbench by the name the Addon Manager recognises (no "Unrecognized
+    # internal workbench" warning)
+    internal = [name for kind, name in deps if kind == "internal"]
+    assert internal == ["spreadsheet"]
+    assert all(name in ADDON_MANAGER_INTERNAL for name in internal)
+    assert {kind for kind, _ in deps} <= {"python", "internal"}
+
+
+def test_the_installer_covers_every_run_time_requirement():
+    names = set()
+    with open(os.path.join(ROOT, "requirements.txt"), encoding="utf-8") as fh:
+        for line in fh:
+            line = line.split("#")[0].strip()
+            if line:
+                names.add(re.split(r"[\[<>=!~ ]", line)[0].lower())
+    installer = {p.name.lower() for p in dependencies.packages()}
+    assert names - NOT_AT_RUN_TIME == installer
+    reqs = {p.name: p.requirement for p in dependencies.packages()}
+    assert reqs["numpy"] == "numpy>=1.24,<2"        # no FreeCAD here: the 0.20 pin
+    assert reqs["pyopencl"].startswith("pyopencl[pocl]")      # OpenCL without a system driver
+    assert reqs["dask"].startswith("dask[distributed]")

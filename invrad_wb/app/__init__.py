@@ -15,6 +15,8 @@ modules that need it, so ``import invrad_wb.app`` works without FreeCAD. The GUI
 * :mod:`.units`     mm <-> m at the FreeCAD boundary
 * (mesh refinement lives in the core: :mod:`invrad_wb.core.geometry.meshing`)
 * :mod:`.settings`  defaults of the document side (reflectance per surface, sizes)
-* :mod:`.dependencies` the venv on sys.path (appended) and what is missing, with the
-  command that installs it (called by the workbench's Initialize)
+* :mod:`.dependencies` the venv on sys.path (appended), what is missing, and the
+  installer into FreeCAD's add-on package folder (``dependencies.install()``: the
+  first-activation dialog and ``freecadcmd -c``)
+* :mod:`.pip_runner` pip with FreeCAD's Python version, as the Addon Manager runs it
 """

@@ -46,12 +46,14 @@ class TestDependencyMessages(unittest.TestCase):
             probs = dependencies.problems(copy)
         errors = [t for lvl, t in probs if lvl == "error"]
         self.assertEqual(len(errors), 1, probs)
-        target = os.path.join(FreeCAD.getUserAppDataDir(), "AdditionalPythonPackages",
-                              "py%d%d" % sys.version_info[:2])
-        self.assertIn(f"-m pip install --target {target} 'trimesh>=4.0'", errors[0])
+        target = os.path.join(FreeCAD.getUserAppDataDir(), "AdditionalPythonPackages")
+        if int(FreeCAD.Version()[0]) >= 1:          # 0.20 uses the folder itself
+            target = os.path.join(target, "py%d%d" % sys.version_info[:2])
+        self.assertIn(f"-m pip install --upgrade --target {target} 'trimesh>=4.0'",
+                      errors[0])
         # the Addon Manager's folder is where FreeCAD looks (it is on sys.path once it
         # exists; FreeCAD adds it at start-up)
-        self.assertEqual(dependencies.addon_target(), target)
+        self.assertEqual(dependencies.target_dir(), target)
         self.assertTrue(errors[0].startswith("missing Python package(s): trimesh."))
 
     def test_a_checkout_names_make_setup(self):
@@ -97,6 +99,7 @@ class TestDependencyMessages(unittest.TestCase):
         self.assertEqual(len(warn), 1, probs)
         self.assertIn("needs ifcopenshell 0.8", warn[0])
         # make setup would install the requirements' ifcopenshell again: the pip command
-        target = dependencies.addon_target()
+        target = dependencies.target_dir()
         self.assertTrue(warn[0].endswith(
-            f"-m pip install --target {target} 'ifcopenshell>=0.8.1,<0.9'"), warn[0])
+            f"-m pip install --upgrade --target {target} 'ifcopenshell>=0.8.1,<0.9'"),
+            warn[0])
