@@ -243,6 +243,10 @@ def packages():
         Package("numpy", "numpy", numpy_requirement(), True, "everything"),
         Package("scipy", "scipy", "scipy>=1.10", True, "designs and rooms"),
         Package("trimesh", "trimesh", REQUIRED["trimesh"], True, "meshes"),
+        # trimesh reads a mesh whose text or STL header is not UTF-8 with it (not a
+        # requirement of trimesh's own)
+        Package("charset-normalizer", "charset_normalizer", "charset-normalizer>=3", False,
+                "meshes whose text is not UTF-8 (STL, OBJ)"),
         Package("OpenImageIO", "OpenImageIO", REQUIRED["OpenImageIO"], True,
                 "illuminance images"),
         Package("jinja2", "jinja2", "jinja2>=3.0", True, "every report"),
