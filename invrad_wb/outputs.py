@@ -3,9 +3,9 @@
 Every command checks where it will write before it reads or computes anything, so a typo
 in ``-o`` costs a second, not the whole run, and never replaces a file it should not:
 
-* a file output must not be a folder, its folder must be writable (or creatable), it must not
-  be one of the command's inputs, and an existing read-only file is refused (never made
-  writable behind the user's back);
+* a file output must not be a folder or a device, pipe or socket, its folder must be
+  writable (or creatable), it must not be one of the command's inputs, and an existing
+  read-only file is refused (never made writable behind the user's back);
 * a folder output must not be an existing file, and its parent must be writable;
 * a symbolic link is written through (the file it points to is replaced atomically; the
   link stays a link): :func:`resolve`.
@@ -30,6 +30,11 @@ def check_file(path, what="output", inputs=()):
     real = resolve(path)
     if os.path.isdir(real):
         raise InvradError(f"{path}: {what} is a folder; give a file name")
+    if os.path.exists(real) and not os.path.isfile(real):
+        # a device, pipe or socket (/dev/null, /dev/full, /dev/stdout): outputs are written
+        # to a temporary file renamed onto the path, which would replace the device node
+        raise InvradError(f"{path}: {what} is a device, pipe or socket, not a file; give a"
+                          " file name")
     _check_parent(path, os.path.dirname(real) or ".", what)
     for src in inputs:
         if src and os.path.exists(src) and os.path.exists(real) \

@@ -325,3 +325,23 @@ def test_the_guard_leaves_ignored_signals_ignored_and_restores_handlers():
         assert signal.getsignal(signal.SIGTERM) == old_term
     finally:
         signal.signal(signal.SIGHUP, old_hup)
+
+
+def test_a_device_or_pipe_is_refused_as_an_output_and_left_as_it_is(tmp_path):
+    """Outputs are renamed onto their path: onto /dev/null (as root) that would replace the
+    device node with a plain file. Refused before any work instead."""
+    from invrad_wb.outputs import check_file
+    from invrad_wb.errors import InvradError
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    for dev in ("/dev/null", "/dev/full", str(fifo)):
+        if not os.path.exists(dev):
+            continue
+        mode = os.stat(dev).st_mode
+        with pytest.raises(InvradError, match="a device, pipe or socket, not a file"):
+            check_file(dev, "-o")
+        assert os.stat(dev).st_mode == mode
+    p = _run("example", "one_ceiling", "-o", "/dev/null", "--cell", "0.5")
+    assert p.returncode == 2 and "/dev/null: -o is a device" in _one_line(p.stderr)
+    import stat
+    assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
