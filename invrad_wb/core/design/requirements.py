@@ -1,0 +1,234 @@
+"""Locate on requirement targets: a regular layout of the given luminaire, not a picture fit.
+
+An architect who asks for "300 lx on the work plane" states a *requirement*: a level with a
+tolerance and the uniformity EN 12464-1 pairs with it, not a physically exact picture of
+light. Fitting luminaires to such targets point by point (the inverted radiosity of
+:mod:`invrad_wb.core.inverse.locate`) cannot succeed: no arrangement of real luminaires
+gives a perfectly constant illuminance, and the best point-by-point fit puts lights on the
+walls in rings (FZK-Haus with ``examples/fzk_targets.json``: 30 of 41 fixtures wall lights,
+U0 0.31-0.57, no room within its targets).
+
+:func:`classify` tells the two apart per room: *requirement* targets have a constant level on
+a horizontal work plane and every other lit target surface is either a constant level too
+(a uniformly lit wall: a goal, reported) or a small painted spot (an accent); a rendered or
+measured picture never has a constant level over a plane, so it is *exact* and keeps the
+inverted-radiosity recovery unchanged. A room whose work plane is a level but whose
+surfaces carry a varying picture is *mixed* and is taken as exact.
+
+:func:`design_requirements` lays out the given luminaire (its flux and photometry, no
+dimming) in regular rows with the design engine (:mod:`.design`, a one-entry catalogue,
+maintenance factor 1: the target is what the verification renders): on the ceiling, as
+pendants where the ceiling is higher than :data:`PENDANT_ABOVE_M`, never on the walls; the
+fewest luminaires whose mean on the work plane reaches the level with the uniformity of
+:func:`~.en12464.uniformity_for`. Painted spots get accents as in a design.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from invrad_wb.core.design import en12464
+from invrad_wb.core.design.accent import find_goals
+from invrad_wb.core.design.room import DesignRoom
+from invrad_wb.core.output.fitquality import EM_HIGH, EM_LOW, requirement_verdict  # noqa: F401
+
+#: a set of targets is a constant level when its spread is below this fraction of its max
+LEVEL_TOLERANCE = 1e-6
+#: a floor-parallel virtual face with a normal Z above this is part of a work plane
+_UP = 0.99
+#: ceilings higher than this above the floor (median over the floor) take pendants (m)
+PENDANT_ABOVE_M = 4.0
+#: pendants hang this far above the floor (m)
+PENDANT_HEIGHT_M = 3.0
+#: EN 12464-1: where the task positions are not known, the task area is the room less a
+#: border zone of 0.5 m; a work plane targeted to the walls is judged (and laid out) there
+EN_BORDER_M = 0.5
+#: border zones are measured in steps of this (m), rounded down
+_MARGIN_STEP_M = 0.05
+
+
+@dataclass
+class RoomTargets:
+    """What a room's targets are.
+
+    Attributes
+    ----------
+    room : int
+    kind : 'requirement' or 'exact'
+    reason : str, why, in words
+    level_lux : float, the work plane's level (requirement rooms; else None)
+    height_m : float, the work plane above the floor (m)
+    margin_m : float, the work plane's border zone without targets (m)
+    u0 : float, the uniformity required (EN 12464-1 for the level)
+    u0_source : str, where ``u0`` comes from, e.g. 'EN 12464-1 for 500 lx'
+    spots : int, painted spots (accents)
+    surfaces : list of (words, lux), constant levels on real surfaces (goals)
+    """
+    room: int
+    kind: str
+    reason: str
+    level_lux: float = None
+    height_m: float = None
+    margin_m: float = None
+    u0: float = None
+    u0_source: str = None
+    spots: int = 0
+    surfaces: list = field(default_factory=list)
+
+    @property
+    def requirement(self):
+        return self.kind == "requirement"
+
+    def to_dict(self):
+        d = {"room": int(self.room), "targets": self.kind, "reason": self.reason}
+        if self.requirement:
+            d.update(level_lux=self.level_lux, height_m=round(self.height_m, 3),
+                     margin_m=self.margin_m, u0_required=self.u0, u0_source=self.u0_source,
+                     spots=self.spots,
+                     surfaces=[{"surface": w, "lux": v} for w, v in self.surfaces])
+        return d
+
+
+def _constant(values):
+    values = np.asarray(values, dtype=np.float64)
+    return len(values) > 0 and float(np.ptp(values)) <= LEVEL_TOLERANCE * float(values.max())
+
+
+def classify(scene, room, name=None):
+    """The :class:`RoomTargets` of one room of ``scene`` (see the module docstring)."""
+    label = name or f"room {room}"
+    t = scene.vertex_targets() if scene.has_targets else np.full(len(scene.vertices), np.nan)
+    lit = np.isfinite(t) & (t > 0)
+    mine = scene.face_room == room
+    wp_faces = mine & scene.face_virtual & (scene.face_normals[:, 2] > _UP)
+    wp_v = np.unique(scene.faces[wp_faces])
+    wp_lit = wp_v[lit[wp_v]]
+    if not len(wp_lit):
+        return RoomTargets(room, "exact", f"{label}: no work-plane level: its targets are"
+                           " taken as exact light")
+    if not _constant(t[wp_lit]):
+        return RoomTargets(room, "exact", f"{label}: the work-plane targets vary"
+                           f" ({t[wp_lit].min():.0f}-{t[wp_lit].max():.0f} lx): exact light")
+    surfaces, spots = [], 0
+    for g in find_goals(scene, room):
+        if g.kind == "spot":
+            spots += 1
+        elif _constant(g.target):
+            surfaces.append((g.surface, float(g.target.max())))
+        else:
+            return RoomTargets(room, "exact", f"{label}: the work plane is a level but"
+                               f" the {g.surface or 'surfaces'} carry a varying picture"
+                               " (mixed targets): taken as exact light")
+    droom = DesignRoom(scene, room, label)
+    level = float(t[wp_lit].max())
+    height = float(np.median(scene.vertices[wp_lit, 2])) - droom.floor_z
+    dist = droom.wall_distance(scene.vertices[wp_lit, :2])
+    margin = max(EN_BORDER_M,
+                 np.floor(float(dist.min()) / _MARGIN_STEP_M + 1e-6) * _MARGIN_STEP_M)
+    u0, source = en12464.uniformity_for(level)
+    return RoomTargets(room, "requirement",
+                       f"{label}: a level of {level:g} lx on the work plane"
+                       + (f", {len(surfaces)} uniform surface(s)" if surfaces else "")
+                       + (f", {spots} painted spot(s) as accents" if spots else "")
+                       + ": a requirement", level, height, round(float(margin), 3), u0,
+                       source, spots, surfaces)
+
+
+def classify_rooms(scene, rooms=None, room_names=None):
+    """``{room id: RoomTargets}`` for ``rooms`` (default every room of ``scene``)."""
+    names = room_names or {}
+    ids = scene.rooms if rooms is None else rooms
+    return {int(r): classify(scene, int(r), names.get(int(r))) for r in ids}
+
+
+def _mounting(scene, room, label):
+    """Ceiling, or pendants at :data:`PENDANT_HEIGHT_M` under a high ceiling."""
+    from invrad_wb.core.design.spec import Mounting
+    droom = DesignRoom(scene, room, label)
+    centres = droom.floor_tri.mean(axis=1)[:, :2]
+    zc, _ = droom.ceiling_at(centres)
+    zc = zc[np.isfinite(zc)]
+    if len(zc) and float(np.median(zc)) - droom.floor_z > PENDANT_ABOVE_M:
+        return Mounting("pendant", PENDANT_HEIGHT_M)
+    return Mounting("ceiling")
+
+
+def requirement_spec(scene, targets, flux_lm, photometry=None, room_names=None):
+    """The design spec of requirement rooms: a one-entry catalogue of the given luminaire
+    (``flux_lm`` at full output, not dimmable; its power is unknown and irrelevant: the
+    count decides, so 'watts' stand in at 1 W per 100 lm), maintenance factor 1, per room
+    the level with its EN 12464-1 uniformity on the targets' work plane."""
+    from invrad_wb.core.design.spec import (CatalogueEntry, DesignSpec, RoomSpec,
+                                            WorkPlaneRequirement)
+    names = room_names or {}
+    entry = CatalogueEntry(f"{flux_lm:g} lm luminaire", float(flux_lm), float(flux_lm) / 100.0,
+                           mounting=("ceiling", "pendant"))
+    rooms = {}
+    for r, rt in targets.items():
+        if not rt.requirement:
+            continue
+        label = names.get(r) or f"room {r}"
+        req = WorkPlaneRequirement(rt.level_lux, rt.u0, rt.height_m, rt.margin_m,
+                                   source=rt.u0_source)
+        rooms[str(r)] = RoomSpec(str(r), req, mounting=_mounting(scene, r, label))
+    return DesignSpec(1.0, [entry], rooms, source="locate requirements")
+
+
+@dataclass
+class RequirementsResult:
+    """Requirement rooms laid out by the design engine.
+
+    ``rooms``: {room id: RoomDesign}; ``targets``: {room id: RoomTargets};
+    ``luminaires``: every room's luminaires (``extra['mount']`` 'surface' or 'pendant').
+    """
+    rooms: dict
+    targets: dict
+    luminaires: list
+    seconds: float = 0.0
+
+
+def design_requirements(scene, targets, flux_lm, photometry=None, backend="auto",
+                        room_names=None, progress=None, workers=1):
+    """Regular layouts of the given luminaire in the requirement rooms of ``targets``
+    (``{room id: RoomTargets}``, from :func:`classify_rooms`).
+
+    Returns
+    -------
+    RequirementsResult
+    """
+    import time
+    from invrad_wb.core.design.design import design
+    t0 = time.perf_counter()
+    req_ids = [r for r, rt in targets.items() if rt.requirement]
+    if not req_ids:
+        return RequirementsResult({}, targets, [], 0.0)
+    sub = scene if len(scene.rooms) == len(req_ids) else scene.face_subset(
+        np.isin(scene.face_room, req_ids))
+    spec = requirement_spec(sub, targets, flux_lm, photometry, room_names)
+    entry = spec.catalogue[0]
+    phot = {entry.name: photometry} if photometry is not None else {}
+    names = {r: (room_names or {}).get(r) for r in req_ids}
+    res = design(sub, spec, room_names=names, backend=backend, progress=progress,
+                 workers=workers, mixed=False, dimming=False, photometry=phot)
+    rooms, lums = {}, []
+    for rd in res.rooms:
+        rooms[int(rd.room)] = rd
+        pendant = spec.rooms[str(rd.room)].mounting.kind == "pendant"
+        for lum in rd.luminaires:
+            lum.extra["mount"] = "pendant" if pendant else "surface"
+            lum.extra["layout"] = "requirement"
+            lums.append(lum)
+    return RequirementsResult(rooms, targets, lums, time.perf_counter() - t0)
+
+
+def judge(scene, room, rt, achieved, name=None):
+    """The :class:`~invrad_wb.core.output.fitquality.RequirementVerdict` of a requirement
+    room: the achieved lux (per vertex of ``scene``) on its work-plane targets within its
+    border zone (``rt.margin_m`` from the walls) against its level and uniformity."""
+    t = scene.vertex_targets()
+    wp_faces = (scene.face_room == room) & scene.face_virtual & (scene.face_normals[:, 2] > _UP)
+    v = np.unique(scene.faces[wp_faces])
+    v = v[np.isfinite(t[v]) & (t[v] > 0)]
+    droom = DesignRoom(scene, room, name)
+    inside = droom.wall_distance(scene.vertices[v, :2]) >= rt.margin_m - 1e-6
+    v = v[inside] if inside.any() else v
+    return requirement_verdict(rt.level_lux, np.asarray(achieved)[v], rt.u0, rt.u0_source)
