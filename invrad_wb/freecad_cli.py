@@ -520,6 +520,19 @@ def _say_result(summary, say):
                 line += (f"; {part.replace('_', ' ')} {st['mean_achieved_lux']:.0f} lx for"
                          f" {st['mean_target_lux']:.0f} lx")
         say(line)
+        v = room.get("verdict")
+        if v:
+            say(f"  {'met' if v['met'] else 'NOT met'}: {v['words']}")
+            if v.get("layout"):
+                say(f"    {v['layout']} ({v.get('mounting', 'ceiling')})")
+            for note in v.get("notes", ()):
+                say(f"    {note}")
+            for why in v.get("why_not", ()):
+                say(f"    {why}")
+            if v.get("advice"):
+                say(f"    {v['advice']}")
+            if v.get("warning"):
+                say(f"  {v['warning']}")
     for l in summary["luminaires"]:
         p = ", ".join(f"{x:.3f}" for x in l["position"])
         n = ", ".join(f"{x:.2f}" for x in l["normal"])

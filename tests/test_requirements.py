@@ -111,3 +111,22 @@ def test_a_requirement_room_gets_a_regular_ceiling_grid_that_meets_the_level(lev
     v = judge(sc, 0, targets[0], achieved)
     assert v.met and v.points == len(task)
     assert v.em_lux == pytest.approx(em) and v.u0 == pytest.approx(achieved[task].min() / em)
+
+
+def test_the_verification_report_judges_a_level_against_en12464_and_says_so(tmp_path):
+    from invrad_wb.core.forward.render import render
+    from invrad_wb.core.output.report import build_report
+    sc = _room(size=(5.0, 4.0, 3.0), level=500.0)
+    targets = classify_rooms(sc)
+    lums = design_requirements(sc, targets, 2000.0, backend="numpy").luminaires
+    achieved = render(sc, lums, interreflection=True, backend="numpy")
+    v = judge(sc, 0, targets[0], achieved)
+    pv = {"targets": "requirement", **v.to_dict(), "words": f"Office: {v.words()}"}
+    out = build_report(sc, sc.vertex_targets(), achieved, lums, str(tmp_path),
+                       room_names={0: "Office"}, verdicts={0: pv}, pdf=False,
+                       write_exr=False)
+    html = open(out.html, encoding="utf-8").read()
+    assert "(EN 12464-1 for 500 lx)" in html and "target U0" in html
+    assert f"U0 {v.u0:.2f} &gt;= 0.60 (EN 12464-1 for 500 lx) met" in html
+    assert ">1 of 1</b>rooms meet their targets" in html.replace("\n", "")
+

@@ -37,8 +37,13 @@ LEVEL_TOLERANCE = 1e-6
 _UP = 0.99
 #: ceilings higher than this above the floor (median over the floor) take pendants (m)
 PENDANT_ABOVE_M = 4.0
-#: pendants hang this far above the floor (m)
+#: pendants hang this far above the floor (m) under a high ceiling
 PENDANT_HEIGHT_M = 3.0
+#: pendant heights above the floor (m) tried under a sloped ceiling (after the ceiling)
+PENDANT_HEIGHTS_M = (2.2, 2.5)
+#: a pendant needs the ceiling at least this far above it (m); a ceiling whose height
+#: varies by less than this is flat
+PENDANT_CLEARANCE_M = 0.3
 #: EN 12464-1: where the task positions are not known, the task area is the room less a
 #: border zone of 0.5 m; a work plane targeted to the walls is judged (and laid out) there
 EN_BORDER_M = 0.5
@@ -140,37 +145,77 @@ def classify_rooms(scene, rooms=None, room_names=None):
     return {int(r): classify(scene, int(r), names.get(int(r))) for r in ids}
 
 
-def _mounting(scene, room, label):
-    """Ceiling, or pendants at :data:`PENDANT_HEIGHT_M` under a high ceiling."""
+def mountings(scene, room, label=None):
+    """The mountings tried in a room, preferred first: pendants at :data:`PENDANT_HEIGHT_M`
+    then the ceiling where the ceiling is high (:data:`PENDANT_ABOVE_M`); else the
+    ceiling, then pendants at :data:`PENDANT_HEIGHTS_M` above the floor where the ceiling
+    rises at least
+    :data:`PENDANT_CLEARANCE_M` above them somewhere (high or sloped ceilings; a pendant
+    is only placed where the ceiling is above it)."""
     from invrad_wb.core.design.spec import Mounting
     droom = DesignRoom(scene, room, label)
     centres = droom.floor_tri.mean(axis=1)[:, :2]
     zc, _ = droom.ceiling_at(centres)
     zc = zc[np.isfinite(zc)]
+    out = [Mounting("ceiling")]
+    top = float(zc.max()) - droom.floor_z if len(zc) else 0.0
+    flat = len(zc) and float(np.ptp(zc)) < PENDANT_CLEARANCE_M
     if len(zc) and float(np.median(zc)) - droom.floor_z > PENDANT_ABOVE_M:
-        return Mounting("pendant", PENDANT_HEIGHT_M)
-    return Mounting("ceiling")
+        out.insert(0, Mounting("pendant", PENDANT_HEIGHT_M))     # a high ceiling: hang
+    elif not flat:
+        out += [Mounting("pendant", h) for h in PENDANT_HEIGHTS_M
+                if top >= h + PENDANT_CLEARANCE_M]
+    return out
 
 
-def requirement_spec(scene, targets, flux_lm, photometry=None, room_names=None):
+def requirement_spec(scene, targets, flux_lm, room_names=None, mounting=None):
     """The design spec of requirement rooms: a one-entry catalogue of the given luminaire
     (``flux_lm`` at full output, not dimmable; its power is unknown and irrelevant: the
     count decides, so 'watts' stand in at 1 W per 100 lm), maintenance factor 1, per room
-    the level with its EN 12464-1 uniformity on the targets' work plane."""
-    from invrad_wb.core.design.spec import (CatalogueEntry, DesignSpec, RoomSpec,
+    the level with its EN 12464-1 uniformity on the targets' work plane, mounted as
+    ``mounting[room]`` (default: the ceiling)."""
+    from invrad_wb.core.design.spec import (CatalogueEntry, DesignSpec, Mounting, RoomSpec,
                                             WorkPlaneRequirement)
-    names = room_names or {}
     entry = CatalogueEntry(f"{flux_lm:g} lm luminaire", float(flux_lm), float(flux_lm) / 100.0,
                            mounting=("ceiling", "pendant"))
     rooms = {}
     for r, rt in targets.items():
         if not rt.requirement:
             continue
-        label = names.get(r) or f"room {r}"
         req = WorkPlaneRequirement(rt.level_lux, rt.u0, rt.height_m, rt.margin_m,
                                    source=rt.u0_source)
-        rooms[str(r)] = RoomSpec(str(r), req, mounting=_mounting(scene, r, label))
+        rooms[str(r)] = RoomSpec(str(r), req, mounting=(mounting or {}).get(r, Mounting()))
     return DesignSpec(1.0, [entry], rooms, source="locate requirements")
+
+
+def _score(rd):
+    """How close a room's design comes to its requirement (>= 1: met; None: no design)."""
+    if rd.metrics is None:
+        return None
+    r, m = rd.requirement, rd.metrics
+    return min(m.em / r.lux, m.u0 / max(r.u0, 1e-9))
+
+
+def _dim_if_too_bright(rd, flux_lm):
+    """Where even the chosen layout (the fewest luminaires that spread the light evenly
+    enough) gives more than :data:`EM_HIGH` x the level at full output, dim the room's
+    luminaires together to the level (light is linear in flux; U0 does not change), and
+    say so: the given luminaire is too strong for the room."""
+    r, m = rd.requirement, rd.metrics
+    if m is None or m.em <= EM_HIGH * r.lux:
+        return 1.0
+    f = r.lux * 1.001 / m.em
+    for lum in rd.luminaires:
+        lum.flux_lm = float(flux_lm) * f
+        lum.extra["dim"] = round(f, 4)
+    from invrad_wb.core.design.search import Metrics
+    rd.metrics = Metrics(m.em * f, m.emin * f, m.emax * f, m.u0, m.shade_max * f,
+                         None if m.lux is None else m.lux * f,
+                         None if m.direct is None else m.direct * f)
+    rd.notes.append(f"dimmed to {100 * f:.0f} %: at full output the fewest luminaires that"
+                    f" light the room evenly give {m.em:.0f} lx for {r.lux:g} lx (a weaker"
+                    " luminaire would do without dimming)")
+    return f
 
 
 @dataclass
@@ -184,12 +229,18 @@ class RequirementsResult:
     targets: dict
     luminaires: list
     seconds: float = 0.0
+    mountings: dict = field(default_factory=dict)
 
 
 def design_requirements(scene, targets, flux_lm, photometry=None, backend="auto",
                         room_names=None, progress=None, workers=1):
     """Regular layouts of the given luminaire in the requirement rooms of ``targets``
     (``{room id: RoomTargets}``, from :func:`classify_rooms`).
+
+    Each room is designed on the ceiling first; where that does not meet the level and
+    the ceiling is high or sloped, as pendants (:func:`mountings`); the first mounting
+    that meets it is kept, else the closest. A layout too bright even with its fewest
+    luminaires is dimmed to the level (:func:`_dim_if_too_bright`).
 
     Returns
     -------
@@ -202,22 +253,47 @@ def design_requirements(scene, targets, flux_lm, photometry=None, backend="auto"
     if not req_ids:
         return RequirementsResult({}, targets, [], 0.0)
     sub = scene if len(scene.rooms) == len(req_ids) else scene.face_subset(
-        np.isin(scene.face_room, req_ids))
-    spec = requirement_spec(sub, targets, flux_lm, photometry, room_names)
-    entry = spec.catalogue[0]
-    phot = {entry.name: photometry} if photometry is not None else {}
+        np.flatnonzero(np.isin(scene.face_room, req_ids)))
     names = {r: (room_names or {}).get(r) for r in req_ids}
-    res = design(sub, spec, room_names=names, backend=backend, progress=progress,
-                 workers=workers, mixed=False, dimming=False, photometry=phot)
+    options = {r: mountings(sub, r, names[r]) for r in req_ids}
+    best, chosen = {}, {}
+    todo = list(req_ids)
+    for k in range(max(len(o) for o in options.values())):
+        rooms_k = [r for r in todo if k < len(options[r])]
+        if not rooms_k:
+            break
+        mount = {r: options[r][k] for r in rooms_k}
+        spec = requirement_spec(sub, {r: targets[r] for r in rooms_k}, flux_lm, names, mount)
+        entry = spec.catalogue[0]
+        phot = {entry.name: photometry} if photometry is not None else {}
+        part = sub if len(rooms_k) == len(sub.rooms) else sub.face_subset(
+            np.flatnonzero(np.isin(sub.face_room, rooms_k)))
+        res = design(part, spec, room_names={r: names[r] for r in rooms_k}, backend=backend,
+                     progress=progress if k == 0 else None, workers=workers, mixed=False,
+                     dimming=False, photometry=phot)
+        for rd in res.rooms:
+            r = int(rd.room)
+            sc = _score(rd)
+            if r not in best or (sc is not None and (best[r][0] is None or sc > best[r][0])):
+                best[r], chosen[r] = (sc, rd), mount[r]
+        todo = [r for r in todo if best[r][0] is None or best[r][0] < 1.0 - 1e-9]
+        if not todo:
+            break
     rooms, lums = {}, []
-    for rd in res.rooms:
-        rooms[int(rd.room)] = rd
-        pendant = spec.rooms[str(rd.room)].mounting.kind == "pendant"
+    for r in req_ids:
+        rd = best[r][1]
+        rooms[r] = rd
+        _dim_if_too_bright(rd, flux_lm)
+        pendant = chosen[r].kind == "pendant"
+        if pendant:
+            rd.notes.append(f"pendants {chosen[r].height_m:g} m above the floor: on the"
+                            " ceiling the level is not met")
         for lum in rd.luminaires:
             lum.extra["mount"] = "pendant" if pendant else "surface"
             lum.extra["layout"] = "requirement"
             lums.append(lum)
-    return RequirementsResult(rooms, targets, lums, time.perf_counter() - t0)
+    return RequirementsResult(rooms, targets, lums, time.perf_counter() - t0,
+                              {r: chosen[r] for r in req_ids})
 
 
 def judge(scene, room, rt, achieved, name=None):
