@@ -212,6 +212,8 @@ def _dim_if_too_bright(rd, flux_lm):
     rd.metrics = Metrics(m.em * f, m.emin * f, m.emax * f, m.u0, m.shade_max * f,
                          None if m.lux is None else m.lux * f,
                          None if m.direct is None else m.direct * f)
+    # the design's "the catalogue has nothing weaker" note: said better below
+    rd.notes[:] = [n for n in rd.notes if not n.startswith(f"Em {m.em:.0f} lx is")]
     rd.notes.append(f"dimmed to {100 * f:.0f} %: at full output the fewest luminaires that"
                     f" light the room evenly give {m.em:.0f} lx for {r.lux:g} lx (a weaker"
                     " luminaire would do without dimming)")
@@ -298,13 +300,34 @@ def design_requirements(scene, targets, flux_lm, photometry=None, backend="auto"
 
 def judge(scene, room, rt, achieved, name=None):
     """The :class:`~invrad_wb.core.output.fitquality.RequirementVerdict` of a requirement
-    room: the achieved lux (per vertex of ``scene``) on its work-plane targets within its
-    border zone (``rt.margin_m`` from the walls) against its level and uniformity."""
+    room, as EN 12464-1 judges: the achieved lux (per vertex of ``scene``, e.g. a forward
+    render) interpolated at the calculation grid of the task area (the work plane less
+    its border zone ``rt.margin_m``, cell centres at most ``p = 0.2 * 5^log10(d)`` apart:
+    :meth:`~invrad_wb.core.design.room.DesignRoom.grid`) and checked against the level
+    and the uniformity of ``rt``. Without such grid points, the work-plane vertices of
+    the task area are judged."""
+    from invrad_wb.core.geometry.raster import locate_points
     t = scene.vertex_targets()
-    wp_faces = (scene.face_room == room) & scene.face_virtual & (scene.face_normals[:, 2] > _UP)
-    v = np.unique(scene.faces[wp_faces])
-    v = v[np.isfinite(t[v]) & (t[v] > 0)]
+    achieved = np.asarray(achieved, dtype=np.float64)
+    wp_faces = np.flatnonzero((scene.face_room == room) & scene.face_virtual
+                              & (scene.face_normals[:, 2] > _UP))
+    tri = scene.faces[wp_faces]
     droom = DesignRoom(scene, room, name)
+    try:
+        points, _ = droom.grid(rt.height_m, rt.margin_m)
+    except Exception:          # noqa: BLE001 - no grid: judge the vertices below
+        points = np.zeros((0, 3))
+    if len(points) and len(tri):
+        idx, bary = locate_points(scene.vertices[tri][..., :2], points[:, :2])
+        ok = idx >= 0
+        if ok.any():
+            corners = tri[idx[ok]]
+            lit = np.all(np.isfinite(t[corners]) & (t[corners] > 0), axis=1)
+            values = np.einsum("ij,ij->i", bary[ok], achieved[corners])[lit]
+            if len(values):
+                return requirement_verdict(rt.level_lux, values, rt.u0, rt.u0_source)
+    v = np.unique(tri)
+    v = v[np.isfinite(t[v]) & (t[v] > 0)]
     inside = droom.wall_distance(scene.vertices[v, :2]) >= rt.margin_m - 1e-6
     v = v[inside] if inside.any() else v
-    return requirement_verdict(rt.level_lux, np.asarray(achieved)[v], rt.u0, rt.u0_source)
+    return requirement_verdict(rt.level_lux, achieved[v], rt.u0, rt.u0_source)
