@@ -59,7 +59,14 @@ class TestLocateRequirementsFZK(FreeCADTestCase):
                 # no wall light: every luminaire faces down from the ceiling or hangs
                 normals = np.array([lum["normal"] for lum in lums])
                 self.assertTrue(np.all(normals[:, 2] < -0.7), normals)
-                self.assertTrue(all(lum["flux_lm"] == 2000.0 for lum in lums))
+                # the given luminaire; dimmed (all alike, and saying so) only where even the
+                # fewest that light the room evenly are too bright (Flur: 100 lx)
+                fluxes = {round(lum["flux_lm"], 3) for lum in lums}
+                self.assertEqual(len(fluxes), 1)
+                if any(n.startswith("dimmed") for n in v.get("notes", ())):
+                    self.assertLess(fluxes.pop(), 2000.0)
+                else:
+                    self.assertEqual(fluxes, {2000.0})
         # the report judges the same way and says against what
         html = open(os.path.join(out, "index.html"), encoding="utf-8").read()
         self.assertIn("(EN 12464-1 for 500 lx)", html)
