@@ -75,6 +75,16 @@ class PipelineSettings:
         467 / 295 / 119 lx, U0 0.31 / 0.35 / 0.50; the seeded zone 11 fixtures (8 on
         the ceiling), 458 / 299 / 122 lx, U0 0.42 / 0.47 / 0.45. False: every room on
         its own, its open borders taken as walls (the earlier behaviour)
+    requirements : rooms whose targets are requirements (a work-plane level, uniform
+        surfaces: :mod:`invrad_wb.core.design.requirements`) get a regular layout of the
+        luminaire that meets the level with the EN 12464-1 uniformity (default, when the
+        flux is given); as in a design, rooms with a work-plane target keep their open
+        borders as walls (no zone joins them). False: every room's targets fitted point
+        by point (the earlier behaviour). FZK-Haus with ``examples/fzk_targets.json``
+        (2000 lm): point by point 41 fixtures, 30 of them wall lights, U0 0.31-0.57, no
+        room within its targets; as requirements 30 ceiling fixtures in regular rows,
+        every room within -10/+30 % of its level and the EN 12464-1 uniformity for it
+        (figures in the README)
     """
     flux_lm: float
     resolution_m: float = S.RESOLUTION_M
