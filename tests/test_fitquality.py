@@ -19,6 +19,13 @@ def test_fit_quality_by_hand():
     assert "Design" in line and "\n" not in line
 
 
+def test_no_lit_target_is_no_fit_and_no_warning():
+    fq = fit_quality([float("nan"), 0.0], [3.0, 1.0])
+    assert fq.targets == 0 and not fq.poor and poor_fit_warning("Store", fq) is None
+    assert fq.to_dict() == {"rms_relative": None, "within_20pct": None, "targets": 0,
+                            "poor": False}
+
+
 def test_a_good_fit_gives_no_warning():
     fq = fit_quality([100, 100], [105, 96])
     assert fq.rms_relative == pytest.approx(math.sqrt((0.05 ** 2 + 0.04 ** 2) / 2))

@@ -41,8 +41,10 @@ class FitQuality:
         return bool(self.targets) and self.rms_relative > POOR_RMS
 
     def to_dict(self):
-        return {"rms_relative": round(float(self.rms_relative), 4),
-                "within_20pct": round(float(self.within_share), 4),
+        def num(x):        # no lit target: null, never NaN (strict JSON)
+            return round(float(x), 4) if np.isfinite(x) else None
+        return {"rms_relative": num(self.rms_relative),
+                "within_20pct": num(self.within_share),
                 "targets": int(self.targets), "poor": self.poor}
 
     def words(self):
