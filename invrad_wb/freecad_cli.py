@@ -514,7 +514,10 @@ def _say_result(summary, say):
     for room in summary["rooms"] if "design" not in summary else ():
         n = sum(1 for l in summary["luminaires"] if l["room_name"] == room["room"])
         line = f"room {room['room']}: {n} luminaire(s)"
-        for part in ("work_plane", "surfaces"):
+        level = room.get("verdict", {}).get("targets") == "requirement"
+        for part in ("surfaces",) if level else ("work_plane", "surfaces"):
+            # a level is judged on its task area's grid (the verdict below), not over
+            # the whole work plane up to the walls
             st = room.get(part, {})
             if "mean_target_lux" in st:
                 line += (f"; {part.replace('_', ' ')} {st['mean_achieved_lux']:.0f} lx for"
