@@ -75,6 +75,16 @@ class PipelineSettings:
         467 / 295 / 119 lx, U0 0.31 / 0.35 / 0.50; the seeded zone 11 fixtures (8 on
         the ceiling), 458 / 299 / 122 lx, U0 0.42 / 0.47 / 0.45. False: every room on
         its own, its open borders taken as walls (the earlier behaviour)
+    requirements : rooms whose targets are requirements (a work-plane level, uniform
+        surfaces: :mod:`invrad_wb.core.design.requirements`) get a regular layout of the
+        luminaire that meets the level with the EN 12464-1 uniformity (default, when the
+        flux is given); as in a design, rooms with a work-plane target keep their open
+        borders as walls (no zone joins them). False: every room's targets fitted point
+        by point (the earlier behaviour). FZK-Haus with ``examples/fzk_targets.json``
+        (2000 lm): point by point 41 fixtures, 30 of them wall lights, U0 0.31-0.57, no
+        room within its targets; as requirements 30 ceiling fixtures in regular rows,
+        every room within -10/+30 % of its level and the EN 12464-1 uniformity for it
+        (figures in the README)
     """
     flux_lm: float
     resolution_m: float = S.RESOLUTION_M
@@ -89,6 +99,7 @@ class PipelineSettings:
     design: object = None
     workers: object = 1
     zones: bool = True
+    requirements: bool = True
 
 
 @dataclass
@@ -219,6 +230,12 @@ def prepare(doc, settings, progress=None):
     if getattr(settings, "zones", True) and settings.design is None and len(spaces) > 1:
         report(0.0, "open borders between rooms")
         borders = open_borders(spaces, doc, shapes=shapes)
+        if getattr(settings, "requirements", True) and settings.flux_lm is not None:
+            # a room whose target is a work-plane level is laid out as Design does, its
+            # open borders taken as walls (a design's requirements and grids are per room)
+            from invrad_wb.app.targets import work_plane_target
+            level = {k for k, sp in enumerate(spaces) if work_plane_target(sp) is not None}
+            borders = [b for b in borders if b.a not in level and b.b not in level]
         zones = lighting_zones(len(spaces), borders)
     open_regions = [{} for _ in spaces]
     for b in borders:
@@ -347,7 +364,7 @@ def run(doc, settings, progress=None, locate=None, building=None):
     timings["locate" if settings.design is None else "design"] = time.perf_counter() - t
     lums = list(result.luminaires)
     if settings.design is None:
-        lums = assign_rooms(building, lums)
+        lums = assign_rooms(building, lums) + list(getattr(result, "fixed_luminaires", []))
     per_room = by_room(building, lums)
     step = _progress(progress, 0.75, 0.9)
     step(0.0, f"verify {len(lums)} luminaire(s)")
@@ -358,6 +375,12 @@ def run(doc, settings, progress=None, locate=None, building=None):
     timings["verify"] = time.perf_counter() - t
     target = scene.vertex_lux.copy() if scene.vertex_lux is not None else scene.vertex_targets()
     summary = _summary(doc, flux, settings, building, target, achieved, per_room)
+    if settings.design is None:
+        summary["verdicts"] = room_verdicts(building, target, achieved,
+                                            getattr(result, "room_targets", None),
+                                            getattr(result, "requirements", None), flux)
+        for d, v in zip(summary["rooms"], summary["verdicts"]):
+            d["verdict"] = v
     if settings.design is not None:
         from invrad_wb.app.design import design_summary
         summary["design"] = design_summary(result)
@@ -402,7 +425,13 @@ def run(doc, settings, progress=None, locate=None, building=None):
 
 def _find_luminaires(building, settings, flux, progress, locate=None):
     """Design from requirements (``settings.design``) or locate luminaires of ``flux``;
-    the core's result (with ``.luminaires``)."""
+    the core's result (with ``.luminaires``).
+
+    Rooms whose targets are requirements (a work-plane level: :mod:`invrad_wb.core.design.
+    requirements`) get a regular layout of the luminaire instead of a point-by-point fit,
+    when the flux is given (:func:`_locate_requirements`); the result's
+    ``fixed_luminaires`` then hold their luminaires (room ids), ``room_targets`` what each
+    room's targets are."""
     if settings.design is not None:
         from invrad_wb.core.design.design import design
         return design(building.scene, settings.design, room_names=building.room_names,
@@ -410,17 +439,78 @@ def _find_luminaires(building, settings, flux, progress, locate=None):
     extra = {} if settings.workers in (1, None) else {"workers": settings.workers}
     if locate is None:
         from invrad_wb.core.inverse.locate import locate
+        kinds = classify_targets(building) if getattr(settings, "requirements", True) else {}
+        if flux is not None and any(k.requirement for k in kinds.values()):
+            return _locate_requirements(building, settings, flux, progress, locate, kinds,
+                                        extra)
         seeds = zone_seeds(building, settings, flux, _progress(progress, 0.0, 0.4), locate,
                            **extra)
         if seeds:
             extra["seeds"] = seeds
             progress = _progress(progress, 0.4, 1.0)
+        result = locate(building.locate_scene, flux_lm=flux, settings=settings.locate,
+                        progress=progress, backend=settings.backend,
+                        room_names=building.zone_names, **extra)
+        result.room_targets = kinds
+        return result
     return locate(building.locate_scene, flux_lm=flux, settings=settings.locate,
                   progress=progress, backend=settings.backend,
                   room_names=building.zone_names, **extra)
 
 
-def zone_seeds(building, settings, flux, progress, locate, **extra):
+def classify_targets(building):
+    """``{room id: RoomTargets}``: what each room's targets are (requirement or exact)."""
+    from invrad_wb.core.design.requirements import classify_rooms
+    names = {p.room_id: room_name(p.space) for p in building.rooms}
+    return classify_rooms(building.scene, [p.room_id for p in building.rooms], names)
+
+
+def _locate_requirements(building, settings, flux, progress, locate, kinds, extra):
+    """Requirement rooms laid out regularly (the design engine with the given luminaire),
+    the other rooms located as before: lighting zones of exact rooms only as one zone
+    (seeded), exact rooms that share a zone with a requirement room on their own.
+
+    Returns the exact zones' LocateResult (zone ids; possibly of no room) with
+    ``fixed_luminaires`` (room ids: the requirement rooms' and the lone exact rooms'),
+    ``requirements`` (the core's RequirementsResult) and ``room_targets``."""
+    from dataclasses import asdict
+    from invrad_wb.core.design.requirements import design_requirements
+    from invrad_wb.core.inverse.locate import LocateResult, LocateSettings
+    names = {p.room_id: room_name(p.space) for p in building.rooms}
+    zone_of = {p.room_id: (p.room_id if p.zone is None else p.zone) for p in building.rooms}
+    mixed = {zone_of[r] for r, k in kinds.items() if k.requirement}
+    alone = [r for r in zone_of if zone_of[r] in mixed and not kinds[r].requirement]
+    zones = sorted({z for z in zone_of.values() if z not in mixed})
+    req = design_requirements(building.scene, kinds, flux, backend=settings.backend,
+                              room_names=names, progress=_progress(progress, 0.0, 0.5),
+                              workers=settings.workers)
+    fixed = list(req.luminaires)
+    progress = _progress(progress, 0.5, 1.0)
+    if alone:
+        res = locate(building.scene, flux_lm=flux, settings=settings.locate,
+                     progress=progress, backend=settings.backend, rooms=alone,
+                     room_names=names, **extra)
+        fixed += list(res.luminaires)
+    if zones:
+        seeds = zone_seeds(building, settings, flux, progress, locate, zones=zones, **extra)
+        if seeds:
+            extra = dict(extra, seeds=seeds)
+        result = locate(building.locate_scene, flux_lm=flux, settings=settings.locate,
+                        progress=progress, backend=settings.backend, rooms=zones,
+                        room_names=building.zone_names, **extra)
+    else:
+        s = settings.locate
+        s = LocateSettings.from_dict(s) if isinstance(s, dict) else (s or LocateSettings())
+        result = LocateResult([], asdict(s.check()), {"total": 0.0}, flux, [],
+                              settings.backend)
+    result.fixed_luminaires = fixed
+    result.requirements = req
+    result.room_targets = kinds
+    result.timings["requirements"] = round(req.seconds, 4)
+    return result
+
+
+def zone_seeds(building, settings, flux, progress, locate, zones=None, **extra):
     """``{zone id: [Luminaire, ...]}``: the rooms of every lighting zone of several rooms
     located one by one (their open borders transparent, nothing mounted there), as the
     zone's seed arrangement (``locate(..., seeds=)``); {} without such zones.
@@ -433,7 +523,7 @@ def zone_seeds(building, settings, flux, progress, locate, **extra):
         return {}
     zone = {p.room_id: p.zone for p in building.rooms}
     size = Counter(zone.values())
-    rooms = [r for r, z in zone.items() if size[z] > 1]
+    rooms = [r for r, z in zone.items() if size[z] > 1 and (zones is None or z in zones)]
     if not rooms:
         return {}
     names = {p.room_id: room_name(p.space) for p in building.rooms}
@@ -503,6 +593,59 @@ def _summary(doc, flux, settings, building, target, achieved, per_room):
     return summary
 
 
+def room_verdicts(building, target, achieved, kinds=None, requirements=None, flux=None):
+    """Per room (in ``building.rooms`` order) which targets are met and why not.
+
+    Requirement rooms: Em against the level (-10/+30 %) and U0 against EN 12464-1 for the
+    level on the task area (:func:`invrad_wb.core.design.requirements.judge`); exact rooms:
+    the fit quality over the lit targets (relative RMS, share within 20 %) and a one-line
+    warning when it is poor. Returns a list of dicts with ``targets``, ``met``, ``words``
+    and, where not met, ``why_not`` and ``advice``.
+    """
+    from invrad_wb.core.design.requirements import judge
+    from invrad_wb.core.output.fitquality import fit_quality, poor_fit_warning
+    if kinds is None:
+        kinds = classify_targets(building)
+    scene = building.scene
+    vr = np.full(len(scene.vertices), -1)
+    vr[scene.faces.reshape(-1)] = np.repeat(scene.face_room, 3)
+    designed = {} if requirements is None else requirements.rooms
+    out = []
+    for p in building.rooms:
+        name = room_name(p.space)
+        rt = kinds.get(p.room_id)
+        if rt is not None and rt.requirement:
+            v = judge(scene, p.room_id, rt, achieved, name)
+            d = {"targets": "requirement", **v.to_dict(), "words": f"{name}: {v.words()}"}
+            rd = designed.get(p.room_id)
+            if rd is not None and rd.candidate is not None:
+                d["layout"] = rd.candidate.geom.describe()
+                d["mounting"] = requirements.mountings[p.room_id].kind
+                d["notes"] = [n for n in rd.notes if "nothing designed" not in n]
+            if not v.met:
+                d["why_not"] = v.why_not()
+                d["advice"] = ("these targets are requirements: Design (a catalogue of"
+                               " luminaires, dimming) finds the layout of least power that"
+                               " meets them")
+            if rd is None and flux is None:
+                d.setdefault("why_not", []).append(
+                    "no luminaire flux given: the targets were fitted point by point; give"
+                    " the flux for a regular layout, or use Design")
+            out.append(d)
+            continue
+        sel = vr == p.room_id
+        fq = fit_quality(target[sel], achieved[sel])
+        d = {"targets": "exact", **fq.to_dict(), "met": not fq.poor,
+             "words": f"{name}: {fq.words()}"}
+        if rt is not None:
+            d["reason"] = rt.reason
+        warn = poor_fit_warning(name, fq)
+        if warn:
+            d["warning"] = warn
+        out.append(d)
+    return out
+
+
 def _write_json(path, data):
     from invrad_wb.core.io.atomic import atomic_write_text
     from invrad_wb.core.io.jsonout import dumps
@@ -518,8 +661,10 @@ def write_report(out_dir, building, target, achieved, luminaires, summary):
     except ImportError as exc:
         summary["report"] = f"no HTML report: invrad_wb.core.output.report is not available ({exc})"
     else:
+        verdicts = {p.room_id: v for p, v in zip(building.rooms,
+                                                  summary.get("verdicts", ()))}
         out = build_report(building.scene, target, achieved, luminaires, out_dir,
-                           room_names=building.room_names)
+                           room_names=building.room_names, verdicts=verdicts or None)
         summary["report"] = str(getattr(out, "html", out))
     _write_json(os.path.join(out_dir, "summary.json"), summary)
     return out

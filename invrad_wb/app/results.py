@@ -121,7 +121,9 @@ def repeak(result, threshold=None, neighbourhood_m=None, progress=None):
     # the core's refinement reports a fraction only
     loc.repeak(threshold=threshold, neighbourhood=neighbourhood_m,
                progress=lambda frac, msg="refinement": step(frac, f"peaks: {msg}"))
-    return assign_rooms(result.building, loc.luminaires)
+    # requirement rooms' regular layouts (and lone exact rooms) are not from these votes
+    return assign_rooms(result.building, loc.luminaires) + list(
+        getattr(loc, "fixed_luminaires", []))
 
 
 def document_luminaires(building):

@@ -140,6 +140,7 @@ def _locate_one(args, scene_path, output, vote_maps, settings, phot, workers):
         n = ", ".join(f"{round(float(x), 2) + 0.0:.2f}" for x in l.normal)   # never -0.00
         print(f"room {l.room}: luminaire at ({p}) m facing ({n}), {l.flux_lm:.0f} lm,"
               f" score {l.score:.3f} [{l.extra.get('mount', '')}]")
+    _say_fit(result, names)
     of = "" if args.flux is None else f" of {args.flux:g} lm"
     print(f"{len(result.luminaires)} luminaire(s){of} in"
           f" {result.timings['total']:.2f} s ({result.backend}) -> {output}")
@@ -156,3 +157,18 @@ def _locate_one(args, scene_path, output, vote_maps, settings, phot, workers):
             return 3
         print(f"invrad: no luminaire needed: {scene_path}: {reason}", file=sys.stderr)
     return 0
+
+
+def _say_fit(result, names=None):
+    """One line per room: how well the luminaires reproduce its targets; a warning when
+    the fit is poor (:mod:`invrad_wb.core.output.fitquality`)."""
+    from invrad_wb.core.output.fitquality import poor_fit_warning
+    for run in result.rooms:
+        fq = getattr(run, "fit", None)
+        if fq is None or not fq.targets:
+            continue
+        name = (names or {}).get(int(run.room)) or f"room {int(run.room)}"
+        print(f"{name}: {fq.words()}")
+        warn = poor_fit_warning(name, fq)
+        if warn:
+            print(f"invrad: {warn}", file=sys.stderr)

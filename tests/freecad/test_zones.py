@@ -18,6 +18,9 @@ from invrad_wb.app import fixtures, pipeline, rooms, targets
 from invrad_wb.app.pipeline import PipelineSettings
 
 FLUX = 2000.0
+#: the zones' point-by-point fit (their work-plane levels are otherwise requirements, laid
+#: out per room with their open borders as walls, as in a design)
+EXACT = {"requirements": False}
 
 
 def wall_between(doc, lo, hi):
@@ -82,7 +85,7 @@ class TestOpenBorders(OpenPlan):
     def test_the_border_is_virtual_and_the_rooms_one_zone(self):
         for sp in self.spaces:
             targets.set_work_plane(sp, 300.0)
-        b = pipeline.prepare(self.doc, PipelineSettings(flux_lm=FLUX, resolution_m=0.4,
+        b = pipeline.prepare(self.doc, PipelineSettings(flux_lm=FLUX, **EXACT, resolution_m=0.4,
                                                                 zones=True))
         self.assertEqual([p.zone for p in b.rooms], [0, 0, 2, 3, 4, 5])
         self.assertEqual(b.zone_names[0], "Kitchen + Living")
@@ -127,7 +130,8 @@ class TestOpenBorders(OpenPlan):
         # the walls of the other pairs are real; no zones asked: none made
         self.assertFalse((sc.face_virtual & (sc.face_room >= 2)
                           & (np.abs(sc.face_normals[:, 2]) < 0.1)).any())
-        plain = pipeline.prepare(self.doc, PipelineSettings(flux_lm=FLUX, resolution_m=0.4,
+        plain = pipeline.prepare(self.doc, PipelineSettings(flux_lm=FLUX, **EXACT,
+                                                            resolution_m=0.4,
                                                             zones=False))
         self.assertIsNone(plain.zone_scene)
         self.assertFalse((plain.scene.face_virtual
@@ -137,7 +141,7 @@ class TestOpenBorders(OpenPlan):
         from invrad_wb.core.model.luminaires import Luminaire
         for sp in (self.kitchen, self.living, self.office):
             targets.set_work_plane(sp, 300.0)
-        b = pipeline.prepare(self.doc, PipelineSettings(flux_lm=FLUX, resolution_m=0.5,
+        b = pipeline.prepare(self.doc, PipelineSettings(flux_lm=FLUX, **EXACT, resolution_m=0.5,
                                                                 zones=True))
         lums = [Luminaire([3.9, 1.5, 2.7], [0, 0, -1], FLUX, room=0),
                 Luminaire([4.1, 1.5, 2.7], [0, 0, -1], FLUX, room=0),
@@ -158,7 +162,7 @@ class TestZoneLocate(OpenPlan):
         for sp, e in lux.items():
             targets.set_work_plane(sp, e)
         # the defaults: open borders make a lighting zone, seeded by its rooms alone
-        res = pipeline.run(self.doc, PipelineSettings(flux_lm=FLUX, resolution_m=0.3,
+        res = pipeline.run(self.doc, PipelineSettings(flux_lm=FLUX, **EXACT, resolution_m=0.3,
                                                       report_dir=self.path("report")))
         self.assertIsNotNone(res.building.zone_scene)
         seeded = [t for run in res.locate_result.rooms for t in run.trace if "seeded" in t]

@@ -81,3 +81,13 @@ def grid_counts(length, width):
     least one point per side)."""
     p = grid_spacing(max(length, width))
     return (max(1, math.ceil(length / p - 1e-9)), max(1, math.ceil(width / p - 1e-9)))
+
+
+def uniformity_for(lux):
+    """The uniformity U0 (Emin/Em) that EN 12464-1:2021 pairs with a maintained
+    illuminance of ``lux`` in its schedule (clause 5) when no room type says otherwise:
+    0.40 below 500 lx, 0.60 from 500 lx, 0.70 from 750 lx. Returns (u0, words), e.g.
+    ``(0.6, "EN 12464-1 for 500 lx")``."""
+    lux = float(lux)
+    u0 = 0.70 if lux >= 750 else 0.60 if lux >= 500 else 0.40
+    return u0, f"EN 12464-1 for {lux:g} lx"

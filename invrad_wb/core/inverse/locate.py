@@ -35,6 +35,7 @@ from invrad_wb.core.inverse.refine import (LOG_SCALE_LIMIT, Light, RefineProblem
 from invrad_wb.core.inverse.sampling import voting_points, default_density
 from invrad_wb.core.inverse.votemaps import build_canvas
 from invrad_wb.core.inverse.votes import vote_weights, cast_exact, vote_profile
+from invrad_wb.core.inverse.fitcheck import room_fit
 
 VOTE_MODELS = ("exact", "ellipse")
 #: luminaires stay this far above a work plane (nothing is mounted right above a desk)
@@ -259,6 +260,7 @@ class LocateResult:
                 "rooms": [{"room": int(r.room), "voting_points": len(r.points),
                            "maps": len(r.canvas.maps), "peaks": len(r.peaks),
                            "ambient_lux": r.ambient_lux, "cost": r.cost,
+                           "fit": r.fit.to_dict() if getattr(r, "fit", None) else None,
                            "occluders": 0 if r.occluders is None else r.occluders.n_triangles}
                           for r in self.rooms]}
 
@@ -583,6 +585,7 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
         c_rest = prob.cost(lights[:i] + lights[i + 1:])
         L.score = float((c_rest - cost) / max(c_rest, 1e-12))
     run.lights, run.cost, run.trace = lights, cost, fit.trace
+    run.fit = room_fit(prob, lights)          # relative RMS, share within 20 % (no render)
 
 
 class _RoomFit:

@@ -282,7 +282,7 @@ def build_report(scene, target_vertex_lux, achieved_vertex_lux, luminaires, out_
                  room_names=None, title="Lighting verification", extra=None,
                  groups=None, lux_range=None, deviation_limit=DEVIATION_LIMIT,
                  metres_per_pixel=None, tolerance=TOLERANCE, embed_images=True,
-                 write_exr=True, rooms=None, project=None, pdf=True):
+                 write_exr=True, rooms=None, project=None, pdf=True, verdicts=None):
     """Write the report of a forward solve against the targets.
 
     Parameters
@@ -309,6 +309,12 @@ def build_report(scene, target_vertex_lux, achieved_vertex_lux, luminaires, out_
         ``target``, ``achieved`` (lux) and ``deviation`` (fraction), NaN off the faces
     rooms : list of room ids to report (default all)
     project : str, the project's name on the cover (default: the scene file's name)
+    verdicts : dict room id -> dict, optional
+        Per-room verdicts of the locate pipeline (``invrad_wb.app.pipeline.room_verdicts``):
+        a room whose targets are requirements (``targets: 'requirement'``) is judged by it
+        (Em within -10/+30 % of the level, U0 against EN 12464-1 for the level, on the task
+        area) instead of against its uniform target's U0; exact rooms show their fit
+        quality (``words``)
     pdf : bool, also print ``report.pdf`` (skipped with a warning in ``notes`` when
         WeasyPrint is not installed)
 
@@ -330,7 +336,7 @@ def build_report(scene, target_vertex_lux, achieved_vertex_lux, luminaires, out_
         project = _project_name(scene)
     run = _Run(scene, target, achieved, luminaires, luminaire_rooms(scene, luminaires),
                list(groups or []), lux_range, float(deviation_limit), metres_per_pixel,
-               tolerance, write_exr)
+               tolerance, write_exr, verdicts={int(k): v for k, v in (verdicts or {}).items()})
     stage = _Staging(out_dir)
     try:
         reports = [_room_report(stage, run, r, room_name(room_names, r, project,
@@ -378,6 +384,7 @@ class _Run:
     write_exr: bool
     refine: bool = True
     backend: str = "auto"
+    verdicts: dict = None
 
 
 def _paths(out_dir, written, reports, scale, notes):
@@ -449,11 +456,30 @@ def _room_report(stage, run, r, name):
     if run.write_exr:
         figures.update(_room_rasters(stage, run, r, dev, f"room{r}", view.unfolded()))
     return {"room": r, "name": name, "metrics": m_all,
-            "verdict": verdict(m_all, run.tolerance),
+            "verdict": _verdict(m_all, run, r),
             "parts": _room_parts(run, r, rf, floor_z), "luminaires": lums,
             "flux_lm": float(sum(run.luminaires[i].flux_lm for i in lums)),
             "images": figures, "floor_z": floor_z, "lux_max": vmax,
             "layout": view.unfolded().layout}
+
+
+def _verdict(m, run, r):
+    """The room's verdict: the pipeline's for requirement targets (Em against the level,
+    U0 against EN 12464-1 for it, saying so), else :func:`verdict`; ``words`` and
+    ``why_not`` carry the pipeline's sentences (the fit quality of exact targets)."""
+    v = verdict(m, run.tolerance)
+    pv = (run.verdicts or {}).get(r)
+    if pv is None:
+        return v
+    if pv.get("targets") == "requirement":
+        v = {"em": pv["em_ok"], "u0": pv["u0_ok"], "shade": None,
+             "u0_required": pv["u0_required"], "ok": pv["met"],
+             "requirement": {"level": pv["level_lux"], "em": pv["em_lux"], "u0": pv["u0"],
+                             "u0_source": pv["u0_source"]}}
+    v["words"] = pv.get("words", "")
+    v["why_not"] = list(pv.get("why_not", ())) + [x for x in (pv.get("advice"),
+                                                              pv.get("warning")) if x]
+    return v
 
 
 def _room_figures(stage, view, stem, required):
@@ -577,6 +603,16 @@ def _diff(a, t, pct=True):
 
 def _metric_rows(m, v):
     """Target / achieved / difference rows of a room's table, with the verdict per row."""
+    q = v.get("requirement")
+    if q is not None:       # a level: Em -10/+30 %, U0 of EN 12464-1, on the task area
+        return [
+            {"label": "Em, mean on the task area (lx)", "target":
+             f"{fmt_lux(q['level'])} (-10/+30 %)", "achieved": fmt_lux(q["em"]),
+             "diff": _diff(q["em"], q["level"]), "ok": v["em"]},
+            {"label": "U0 = Emin / Em", "target":
+             f"at least {fmt_ratio(v['u0_required'])} ({q['u0_source']})",
+             "achieved": fmt_ratio(q["u0"]), "diff": signed(q["u0"] - v["u0_required"], 2),
+             "ok": v["u0"]}]
     du = ("–" if not np.isfinite(m["u0"] - m["target_u0"])
           else signed(m["u0"] - m["target_u0"], 2))
     return [
@@ -690,7 +726,17 @@ def _room_context(rr, run, src):
             "lum_keys": keys, "lums": lums, "target_em": fmt_lux(m["target_em"]),
             "em": fmt_lux(m["em"]), "target_u0": fmt_ratio(m["target_u0"]),
             "u0": fmt_ratio(m["u0"]), "shade_max": fmt_lux(m["shade_max_lux"]),
-            "has_target": bool(m["n_faces"])}
+            "has_target": bool(m["n_faces"]), **_requirement_context(v)}
+
+
+def _requirement_context(v):
+    """Overview cells of a room judged as a requirement (level, U0 of EN 12464-1)."""
+    q = v.get("requirement")
+    if q is None:
+        return {}
+    return {"target_em": fmt_lux(q["level"]), "em": fmt_lux(q["em"]),
+            "target_u0": f"{fmt_ratio(v['u0_required'])} ({q['u0_source']})",
+            "u0": fmt_ratio(q["u0"])}
 
 
 def _appendix_row(rr):
