@@ -84,7 +84,9 @@ class CatalogueEntry:
         if self.photometry:
             d["photometry"] = self.photometry
         if self.mount_height_m != (0.0, math.inf):
-            d["mount_height_m"] = list(self.mount_height_m)
+            # as the spec writes it: null is "no upper limit" (JSON has no infinity)
+            d["mount_height_m"] = [h if math.isfinite(h) else None
+                                   for h in self.mount_height_m]
         return d
 
 
