@@ -204,6 +204,11 @@ def test_design_meets_walls_and_ceiling_by_an_independent_solve():
     assert met.surfaces["walls"][2] >= 0.2 and met.surfaces["ceiling"][0] >= 30
     d = rd.to_dict()
     assert d["pass"]["walls"] and d["surfaces"]["walls"]["required"]["lux"] == 150
+    # walls' uniformity out of reach: their Em is still met (by output), U0 fails
+    even = design_room(sc, _spec({"work_plane": {"lux": 100, "u0": 0.4},
+                                  "walls": {"lux": 150, "u0": 0.99}}), 0)
+    assert not even.compliant and not even.verdicts["walls"]
+    assert even.metrics.surfaces["walls"][0] >= 150 and even.verdicts["Em"]
     # asked too much of the walls: not compliant, and the note names them
     hard = design_room(sc, _spec({"work_plane": {"lux": 100, "u0": 0.4},
                                   "walls": {"lux": 5000}}), 0)

@@ -140,8 +140,19 @@ def surface_grids(scene, room, droom, lift_m=1e-3):
         pts = np.stack([np.bincount(cell, weights=a * c[:, i]) for i in range(3)], 1)
         nrm = np.stack([np.bincount(cell, weights=a * n[:, i]) for i in range(3)], 1)
         nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
-        out[name] = (pts / w[:, None] + lift_m * nrm, nrm, w)
+        pts = pts / w[:, None]
+        # a face of the room that does not face into its floor outline (the outside of a
+        # wall, a face kept with the wrong winding) is no surface a person sees: left out
+        ahead = pts[:, :2] + INSIDE_PROBE_M * nrm[:, :2]
+        inside = droom.inside(ahead) & (droom.wall_distance(ahead) > 0.0)
+        if not inside.any():
+            continue
+        out[name] = (pts[inside] + lift_m * nrm[inside], nrm[inside], w[inside])
     return out
+
+
+#: how far in front of a surface cell its point must lie inside the floor outline (m)
+INSIDE_PROBE_M = 0.05
 
 
 class RoomModel:

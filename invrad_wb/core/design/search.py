@@ -19,6 +19,7 @@ import math
 import numpy as np
 
 from invrad_wb.core.design.evaluate import Layout, unit_response, luminaires_of
+from invrad_wb.core.design.spec import SurfaceRequirement
 from invrad_wb.core.output.glare import observers, ugr_from_sum, unit_glare
 from invrad_wb.core.design.layouts import grid_geometries
 
@@ -460,7 +461,7 @@ def run_search(search):
     """Best design of a room: (Candidate, Metrics, n_exact). Candidate.ok is the verdict.
 
     When no layout meets every requirement, the search is repeated without the UGR limit,
-    then without the walls and ceiling too: the closest design then meets the work plane
+    then without the walls' and ceiling's uniformity, then without walls and ceiling: the closest design then meets the work plane
     (and what else it can) rather than trading the work plane's light for a glare or
     surface figure no layout reaches; its verdict is still taken on every requirement.
     """
@@ -470,6 +471,10 @@ def run_search(search):
     if full[0] is not None:
         stages.append((None, full[1]))
     if full[1]:
+        # the surfaces' uniformity is a matter of layout, their Em of output: keep the
+        # latter where the former cannot be met
+        stages.append((None, {k: SurfaceRequirement(r.lux, 0.0, r.source)
+                              for k, r in full[1].items()}))
         stages.append((None, {}))
     first = None
     try:
