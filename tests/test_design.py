@@ -25,6 +25,12 @@ CAT = [{"name": "DL-1000", "flux_lm": 1000, "watts": 8.5},
        {"name": "DL-3500", "flux_lm": 3500, "watts": 26.0}]
 
 
+def _env():
+    """The environment of a CLI subprocess that runs THIS tree's invrad_wb (not whichever
+    copy is installed in the venv)."""
+    return dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+
+
 def spec(lux=500, u0=0.6, cat=CAT, **room):
     return spec_from_dict({"maintenance_factor": 0.8, "catalogue": cat,
                            "rooms": {"0": {"work_plane": {"lux": lux, "u0": u0}, **room}}})
@@ -119,7 +125,11 @@ def test_design_complies_by_an_independent_computation():
     # black room: no interreflection, so the textbook formula is the whole answer
     sc = g.box_room(size=(6.0, 4.0, 3.0), cell=0.5, reflectance=0.0)
     rd = design_room(sc, spec(), 0)
-    assert rd.compliant and rd.luminaires
+    assert rd.verdicts["Em"] and rd.verdicts["U0"] and rd.luminaires
+    # downlights in a black room leave the ceiling black: EN 12464-1 5.2.3 is not met
+    assert not rd.verdicts["ceiling"] and not rd.compliant
+    assert rd.metrics.surfaces["ceiling"][0] == pytest.approx(0.0, abs=1e-6)
+    assert any(n.startswith("ceiling:") for n in rd.notes)
     # the EN 12464-1 grid, laid by hand: 5 x 3 m task area -> 9 x 5 cell centres
     s = 0.5 + (np.arange(9) + 0.5) * 5.0 / 9
     t = 0.5 + (np.arange(5) + 0.5) * 3.0 / 5
@@ -211,17 +221,20 @@ def test_cli_design_on_a_plain_mesh(tmp_path):
     from invrad_wb.core.io.sceneio import write_scene
     sc = g.with_reflectances(g.box_room(size=(5.0, 4.0, 2.8), cell=0.4))
     write_scene(tmp_path / "room.ply", sc, lux=np.full(len(sc.vertices), np.nan))
+    # luminous openings of 0.28 m^2 (round panels): an office's UGR 19 can be met
+    cat = [dict(e, radius_m=0.3) for e in CAT]
     (tmp_path / "d.json").write_text(json.dumps(
-        {"maintenance_factor": 0.8, "catalogue": CAT,
+        {"maintenance_factor": 0.8, "catalogue": cat,
          "rooms": {"0": {"room_type": "office"}}}))
     out = tmp_path / "r.json"
     cp = subprocess.run([sys.executable, "-m", "invrad_wb", "design", "room.ply", "--spec",
                          "d.json", "-o", str(out), "--schedule", "s.csv"], cwd=tmp_path,
-                        capture_output=True, text=True, timeout=300)
+                        capture_output=True, text=True, timeout=600, env=_env())
     assert cp.returncode == 0, cp.stderr
     data = json.loads(out.read_text(), parse_constant=lambda c: pytest.fail(c))
     room = data["rooms"][0]
     assert room["compliant"] and room["em_lux"] >= 500 and room["u0"] >= 0.6
+    assert room["pass"]["UGR"] and room["ugr"] <= 19 and room["pass"]["walls"]
     assert len(data["luminaires"]) == sum(room["schedule"].values())
     assert all(lum["type"] in {e["name"] for e in CAT} for lum in data["luminaires"])
     assert "meets the requirement" in cp.stdout
@@ -237,7 +250,7 @@ def test_cli_design_impossible_exits_3_with_the_reason(tmp_path):
          "rooms": {"0": {"work_plane": {"lux": 500}}}}))
     cp = subprocess.run([sys.executable, "-m", "invrad_wb", "design", "room.ply", "--spec",
                          "d.json", "-o", "r.json"], cwd=tmp_path, capture_output=True,
-                        text=True, timeout=300)
+                        text=True, timeout=300, env=_env())
     assert cp.returncode == 3
     assert "too dark" in cp.stdout and "DOES NOT MEET" in cp.stdout
     assert (tmp_path / "r.json").exists()

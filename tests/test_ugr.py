@@ -35,12 +35,21 @@ def test_limits_and_symmetry():
     assert high < low and low - high == pytest.approx(8 * math.log10(4), abs=1e-9)
     mirrored = Luminaire([3.0, -0.5, 3.0], [0, 0, -1], 3000.0, 0.1)
     assert ugr([mirrored], [0, 0, 1.2], [1, 0, 0], 50.0) == pytest.approx(low)
-    # behind the observer, below the eye, or without a luminous area: no glare
+    # behind the observer or below the eye: no glare
     assert ugr([lum], [0, 0, 1.2], [-1, 0, 0], 50.0) is None
     assert ugr([Luminaire([3, 0, 1.0], [0, 0, -1], 3000.0, 0.1)], [0, 0, 1.2], [1, 0, 0],
                50.0) is None
-    assert ugr([Luminaire([3, 0, 3], [0, 0, -1], 3000.0)], [0, 0, 1.2], [1, 0, 0],
-               50.0) is None
+    # without a luminous area: a CIE 147 small source, 8 log(0.25 / Lb sum 200 I^2/(r^2 p^2))
+    point = Luminaire([3, 0, 3], [0, 0, -1], 3000.0)
+    d = np.array([3.0, 0.0, 1.8])
+    r = float(np.linalg.norm(d))
+    i_cd = 3000.0 / math.pi * (1.8 / r)
+    p = float(guth_index(0.0, math.degrees(math.atan2(1.8, 3.0))))
+    small = 8 * math.log10(0.25 / (50.0 / math.pi) * 200 * i_cd ** 2 / (r ** 2 * p ** 2))
+    assert ugr([point], [0, 0, 1.2], [1, 0, 0], 50.0) == pytest.approx(small, abs=1e-9)
+    # ... the most glaring reading: any real opening glares less
+    assert ugr([point], [0, 0, 1.2], [1, 0, 0], 50.0) > ugr(
+        [Luminaire([3, 0, 3], [0, 0, -1], 3000.0, 0.1)], [0, 0, 1.2], [1, 0, 0], 50.0)
     # the position index grows away from the line of sight, sideways faster
     assert guth_index(0, 10) < guth_index(0, 40)
     assert guth_index(60, 30) != guth_index(0, 30)
@@ -72,7 +81,28 @@ def test_design_reports_ugr_against_the_room_type_limit():
     # small bright discs glare: more than the office limit, and said so
     assert rd.ugr > 19 and not rd.verdicts["UGR"] and not rd.compliant
     assert any("UGR" in n for n in rd.notes)
-    # point emitters have no luminous area: no UGR, no verdict
+    # point emitters have no luminous area: rated as CIE 147 small sources (an upper
+    # bound), judged, and said so
     rd = design_room(sc, spec_from_dict({"catalogue": [dict(small, radius_m=0.0)],
                                          "rooms": {"0": {"room_type": "office"}}}), 0)
-    assert rd.ugr is None and "UGR" not in rd.verdicts
+    assert rd.ugr is not None and rd.ugr > 19 and not rd.verdicts["UGR"]
+    assert any("small source" in n for n in rd.notes)
+    # ... and the closest design still meets the work plane, walls and ceiling
+    assert rd.verdicts["Em"] and rd.verdicts["U0"]
+    assert rd.verdicts["walls"] and rd.verdicts["ceiling"]
+
+
+def test_vectorised_glare_terms_match_the_scalar_formula():
+    from invrad_wb.core.output.glare import ugr_from_sum, unit_glare
+    rng = np.random.default_rng(3)
+    pos = np.c_[rng.uniform(-4, 6, 30), rng.uniform(-3, 3, 30), rng.uniform(1.0, 3.5, 30)]
+    nrm = np.tile([0.0, 0.0, -1.0], (30, 1))
+    nrm[::3] = [0.3, 0.0, -0.954]
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+    eye, view = np.array([0.0, 0.0, 1.2]), np.array([1.0, 0.2, 0.0])
+    for radius in (0.0, 0.02, 0.3):
+        lums = [Luminaire(p, n, 2000.0, radius) for p, n in zip(pos, nrm)]
+        terms = unit_glare(eye, view, pos, nrm, math.pi * radius ** 2 if radius else None)
+        want = ugr(lums, eye, view, 120.0)
+        got = float(ugr_from_sum(2000.0 ** 2 * terms.sum(), 120.0))
+        assert got == pytest.approx(want, abs=1e-9)

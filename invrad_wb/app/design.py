@@ -15,7 +15,7 @@ import os
 from invrad_wb.errors import SceneError, SettingsError
 
 _SPEC_ROOM_KEYS = ("work_plane", "room_type", "mounting", "catalogue", "shade_limit_lux",
-                   "ugr_max")
+                   "ugr_max", "walls", "ceiling", "cylindrical", "operating_hours")
 
 
 def is_design_file(path):
@@ -58,7 +58,8 @@ def spec_from_data(data, source, base_dir):
         if not isinstance(r.get("work_plane", {}), dict):
             r["work_plane"] = {"lux": r["work_plane"]}
         rooms[key] = r
-    spec = {k: data[k] for k in ("maintenance_factor", "catalogue") if k in data}
+    spec = {k: data[k] for k in ("maintenance_factor", "catalogue", "operating_hours")
+            if k in data}
     spec["rooms"] = rooms
     return spec_from_dict(spec, source=source, base_dir=base_dir)
 
@@ -83,6 +84,7 @@ def work_planes_for(spaces, spec):
 
 def design_summary(result):
     """Per-room design figures for the pipeline's summary (JSON-ready)."""
-    return {"total_watts": round(result.watts, 2), "compliant": result.compliant,
+    return {"total_watts": round(result.watts, 2),
+            "total_rated_watts": round(result.rated_watts, 2), "compliant": result.compliant,
             "maintenance_factor": result.spec.maintenance_factor,
             "rooms": [r.to_dict() for r in result.rooms]}

@@ -65,10 +65,16 @@ def _print_room(r):
     print(f"{r.name}: {types} ({r.candidate.geom.describe()}"
           + (f", dimmed to {100 * r.candidate.dim:.0f} %" if r.candidate.dim < 1 else "")
           + f"): Em {m.em:.0f} lx (>= {q.lux:g}), U0 {m.u0:.2f} (>= {q.u0:g}),"
+          + "".join(f" {k} Em {m.surfaces[k][0]:.0f} lx (>= {s.lux:g})"
+                    f" U0 {m.surfaces[k][2]:.2f} (>= {s.u0:g}),"
+                    for k, s in r.surface_reqs.items() if k in m.surfaces)
           + (f" UGR {r.ugr:.1f}" + (f" (<= {r.ugr_limit:g})" if r.ugr_limit else "") + ","
-             if r.ugr is not None else "")
-          + f" {r.watts:.1f} W, {r.watts / max(r.area_m2, 1e-9):.2f} W/m^2: {verdict}"
-          " the requirement")
+             if r.ugr is not None else " UGR not computable,")
+          + f" {r.watts:.1f} W drawn, {r.rated_watts:.1f} W installed"
+          f" ({r.w_per_m2:.2f} W/m^2"
+          + (f", {r.w_per_m2_100lx:.2f} W/m^2/100 lx" if r.w_per_m2_100lx else "") + ")"
+          + (f", {r.energy_kwh:.0f} kWh/a" if r.energy_kwh is not None else "")
+          + f": {verdict} the requirement")
     for note in r.notes:
         print(f"  note: {note}")
 
@@ -137,7 +143,8 @@ def _design_one(args, scene_path, output, schedule, report, spec, workers):
         print(f"report -> {html}")
     for r in result.rooms:
         _print_room(r)
-    print(f"{len(result.luminaires)} luminaire(s), {result.watts:.1f} W in"
+    print(f"{len(result.luminaires)} luminaire(s), {result.watts:.1f} W drawn,"
+          f" {result.rated_watts:.1f} W installed in"
           f" {result.timings['total']:.1f} s -> {output}")
     if not result.compliant:
         print(f"invrad: {scene_path}: the catalogue cannot meet every requirement: the"

@@ -561,10 +561,17 @@ def _say_design(d, say):
             continue
         q = r["requirement"]
         types = ", ".join(f"{n} x {t}" for t, n in sorted(r["schedule"].items()))
+        surf = "".join(f" {k} Em {v['em_lux']:.0f} lx (>= {v['required']['lux']:g})"
+                       f" U0 {v['u0']:.2f} (>= {v['required']['u0']:g}),"
+                       for k, v in r.get("surfaces", {}).items() if "required" in v)
+        ugr = ("UGR not computable" if r.get("ugr") is None else f"UGR {r['ugr']:.1f}"
+               + (f" (<= {r['ugr_limit']:g})" if r.get("ugr_limit") is not None else ""))
+        pw = r.get("power", {})
         say(f"design {r['name']}: {types}: Em {r['em_lux']:.0f} lx (>= {q['lux']:g}),"
-            f" U0 {r['u0']:.2f} (>= {q['u0']:g}), {r['watts']:.1f} W,"
-            f" {r['w_per_m2']:.2f} W/m^2: {'meets' if r['compliant'] else 'DOES NOT MEET'}"
-            " the requirement")
+            f" U0 {r['u0']:.2f} (>= {q['u0']:g}),{surf} {ugr}, {r['watts']:.1f} W drawn,"
+            f" {pw.get('rated_w', r['watts']):.1f} W installed"
+            f" ({pw.get('rated_w_per_m2', r['w_per_m2']):.2f} W/m^2):"
+            f" {'meets' if r['compliant'] else 'DOES NOT MEET'} the requirement")
         for note in r["notes"]:
             say(f"  note: {note}")
     say(f"design: {d['total_watts']:.1f} W in total,"

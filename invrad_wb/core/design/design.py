@@ -14,14 +14,17 @@ import numpy as np
 
 from invrad_wb.errors import Cancelled, SettingsError
 from invrad_wb.core.accel.workers import map_rooms
-from invrad_wb.core.design.evaluate import RoomModel
+from invrad_wb.core.design.evaluate import RoomModel, surface_grids
 from invrad_wb.core.design.room import DesignRoom
 from invrad_wb.core.design.accent import SPOT_TOLERANCE, find_goals, light_spots, within
-from invrad_wb.core.design.search import (Candidate, Metrics, RoomSearch, complies,
+from invrad_wb.core.design.search import (Candidate, Metrics, RoomSearch, metrics_comply,
                                           run_search)
 
 #: shade points per room at most (deterministic subsample beyond)
 MAX_SHADE_POINTS = 2000
+#: general lighting dimmed below this fraction of its rated output is flagged (a smaller
+#: type would do with less installed power)
+DEEP_DIMMING = 0.5
 
 
 @dataclass
@@ -43,12 +46,41 @@ class RoomDesign:
     floor_z: float = 0.0
     ugr: float = None            # CIE 117, worst standard observer (None: not computable)
     ugr_limit: float = None
+    surface_reqs: dict = field(default_factory=dict)   # 'walls'/'ceiling' -> requirement
+    rated_watts: float = 0.0     # installed power: every luminaire at full output (W)
+    operating_hours: float = None   # h/a, for the energy estimate
+    cylindrical: dict = None     # Ez asked for (not designed for: said in the notes)
     spots: list = field(default_factory=list)      # accent.SpotResult, spots and goals
     accent_watts: float = 0.0
 
     @property
     def watts(self):
         return 0.0 if self.candidate is None else self.candidate.watts + self.accent_watts
+
+    @property
+    def w_per_m2(self):
+        """Installed (rated) power density, W/m^2."""
+        return self.rated_watts / max(self.area_m2, 1e-9)
+
+    @property
+    def w_per_m2_100lx(self):
+        """Installed power density per 100 lx of maintained Em (W/m^2/100 lx)."""
+        if self.metrics is None or self.metrics.em <= 0:
+            return None
+        return self.w_per_m2 / (self.metrics.em / 100.0)
+
+    @property
+    def deep_dimming(self):
+        """The general lighting runs below ``DEEP_DIMMING`` of its rated output."""
+        return self.candidate is not None and self.candidate.dim < DEEP_DIMMING - 1e-9
+
+    @property
+    def energy_kwh(self):
+        """Energy per year at the designed output (kWh/a; None without operating hours):
+        LENI style, W = P t / 1000, no daylight, occupancy or parasitic terms."""
+        if self.operating_hours is None or self.candidate is None:
+            return None
+        return self.watts * self.operating_hours / 1000.0
 
     @property
     def verdicts(self):
@@ -62,6 +94,7 @@ class RoomDesign:
         spots = [s for s in self.spots if s.goal.kind == "spot"]
         if spots:
             out["spots"] = all(s.ok for s in spots)
+        out.update(m.surface_ok(self.surface_reqs))
         if self.ugr_limit is not None and self.ugr is not None:
             out["UGR"] = self.ugr <= self.ugr_limit + 1e-9
         return out
@@ -102,6 +135,27 @@ class RoomDesign:
                       "ugr_limit": self.ugr_limit,
                       "grid_points": int(self.metrics.lux is not None and
                                          len(self.grid_points))})
+            d["surfaces"] = {
+                k: {"em_lux": round(v[0], 2), "emin_lux": round(v[1], 2),
+                    "u0": round(v[2], 3),
+                    **({"required": self.surface_reqs[k].to_dict()}
+                       if k in self.surface_reqs else {})}
+                for k, v in m.surfaces.items()}
+            if self.cylindrical is not None:
+                d["cylindrical"] = dict(self.cylindrical, judged=False)
+            d["power"] = {
+                "designed_w": round(self.watts, 2), "rated_w": round(self.rated_watts, 2),
+                "rated_w_per_m2": round(self.w_per_m2, 3),
+                "rated_w_per_m2_100lx": (None if self.w_per_m2_100lx is None
+                                         else round(self.w_per_m2_100lx, 3)),
+                "output_percent": round(100 * self.candidate.dim, 1),
+                "deep_dimming": self.deep_dimming,
+                "operating_hours": self.operating_hours,
+                "energy_kwh_per_year": (None if self.energy_kwh is None
+                                        else round(self.energy_kwh, 1)),
+                "leni_kwh_per_m2_year": (None if self.energy_kwh is None else
+                                         round(self.energy_kwh / max(self.area_m2, 1e-9),
+                                               2))}
             d["schedule"] = self.schedule()
             d["accent_watts"] = round(self.accent_watts, 2)
             d["spots"] = [s.to_dict() for s in self.spots]
@@ -128,6 +182,16 @@ class DesignResult:
         return sum(r.watts for r in self.rooms)
 
     @property
+    def rated_watts(self):
+        return sum(r.rated_watts for r in self.rooms)
+
+    @property
+    def energy_kwh(self):
+        """kWh/a of the rooms with operating hours (None if none has)."""
+        e = [r.energy_kwh for r in self.rooms if r.energy_kwh is not None]
+        return sum(e) if e else None
+
+    @property
     def compliant(self):
         return all(r.compliant for r in self.rooms if r.requirement is not None)
 
@@ -136,7 +200,11 @@ class DesignResult:
                 "rooms": [r.to_dict() for r in self.rooms],
                 "maintenance_factor": self.spec.maintenance_factor,
                 "catalogue": [e.to_dict() for e in self.spec.catalogue],
-                "total_watts": round(self.watts, 2), "compliant": self.compliant,
+                "total_watts": round(self.watts, 2),
+                "total_rated_watts": round(self.rated_watts, 2),
+                "energy_kwh_per_year": (None if self.energy_kwh is None
+                                        else round(self.energy_kwh, 1)),
+                "compliant": self.compliant,
                 "timings": {k: round(v, 3) for k, v in self.timings.items()}}
 
 
@@ -174,10 +242,10 @@ def _shade_points(scene, room):
 
 
 def _room_ugr(model, droom, luminaires):
-    """Worst UGR over the CIE 117 standard observers (None without luminous areas)."""
+    """Worst UGR over the CIE 117 standard observers (None: nothing in view); luminaires
+    without a luminous area are rated as CIE 147 small sources."""
     from invrad_wb.core.output.glare import observers, ugr
-    from invrad_wb.core.output.glare import _luminous_area
-    if not luminaires or any(_luminous_area(lum) is None for lum in luminaires):
+    if not luminaires:
         return None
     obs = observers(droom)
     if not obs:
@@ -188,6 +256,21 @@ def _room_ugr(model, droom, luminaires):
     values = [ugr(luminaires, e, v, b) for (e, v), b in zip(obs, lb)]
     values = [u for u in values if u is not None]
     return max(values) if values else None
+
+
+def _ugr_note(rd, droom):
+    """Why a room's UGR is what it is, where the reader needs telling."""
+    from invrad_wb.core.output.glare import SMALL_SOURCE_M2, is_small_source, observers
+    small = sorted({lum.extra.get("type") for lum in rd.luminaires if is_small_source(lum)})
+    if rd.ugr is None and rd.luminaires:
+        why = ("no CIE 117 observer position lies inside the room's outline"
+               if not observers(droom) else "no luminaire is in any observer's view")
+        rd.notes.append(f"UGR not computable: {why}")
+    elif small:
+        rd.notes.append(f"UGR: {', '.join(small)} give no luminous area (or one under"
+                        f" {SMALL_SOURCE_M2} m2): rated as CIE 147 small sources (UGR from"
+                        " the intensity towards the eye), an upper bound for a larger"
+                        " opening")
 
 
 def _explain(rd, search, entries):
@@ -207,9 +290,23 @@ def _explain(rd, search, entries):
         rd.notes.append(f"UGR {rd.ugr:.1f} exceeds the limit {rd.ugr_limit:g}: choose"
                         " luminaires with less luminance towards the eye (louvres, larger"
                         " luminous area)")
+    for name, ok in m.surface_ok(rd.surface_reqs).items():
+        if not ok:
+            q, (em, _, u0) = rd.surface_reqs[name], m.surfaces[name]
+            rd.notes.append(f"{name}: Em {em:.0f} lx, U0 {u0:.2f} for {q.lux:g} lx,"
+                            f" U0 {q.u0:g} required ({q.source}): no layout of the"
+                            " catalogue's luminaires at the mounting allowed lights them"
+                            " enough")
     if m.shade_max > search.rs.shade_limit_lux:
         rd.notes.append(f"a point that must stay dark receives {m.shade_max:.1f} lx"
                         f" (limit {search.rs.shade_limit_lux:g} lx)")
+    if rd.deep_dimming:
+        types = ", ".join(sorted({search.entries[k].name for k in c.entries}))
+        rd.notes.append(f"deep dimming: the general lighting ({types}) runs at"
+                        f" {100 * c.dim:.0f} % of its rated output; installed"
+                        f" {rd.rated_watts:.0f} W for {rd.watts:.0f} W drawn: a smaller type"
+                        " (fewer rated watts) would be the better choice where the catalogue"
+                        " has one")
     if c.ok and m.em > 1.5 * r.lux and c.dim >= 1.0:
         weakest = min(entries, key=lambda e: e.flux_lm)
         rd.notes.append(f"Em {m.em:.0f} lx is {m.em / r.lux:.1f} x the {r.lux:.0f} lx"
@@ -233,8 +330,16 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
         return rd
     req = rd.requirement = rs.work_plane
     points, _ = droom.grid(req.height_m, req.margin_m)
+    surfaces = surface_grids(scene, room, droom)
+    rd.surface_reqs = {k: v for k, v in rs.surfaces.items() if k in surfaces}
+    rd.cylindrical = rs.cylindrical
+    if rs.cylindrical is not None:
+        rd.notes.append(f"cylindrical illuminance Ez {rs.cylindrical['lux']:g} lx"
+                        f" (U0 {rs.cylindrical['u0']:g}, {rs.cylindrical['height_m']:g} m"
+                        " above the floor) is required but not yet designed for nor"
+                        " computed: check it in a dedicated tool")
     model = RoomModel(scene, droom, points, spec.maintenance_factor, backend,
-                      extra=_shade_points(scene, room))
+                      extra=_shade_points(scene, room), surfaces=surfaces)
     mount_h = (rs.mounting.height_m if rs.mounting.kind != "ceiling"
                else droom.top_z - droom.floor_z)
     entries = spec.entries_for(rs, mount_h)
@@ -258,6 +363,9 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
     _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search)
     rd.ugr_limit = rs.ugr_max
     rd.ugr = _room_ugr(model, droom, rd.luminaires)
+    _ugr_note(rd, droom)
+    rd.rated_watts = sum(_entry_watts(entries, lum) for lum in rd.luminaires)
+    rd.operating_hours = rs.operating_hours
     _explain(rd, search, entries)
     rd.seconds = time.perf_counter() - t0
     return rd
@@ -285,9 +393,8 @@ def _redim_with_accents(rd, model, search, parts, accents, req, rs):
     (G, Gd), (A, Ad) = parts
     spots = [sp for sp in rd.spots if sp.goal.kind == "spot"]
     for f in np.linspace(floor / cand.dim, 1.0, REDIM_STEPS + 1):
-        met = Metrics.of(f * G + A, f * Gd + Ad, model.n_wp)
-        if (met.em < req.lux * 1.001
-                or not complies(met.em, met.u0, met.shade_max, req, rs.shade_limit_lux)):
+        met = Metrics.of(f * G + A, f * Gd + Ad, model.layout)
+        if met.em < req.lux * 1.001 or not metrics_comply(met, search):
             continue
         # met spots stay met with a margin (the exact model is not the verification)
         if all(within(f * sp.base_mean + sp.achieved_mean - sp.base_mean, sp.goal.target_mean,
@@ -328,7 +435,7 @@ def _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search=N
         # one exact solve per part (light adds up): the whole and every dimming level
         parts = model.exact(general), model.exact(accents)
         (G, Gd), (A, Ad) = parts
-        rd.metrics = Metrics.of(G + A, Gd + Ad, model.n_wp)
+        rd.metrics = Metrics.of(G + A, Gd + Ad, model.layout)
         if search is not None:
             _redim_with_accents(rd, model, search, parts, accents, req, rs)
     for sp in rd.spots:

@@ -3,7 +3,10 @@
 Source: EN 12464-1:2021 "Light and lighting - Lighting of work places - Part 1: Indoor work
 places", clause 5 (schedule of lighting requirements: maintained illuminance Em, uniformity
 U0 = Emin/Em, unified glare rating limit UGR_L, colour rendering Ra) and clause 4.4/Annex on
-the calculation grid. The table below holds the values commonly quoted for the room types
+the calculation grid; clause 5.2.3 (walls and ceiling of every enclosed space: a maintained
+mean illuminance of at least 50 lx on the walls and 30 lx on the ceiling, each with
+U0 >= 0.10; at least 75 lx and 50 lx in offices, education and health care premises). The
+table below holds the values commonly quoted for the room types
 architects ask for most; it is a convenience, not a substitute for the standard: a
 requirement stated in the design spec always wins. Residential rooms are not covered by
 EN 12464-1; give their requirement explicitly.
@@ -21,19 +24,41 @@ class RoomTypeRequirement:
     ugr_limit: float
     ra: int
     reference: str
+    walls_lux: float = 50.0       # EN 12464-1:2021 5.2.3: every enclosed space
+    ceiling_lux: float = 30.0
+    cylindrical_lux: float = None  # Ez where people meet and talk (not designed for yet)
+
+
+#: EN 12464-1:2021 clause 5.2.3: the least maintained mean illuminance (lx) and U0 on the
+#: walls and on the ceiling of every enclosed space
+WALLS_MIN = (50.0, 0.10)
+CEILING_MIN = (30.0, 0.10)
+#: ... and in offices, education and health care premises
+WALLS_MIN_OFFICE = (75.0, 0.10)
+CEILING_MIN_OFFICE = (50.0, 0.10)
+_OFFICE = dict(walls_lux=WALLS_MIN_OFFICE[0], ceiling_lux=CEILING_MIN_OFFICE[0],
+               cylindrical_lux=150.0)
+#: where the surface minimums come from (said in the report)
+SURFACE_REFERENCE = "EN 12464-1:2021 5.2.3"
 
 
 _TABLE = (
     RoomTypeRequirement("office", "writing, typing, reading, data processing", 500, 0.60,
-                        19, 80, "table 5.26"),
+                        19, 80, "table 5.26",
+                        **_OFFICE),
     RoomTypeRequirement("open_plan_office", "writing, typing, reading, data processing",
-                        500, 0.60, 19, 80, "table 5.26"),
+                        500, 0.60, 19, 80, "table 5.26",
+                        **_OFFICE),
     RoomTypeRequirement("technical_drawing", "technical drawing", 750, 0.70, 16, 80,
-                        "table 5.26"),
+                        "table 5.26",
+                        **_OFFICE),
     RoomTypeRequirement("meeting_room", "conference and meeting rooms", 500, 0.60, 19, 80,
-                        "table 5.26"),
-    RoomTypeRequirement("reception", "reception desk", 300, 0.60, 22, 80, "table 5.26"),
-    RoomTypeRequirement("archive", "archives", 200, 0.40, 25, 80, "table 5.26"),
+                        "table 5.26",
+                        **_OFFICE),
+    RoomTypeRequirement("reception", "reception desk", 300, 0.60, 22, 80, "table 5.26",
+                        **_OFFICE),
+    RoomTypeRequirement("archive", "archives", 200, 0.40, 25, 80, "table 5.26",
+                        **_OFFICE),
     RoomTypeRequirement("corridor", "circulation areas and corridors", 100, 0.40, 28, 40,
                         "table 5.1"),
     RoomTypeRequirement("stairs", "stairs, escalators, travolators", 100, 0.40, 25, 40,
@@ -45,10 +70,13 @@ _TABLE = (
     RoomTypeRequirement("storeroom", "store and stock rooms", 100, 0.40, 25, 60,
                         "table 5.3"),
     RoomTypeRequirement("classroom", "classrooms, tutorial rooms", 500, 0.60, 19, 80,
-                        "table 5.36"),
+                        "table 5.36",
+                        **_OFFICE),
     RoomTypeRequirement("classroom_adult", "classrooms for evening classes and adult"
-                        " education", 750, 0.60, 19, 80, "table 5.36"),
-    RoomTypeRequirement("lecture_hall", "lecture halls", 500, 0.60, 19, 80, "table 5.36"),
+                        " education", 750, 0.60, 19, 80, "table 5.36",
+                        **_OFFICE),
+    RoomTypeRequirement("lecture_hall", "lecture halls", 500, 0.60, 19, 80, "table 5.36",
+                        **_OFFICE),
     RoomTypeRequirement("workshop", "workshops: general machining and assembly", 500,
                         0.60, 22, 80, "table 5.x (industrial activities)"),
 )
@@ -66,6 +94,16 @@ def lookup(name):
         return None
     key = name.strip().lower().replace(" ", "_").replace("-", "_")
     return _BY_NAME.get(key)
+
+
+def surface_minimums(room_type=None):
+    """EN 12464-1:2021 least (lux, u0) of the walls and of the ceiling of a room type
+    (offices and education: 75 / 50 lx; every other enclosed space: 50 / 30 lx)."""
+    req = lookup(room_type) if room_type else None
+    if req is None:
+        return {"walls": WALLS_MIN, "ceiling": CEILING_MIN}
+    return {"walls": (req.walls_lux, WALLS_MIN[1]), "ceiling": (req.ceiling_lux,
+                                                               CEILING_MIN[1])}
 
 
 def grid_spacing(d):

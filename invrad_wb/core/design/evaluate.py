@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from invrad_wb import constants as C
+from invrad_wb.core.design import en12464
 from invrad_wb.core.forward.direct import direct_illuminance
 from invrad_wb.core.forward.radiosity import RadiosityModel
 from invrad_wb.core.geometry.bvh import BVH
@@ -86,6 +87,74 @@ def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photome
     return out
 
 
+class Layout:
+    """Where the grids lie among a model's receivers: the work plane first (``n_wp``),
+    then each surface grid (``parts``: name -> (slice, area weights)), then the points
+    that must stay dark (from ``shade0`` on)."""
+
+    def __init__(self, n_wp, parts=None, shade0=None):
+        self.n_wp = int(n_wp)
+        self.parts = parts or {}
+        self.shade0 = self.n_wp if shade0 is None else int(shade0)
+
+    @classmethod
+    def of(cls, layout):
+        """A Layout from a Layout or from a plain work-plane count (no surfaces)."""
+        return layout if isinstance(layout, Layout) else cls(layout)
+
+
+def surface_grids(scene, room, droom, lift_m=1e-3):
+    """Calculation points of a room's walls and ceiling (EN 12464-1:2021 5.2.3).
+
+    The room's real faces (open borders left out) that stand upright (walls, columns,
+    partitions: ``|n_z| <= 0.3``) or face down (ceiling, sloped or flat: ``n_z < -0.3``),
+    split into triangles no longer on a side than the EN 12464-1 grid spacing ``p`` of the
+    room's longer side, then gathered into cells of ``p`` (one per cube of side ``p`` and
+    facing direction): a point at each cell's area-weighted centroid, ``lift_m`` off the
+    surface, weighted by the cell's area (the mean is area-weighted, Emin the least cell).
+    A fine input mesh thus gives no more points than a coarse one.
+
+    Returns
+    -------
+    dict name -> (points (j, 3), normals (j, 3), weights (j,) m^2), for 'walls' and
+    'ceiling' (a part the room lacks is left out)
+    """
+    sel = (scene.face_room == room) & ~scene.face_virtual
+    nz = scene.face_normals[:, 2]
+    p = en12464.grid_spacing(max(droom.size))
+    out = {}
+    for name, mask in (("walls", np.abs(nz) <= 0.3), ("ceiling", nz < -0.3)):
+        faces = np.flatnonzero(sel & mask)
+        if len(faces) == 0:
+            continue
+        v, t, tags = refine(scene.vertices, scene.faces[faces], p, tags=faces)
+        tri = v[t]
+        a = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
+                                 axis=1)
+        keep = a > 1e-12
+        n, c, a = scene.face_normals[tags[keep]], tri[keep].mean(axis=1), a[keep]
+        key = np.c_[np.round(n * 1e3), np.floor((c - c.min(axis=0)) / p)]
+        _, cell = np.unique(key, axis=0, return_inverse=True)
+        cell = cell.reshape(-1)
+        w = np.bincount(cell, weights=a)
+        pts = np.stack([np.bincount(cell, weights=a * c[:, i]) for i in range(3)], 1)
+        nrm = np.stack([np.bincount(cell, weights=a * n[:, i]) for i in range(3)], 1)
+        nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+        pts = pts / w[:, None]
+        # a face of the room that does not face into its floor outline (the outside of a
+        # wall, a face kept with the wrong winding) is no surface a person sees: left out
+        ahead = pts[:, :2] + INSIDE_PROBE_M * nrm[:, :2]
+        inside = droom.inside(ahead) & (droom.wall_distance(ahead) > 0.0)
+        if not inside.any():
+            continue
+        out[name] = (pts[inside] + lift_m * nrm[inside], nrm[inside], w[inside])
+    return out
+
+
+#: how far in front of a surface cell its point must lie inside the floor outline (m)
+INSIDE_PROBE_M = 0.05
+
+
 class RoomModel:
     """Exact and fast light of designs in one room, on its calculation grid.
 
@@ -98,10 +167,17 @@ class RoomModel:
     backend : str
     extra_points : (j, 3) float64 and (j, 3) normals, optional
         Further receivers evaluated along (e.g. points that must stay dark).
+    surfaces : dict name -> (points (j, 3), normals (j, 3), weights (j,)), optional
+        Calculation grids of the room's walls and ceiling (:func:`surface_grids`); they
+        follow the work plane in ``points``, before the ``extra`` points.
+
+    Attributes
+    ----------
+    layout : :class:`Layout` (where each grid lies in ``points``)
     """
 
     def __init__(self, scene, droom, points, maintenance_factor, backend="auto",
-                 extra=None):
+                 extra=None, surfaces=None):
         self.droom = droom
         self.mf = float(maintenance_factor)
         self.backend = backend
@@ -111,9 +187,17 @@ class RoomModel:
         self.bvh = BVH(self.mesh.triangles[blockers]) if len(blockers) else None
         n_wp = len(points)
         ex_p, ex_n = extra if extra is not None else (np.zeros((0, 3)), np.zeros((0, 3)))
-        self.points = np.concatenate([points, ex_p])
-        self.normals = np.concatenate([np.tile([0.0, 0.0, 1.0], (n_wp, 1)), ex_n])
+        surfaces = surfaces or {}
+        sp = [np.asarray(v[0], dtype=np.float64).reshape(-1, 3) for v in surfaces.values()]
+        sn = [np.asarray(v[1], dtype=np.float64).reshape(-1, 3) for v in surfaces.values()]
+        self.points = np.concatenate([points, *sp, ex_p])
+        self.normals = np.concatenate([np.tile([0.0, 0.0, 1.0], (n_wp, 1)), *sn, ex_n])
         self.n_wp = n_wp
+        parts, i = {}, n_wp
+        for (name, v), p in zip(surfaces.items(), sp):
+            parts[name] = (slice(i, i + len(p)), np.asarray(v[2], dtype=np.float64))
+            i += len(p)
+        self.layout = Layout(n_wp, parts, i)
         self._gather = self.rad.gather(self.points, self.normals, self._point_patches())
         self.correction = np.ones(len(self.points))
         self.indirect_per_lm = {}

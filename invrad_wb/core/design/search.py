@@ -8,8 +8,9 @@ fast-compliant candidate has been checked exactly (or no cheaper one is left). V
 come from the exact model only.
 
 Compliance of a room (maintained values): ``Em >= lux`` and ``Emin / Em >= u0`` on the
-calculation grid, and the direct light on every "must stay dark" point at most the room's
-shade limit.
+calculation grid, the same on the walls' and the ceiling's grids (their own requirements,
+EN 12464-1:2021 5.2.3), and the direct light on every "must stay dark" point at most the
+room's shade limit. A common dimming level serves the strictest of the three means.
 """
 from dataclasses import dataclass, field
 import itertools
@@ -17,7 +18,9 @@ import math
 
 import numpy as np
 
-from invrad_wb.core.design.evaluate import unit_response, luminaires_of
+from invrad_wb.core.design.evaluate import Layout, unit_response, luminaires_of
+from invrad_wb.core.design.spec import SurfaceRequirement
+from invrad_wb.core.output.glare import observers, ugr_from_sum, unit_glare
 from invrad_wb.core.design.layouts import grid_geometries
 
 #: exact solves per room at most
@@ -28,6 +31,9 @@ FAST_SLACK = 0.0
 _UF_LOW, _UF_HIGH = 0.35, 1.1
 #: luminaires per room at most
 MAX_COUNT = 400
+#: UGR margin of the fast model's glare test (its background luminance is that of a
+#: reference layout; the exact check decides)
+UGR_FAST_MARGIN = 0.0
 
 
 def _spacing_log_ratio(g):
@@ -66,23 +72,49 @@ class Metrics:
     lux: np.ndarray = field(repr=False, default=None)
 
     direct: np.ndarray = field(repr=False, default=None)
+    #: name -> (Em, Emin, U0) of each surface grid (walls, ceiling), maintained lux
+    surfaces: dict = field(default_factory=dict)
+    #: worst UGR over the CIE 117 observers (None: not computed or nothing in view)
+    ugr: float = None
+    #: (glare sums (O,), background lux (O,)) at full output, for re-dimming
+    glare: tuple = field(repr=False, default=None)
 
     @classmethod
-    def of(cls, lux, direct, n_wp):
-        """Figures of maintained lux at the grid (first ``n_wp``) and at points that must
-        stay dark (the rest: judged on their direct light, interreflection lights every
-        surface of a lit room a little)."""
-        wp = lux[:n_wp]
+    def of(cls, lux, direct, layout):
+        """Figures of maintained lux at the work-plane grid, at the surface grids
+        (area-weighted mean) and at points that must stay dark (judged on their direct
+        light: interreflection lights every surface of a lit room a little).
+        ``layout``: :class:`~invrad_wb.core.design.evaluate.Layout` or the work-plane
+        count (no surfaces; the rest must stay dark)."""
+        lay = Layout.of(layout)
+        wp = lux[:lay.n_wp]
         em = float(np.mean(wp))
-        sh = float(np.max(direct[n_wp:])) if len(lux) > n_wp else 0.0
+        sh = float(np.max(direct[lay.shade0:])) if len(lux) > lay.shade0 else 0.0
+        surf = {}
+        for name, (sl, w) in lay.parts.items():
+            e = lux[sl]
+            m = float(np.sum(w * e) / max(float(np.sum(w)), 1e-12))
+            surf[name] = (m, float(e.min()), float(e.min() / m) if m > 0 else 0.0)
         return cls(em, float(wp.min()), float(wp.max()),
-                   float(wp.min() / em) if em > 0 else 0.0, sh, lux, direct)
+                   float(wp.min() / em) if em > 0 else 0.0, sh, lux, direct, surf)
+
+    def surface_ok(self, surface_reqs):
+        """{name: bool} of each surface grid against its requirement."""
+        return {k: bool(self.surfaces[k][0] >= r.lux - 1e-9
+                        and self.surfaces[k][2] >= r.u0 - 1e-9)
+                for k, r in surface_reqs.items() if k in self.surfaces}
 
 
-def complies(em, u0, shade, req, shade_limit, slack=0.0):
-    """Boolean array: requirement met (Em, U0 with relative ``slack``, shade)."""
-    return ((em >= req.lux * (1.0 - slack)) & (u0 >= req.u0 - slack)
-            & (shade <= shade_limit * (1.0 + slack)))
+def complies(em, u0, shade, req, shade_limit, slack=0.0, surf=None, surf_reqs=None):
+    """Boolean array: requirement met (Em, U0 with relative ``slack``, shade; and each
+    surface's (Em, U0) in ``surf`` against ``surf_reqs``)."""
+    ok = ((em >= req.lux * (1.0 - slack)) & (u0 >= req.u0 - slack)
+          & (shade <= shade_limit * (1.0 + slack)))
+    for name, (s_em, s_u0) in (surf or {}).items():
+        r = (surf_reqs or {}).get(name)
+        if r is not None:
+            ok = ok & (s_em >= r.lux * (1.0 - slack)) & (s_u0 >= r.u0 - slack)
+    return ok
 
 
 class RoomSearch:
@@ -102,8 +134,11 @@ class RoomSearch:
 
     def __init__(self, model, req, room_spec, entries, photometry=None, mixed=True,
                  dimming=True, fractions=None):
-        shifted = len(model.points) > model.n_wp     # points that must stay dark
+        shifted = len(model.points) > model.layout.shade0   # points that must stay dark
         self.model, self.req, self.rs = model, req, room_spec
+        # the surface grids the model holds, judged against the room's requirements
+        self.surf_reqs = {k: v for k, v in getattr(room_spec, "surfaces", {}).items()
+                          if k in model.layout.parts}
         self.entries = list(entries)
         self.phot = photometry or {}
         self.mixed, self.dimming = mixed, dimming
@@ -131,6 +166,10 @@ class RoomSearch:
         self.g_ratio = np.array([_spacing_log_ratio(g) for g in self.geoms])
         self.g_fdev = np.array([g.edge_deviation for g in self.geoms])
         self._responses()
+        self.ugr_max = getattr(room_spec, "ugr_max", None)
+        self.obs = observers(droom)
+        self._glare()
+        self.eye_ind = {}          # entry name -> (O,) indirect lux per lm at the eyes
         self.checked = {}
 
     def _optics(self, e):
@@ -166,8 +205,71 @@ class RoomSearch:
                 np.add.at(out, gs[b0:b1][st], np.add.reduceat(r, st, axis=1).T)
             self.S[key] = out.reshape(G, 2, -1).transpose(1, 0, 2)
 
+    def _area(self, e):
+        """Luminous area of an entry (m^2; None: a small source, see glare)."""
+        if e.radius_m > 0:
+            return math.pi * e.radius_m ** 2
+        ph = self.phot.get(e.name)
+        return getattr(ph, "luminous_area_m2", None) if ph is not None else None
+
+    def _glare(self):
+        """Per optical key and class: (G, O) glare sums at unit flux of every geometry
+        for the CIE 117 observers (:func:`~invrad_wb.core.output.glare.unit_glare`)."""
+        G, O = len(self.geoms), len(self.obs)
+        self.GL = {}
+        if G == 0 or O == 0:
+            return
+        pos = np.concatenate([g.positions for g in self.geoms])
+        nrm = np.concatenate([g.normals for g in self.geoms])
+        group = np.concatenate([2 * gi + g.cls for gi, g in enumerate(self.geoms)])
+        for e in self.entries:
+            key = self._optics(e)
+            if key in self.GL:
+                continue
+            out = np.zeros((2 * G, O))
+            for o, (eye, view) in enumerate(self.obs):
+                np.add.at(out[:, o], group, unit_glare(eye, view, pos, nrm, self._area(e),
+                                                       self.phot.get(e.name)))
+            self.GL[key] = out.reshape(G, 2, O).transpose(1, 0, 2)
+
+    def fast_ugr(self, pair, sel, dim):
+        """(len(sel),) worst UGR over the observers of geometries ``sel`` with entries
+        ``pair`` at output ``dim`` (NaN: nothing in view, or no observer)."""
+        if not self.GL or not self.eye_ind:
+            return np.full(len(sel), np.nan)
+        m = self.model
+        e0, e1 = self.entries[pair[0]], self.entries[pair[1]]
+        g0, g1 = self.GL[self._optics(e0)][0][sel], self.GL[self._optics(e1)][1][sel]
+        N = self.N[sel]
+        total = (e0.flux_lm ** 2 * g0 + e1.flux_lm ** 2 * g1) * (dim ** 2)[:, None]
+        lb = m.mf * dim[:, None] * (np.outer(N[:, 0] * e0.flux_lm, self.eye_ind[e0.name])
+                                    + np.outer(N[:, 1] * e1.flux_lm, self.eye_ind[e1.name]))
+        u = ugr_from_sum(total, lb)
+        with np.errstate(all="ignore"):
+            return np.where(np.isnan(u).all(axis=1), np.nan,
+                            np.nanmax(np.where(np.isnan(u), -np.inf, u), axis=1))
+
+    def exact_glare(self, luminaires):
+        """(total (O,), background lux (O,)) of luminaires: the glare sums of
+        :func:`unit_glare` and the maintained interreflected light at the eyes by an exact
+        solve; ``ugr_from_sum(f^2 total, f lb)`` is the UGR at output fraction f."""
+        if not self.obs or not luminaires:
+            return None
+        eyes = np.array([e for e, _ in self.obs])
+        views = np.array([v for _, v in self.obs])
+        total = np.zeros(len(self.obs))
+        for o, (eye, view) in enumerate(self.obs):
+            for lum in luminaires:
+                e = next(x for x in self.entries if x.name == lum.extra.get("type"))
+                total[o] += lum.flux_lm ** 2 * unit_glare(
+                    eye, view, lum.position[None], lum.normal[None], self._area(e),
+                    self.phot.get(e.name))[0]
+        lb = self.model.mf * self.model.indirect_at(eyes, views, luminaires)
+        return total, lb
+
     def _calibrate_all(self):
-        """Indirect light per lumen of each entry, from a middle-sized grid of it."""
+        """Indirect light per lumen of each entry, from a middle-sized grid of it (on the
+        grids, and at the observers' eyes for UGR)."""
         m = self.model
         med = float(np.median([g.count for g in self.geoms]))
         mid = min(self.geoms, key=lambda g: (g.edge_deviation,
@@ -177,10 +279,18 @@ class RoomSearch:
                                  self.entries, np.full(mid.count, k), m.droom.room,
                                  self.phot)
             m.calibrate(e.name, lums, None)
+            if self.obs:
+                eyes = np.array([x for x, _ in self.obs])
+                views = np.array([v for _, v in self.obs])
+                self.eye_ind[e.name] = (m.indirect_at(eyes, views, lums)
+                                        / (e.flux_lm * mid.count))
 
     def evaluate(self, pair, sel):
-        """Fast figures of geometries ``sel`` with entries ``pair`` (class 0, class 1)."""
-        m, n_wp = self.model, self.model.n_wp
+        """Fast figures of geometries ``sel`` with entries ``pair`` (class 0, class 1):
+        (em, u0, shade, dim, watts, surf) after the common dimming, ``surf`` name ->
+        (em, u0) arrays of each surface grid."""
+        m, lay = self.model, self.model.layout
+        n_wp = lay.n_wp
         e0, e1 = self.entries[pair[0]], self.entries[pair[1]]
         s0, s1 = self.S[self._optics(e0)][0][sel], self.S[self._optics(e1)][1][sel]
         N = self.N[sel]
@@ -190,11 +300,22 @@ class RoomSearch:
         lux = (direct + m.mf * ind) * m.correction
         em = lux[:, :n_wp].mean(axis=1)
         u0 = lux[:, :n_wp].min(axis=1) / np.maximum(em, 1e-12)
-        shade = direct[:, n_wp:].max(axis=1) if lux.shape[1] > n_wp else np.zeros(len(em))
+        shade = (direct[:, lay.shade0:].max(axis=1) if lux.shape[1] > lay.shade0
+                 else np.zeros(len(em)))
         dmin = max(e0.dimming[0], e1.dimming[0]) if self.dimming else 1.0
-        dim = np.clip(self.req.lux / np.maximum(em, 1e-12), dmin, 1.0)
+        need = self.req.lux / np.maximum(em, 1e-12)
+        surf = {}
+        for name, (sl, w) in lay.parts.items():
+            s_em = lux[:, sl] @ w / max(float(w.sum()), 1e-12)
+            surf[name] = (s_em, lux[:, sl].min(axis=1) / np.maximum(s_em, 1e-12))
+            r = self.surf_reqs.get(name)
+            if r is not None:
+                need = np.maximum(need, r.lux / np.maximum(s_em, 1e-12))
+        dim = np.clip(need, dmin, 1.0)
         watts = dim * (N[:, 0] * e0.watts + N[:, 1] * e1.watts)
-        return em * dim, u0, shade * dim, dim, watts
+        surf = {k: (v[0] * dim, v[1]) for k, v in surf.items()}
+        surf["ugr"] = self.fast_ugr(pair, sel, dim)
+        return em * dim, u0, shade * dim, dim, watts, surf
 
     def _pairs(self):
         n = len(self.entries)
@@ -221,20 +342,25 @@ class RoomSearch:
         ``em``, ``u0``, ``shade``, ``dim``, ``watts``, ``ok``; rows sorted best first
         (least watts; ties: fewer luminaires, one entry, square spacing, half spacing).
         """
-        cols = {k: [] for k in ("geom", "pair", "em", "u0", "shade", "dim", "watts")}
+        names = list(self.model.layout.parts)
+        keys = ("geom", "pair", "em", "u0", "shade", "dim", "watts", "ugr",
+                *(f"{n}_{q}" for n in names for q in ("em", "u0")))
+        cols = {k: [] for k in keys}
         for pi, pair in enumerate(self._pairs()):
             sel = np.flatnonzero(self._count_ok(pair))
             if len(sel) == 0:
                 continue
-            em, u0, sh, dim, watts = self.evaluate(pair, sel)
-            for k, v in zip(("geom", "pair", "em", "u0", "shade", "dim", "watts"),
-                            (sel, np.full(len(sel), pi), em, u0, sh, dim, watts)):
+            em, u0, sh, dim, watts, surf = self.evaluate(pair, sel)
+            for k, v in zip(keys, (sel, np.full(len(sel), pi), em, u0, sh, dim, watts,
+                                   surf["ugr"], *(x for n in names for x in surf[n]))):
                 cols[k].append(v)
         t = {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in cols.items()}
         t["geom"] = t["geom"].astype(int)
         t["pair"] = t["pair"].astype(int)
         t["ok"] = complies(t["em"], t["u0"], t["shade"], self.req, self.rs.shade_limit_lux,
-                           FAST_SLACK)
+                           FAST_SLACK, self._surf(t), self.surf_reqs)
+        if self.ugr_max is not None:
+            t["ok"] &= ~(t["ugr"] > self.ugr_max + UGR_FAST_MARGIN)   # NaN: none in view
         g = t["geom"]
         mixed = np.array([a != b for a, b in self._pairs()])[t["pair"]] if len(g) else g
         # watts within 0.5 % count as equal: then fewer luminaires win (dimmed layouts
@@ -243,6 +369,28 @@ class RoomSearch:
         order = np.lexsort((t["watts"], self.g_fdev[g], self.g_ratio[g], mixed,
                             self.g_count[g], w_bucket))
         return {k: v[order] for k, v in t.items()}
+
+    def _surf(self, t):
+        """{name: (em, u0)} columns of the surface grids in a :meth:`table`."""
+        return {n: (t[f"{n}_em"], t[f"{n}_u0"]) for n in self.model.layout.parts}
+
+    def score(self, t):
+        """(C,) how close each row comes to compliance: the least of its ratios
+        achieved / required (1 or more: met)."""
+        req = self.req
+        limit = max(self.rs.shade_limit_lux, 1e-9)
+        score = np.minimum(np.minimum(t["em"] / req.lux, t["u0"] / max(req.u0, 1e-9)),
+                           np.minimum(limit / np.maximum(t["shade"], 1e-12), 1.0))
+        for n, (s_em, s_u0) in self._surf(t).items():
+            r = self.surf_reqs.get(n)
+            if r is not None:
+                score = np.minimum(score, np.minimum(s_em / max(r.lux, 1e-9),
+                                                     s_u0 / max(r.u0, 1e-9)))
+        if self.ugr_max is not None:
+            # the factor by which the glare sum exceeds the limit's
+            over = np.nan_to_num(t["ugr"] - self.ugr_max, nan=-1.0)
+            score = np.minimum(score, np.minimum(1.0, 10.0 ** (-over / 8.0)))
+        return score
 
     def candidate(self, t, row):
         """The :class:`Candidate` of row ``row`` of :meth:`table`."""
@@ -269,7 +417,12 @@ class RoomSearch:
             full = Candidate(cand.geom, cand.entries, 1.0, 0.0, 0, 0, 0, False)
             lums = self.luminaires(full)
             lux, direct = self.model.calibrate(None, lums, fast_lux)
-            self.checked[key] = Metrics.of(lux, direct, self.model.n_wp)
+            met = Metrics.of(lux, direct, self.model.layout)
+            met.glare = self.exact_glare(lums)
+            if met.glare is not None:
+                u = ugr_from_sum(*met.glare)
+                met.ugr = None if np.isnan(u).all() else float(np.nanmax(u))
+            self.checked[key] = met
         return self.checked[key]
 
 
@@ -277,20 +430,76 @@ def _finalise(search, cand, exact_full):
     """Dim a candidate on its exact figures; returns (candidate, metrics) after dimming."""
     e0, e1 = (search.entries[k] for k in cand.entries)
     dmin = max(e0.dimming[0], e1.dimming[0]) if search.dimming else 1.0
-    dim = float(np.clip(search.req.lux * 1.001 / max(exact_full.em, 1e-12), dmin, 1.0))
+    need = search.req.lux / max(exact_full.em, 1e-12)
+    for name, r in search.surf_reqs.items():
+        need = max(need, r.lux / max(exact_full.surfaces[name][0], 1e-12))
+    dim = float(np.clip(need * 1.001, dmin, 1.0))
     g = cand.geom
     n = np.bincount(g.cls, minlength=2)
     watts = dim * (n[0] * e0.watts + n[1] * e1.watts)
-    met = Metrics.of(exact_full.lux * dim, exact_full.direct * dim, search.model.n_wp)
+    met = Metrics.of(exact_full.lux * dim, exact_full.direct * dim, search.model.layout)
+    met.glare = exact_full.glare
+    if exact_full.glare is not None:
+        u = ugr_from_sum(dim ** 2 * exact_full.glare[0], dim * exact_full.glare[1])
+        met.ugr = None if np.isnan(u).all() else float(np.nanmax(u))
     c = Candidate(g, cand.entries, dim, watts, met.em, met.u0, met.shade_max,
-                  bool(complies(met.em, met.u0, met.shade_max, search.req,
-                                search.rs.shade_limit_lux)))
+                  bool(metrics_comply(met, search)))
     return c, met
 
 
+def metrics_comply(met, search):
+    """Exact metrics against every requirement of the search's room."""
+    surf = {k: (v[0], v[2]) for k, v in met.surfaces.items()}
+    ok = complies(met.em, met.u0, met.shade_max, search.req, search.rs.shade_limit_lux,
+                  surf=surf, surf_reqs=search.surf_reqs)
+    if search.ugr_max is not None and met.ugr is not None:
+        ok = ok and met.ugr <= search.ugr_max + 1e-9
+    return ok
+
+
 def run_search(search):
-    """Best design of a room: (Candidate, Metrics, n_exact). Candidate.ok is the verdict."""
+    """Best design of a room: (Candidate, Metrics, n_exact). Candidate.ok is the verdict.
+
+    When no layout meets every requirement, the search is repeated without the UGR limit,
+    then without the walls' and ceiling's uniformity, then without walls and ceiling: the closest design then meets the work plane
+    (and what else it can) rather than trading the work plane's light for a glare or
+    surface figure no layout reaches; its verdict is still taken on every requirement.
+    """
     search._calibrate_all()
+    full = (search.ugr_max, dict(search.surf_reqs))
+    stages = [full]
+    if full[0] is not None:
+        stages.append((None, full[1]))
+    if full[1]:
+        # the surfaces' uniformity is a matter of layout, their Em of output: keep the
+        # latter where the former cannot be met
+        stages.append((None, {k: SurfaceRequirement(r.lux, 0.0, r.source)
+                              for k, r in full[1].items()}))
+        stages.append((None, {}))
+    first = None
+    try:
+        for ugr_max, surf in stages:
+            search.ugr_max, search.surf_reqs = ugr_max, surf
+            best, closest = _search_once(search)
+            if first is None:
+                first = closest
+            if best is not None:
+                break
+    finally:
+        search.ugr_max, search.surf_reqs = full
+    if best is None and first is None:
+        return None, None, len(search.checked)
+    cand, met = best if best is not None else first[:2]
+    if not metrics_comply(met, search):
+        cand = Candidate(cand.geom, cand.entries, cand.dim, cand.watts, cand.em, cand.u0,
+                         cand.shade_max, False)
+    return cand, met, len(search.checked)
+
+
+def _search_once(search):
+    """(best, closest) of one pass against the search's current requirements: best is
+    (Candidate, Metrics) compliant of least watts or None, closest (Candidate, Metrics,
+    score) of the non-compliant ones checked or None."""
     best = None       # (candidate, metrics) exact-compliant of least watts
     closest = None    # best effort when nothing complies
     req = search.req
@@ -306,9 +515,7 @@ def run_search(search):
         if todo is None:
             if best is not None or closest is not None:
                 break
-            limit = max(search.rs.shade_limit_lux, 1e-9)
-            score = np.minimum(np.minimum(t["em"] / req.lux, t["u0"] / max(req.u0, 1e-9)),
-                               np.minimum(limit / np.maximum(t["shade"], 1e-12), 1.0))
+            score = search.score(t)
             todo = search.candidate(t, int(np.lexsort((t["watts"], -score))[0]))
             if todo.key() in search.checked:
                 break
@@ -316,14 +523,16 @@ def run_search(search):
         cand, met = _finalise(search, todo, search.check(todo, fast))
         if cand.ok and (best is None or cand.watts < best[0].watts):
             best = (cand, met)
-        score = min(met.em / req.lux, met.u0 / max(req.u0, 1e-9),
-                    search.rs.shade_limit_lux / max(met.shade_max, 1e-12))
+        score = min([met.em / req.lux, met.u0 / max(req.u0, 1e-9),
+                     search.rs.shade_limit_lux / max(met.shade_max, 1e-12)]
+                    + [min(met.surfaces[k][0] / max(r.lux, 1e-9),
+                           met.surfaces[k][2] / max(r.u0, 1e-9))
+                       for k, r in search.surf_reqs.items()]
+                    + ([10.0 ** (-(met.ugr - search.ugr_max) / 8.0)]
+                       if search.ugr_max is not None and met.ugr is not None else []))
         if not cand.ok and (closest is None or score > closest[2]):
             closest = (cand, met, score)
-    if best is None and closest is None:
-        return None, None, len(search.checked)
-    result = best if best is not None else closest[:2]
-    return result[0], result[1], len(search.checked)
+    return best, closest
 
 
 def _fast_args(search, cand):
@@ -358,6 +567,6 @@ def best_regular_grid(search):
         if cand.em < 0.8 * search.req.lux or cand.u0 < search.req.u0 - 0.2:
             continue  # hopeless by the fast model: not worth an exact solve
         met = search.check(cand)
-        if complies(met.em, met.u0, met.shade_max, search.req, search.rs.shade_limit_lux):
+        if metrics_comply(met, search):
             return cand, met
     return None

@@ -13,13 +13,23 @@ computation and name the offending key and value in one line::
                      "room_type": "office",
                      "mounting": {"type": "pendant", "height_m": 2.5},
                      "catalogue": ["DL-2000"],
-                     "shade_limit_lux": 5}}}
+                     "shade_limit_lux": 5,
+                     "walls": {"lux": 75, "u0": 0.1}, "ceiling": {"lux": 50, "u0": 0.1},
+                     "ugr_max": 19, "cylindrical": {"lux": 150, "u0": 0.1},
+                     "operating_hours": 2500}}}
 
 Room keys are the PLY room id (``"0"``) or the room's name in FreeCAD/IFC; ``"*"`` applies to
 every room not listed. Requirements are *maintained* values (EN 12464-1): a new
 installation must give ``lux / maintenance_factor`` (CIE 97 simplified: one factor for lamp
 lumen depreciation, luminaire and room soiling). A room with a ``room_type`` but no
 ``work_plane`` takes the EN 12464-1 values of that type (:mod:`.en12464`).
+
+The walls and the ceiling of every room are held to at least the EN 12464-1:2021 5.2.3
+minimums (walls 50 lx, ceiling 30 lx, U0 0.10 each; 75 / 50 lx in offices and education);
+``"walls"`` / ``"ceiling"`` may ask for more, never for less. ``"ugr_max"`` is the UGR limit
+(default: the room type's). ``"cylindrical"`` (Ez where people meet and talk) is accepted and
+reported as required but is not designed for nor computed yet. ``"operating_hours"`` (per
+room or for the whole spec, h/a) gives the energy estimate.
 
 Units: lux, lumens, watts, metres.
 """
@@ -84,7 +94,9 @@ class CatalogueEntry:
         if self.photometry:
             d["photometry"] = self.photometry
         if self.mount_height_m != (0.0, math.inf):
-            d["mount_height_m"] = list(self.mount_height_m)
+            # as the spec writes it: null is "no upper limit" (JSON has no infinity)
+            d["mount_height_m"] = [h if math.isfinite(h) else None
+                                   for h in self.mount_height_m]
         return d
 
 
@@ -101,6 +113,41 @@ class WorkPlaneRequirement:
     def to_dict(self):
         return {"lux": self.lux, "u0": self.u0, "height_m": self.height_m,
                 "margin_m": self.margin_m, "source": self.source}
+
+
+@dataclass
+class SurfaceRequirement:
+    """Maintained mean illuminance ``lux`` with uniformity ``u0`` on the walls or the
+    ceiling of a room (EN 12464-1:2021 5.2.3); ``source`` says where the values come from."""
+
+    lux: float
+    u0: float = 0.10
+    source: str = "spec"
+
+    def to_dict(self):
+        return {"lux": self.lux, "u0": self.u0, "source": self.source}
+
+
+def surface_requirements(given, room_type=None):
+    """Effective walls and ceiling requirements of a room: what the spec gives (``given``:
+    {'walls': (lux, u0) or None, 'ceiling': ...}), never below the EN 12464-1:2021
+    minimums of its room type, which apply to every enclosed space."""
+    from invrad_wb.core.design import en12464
+    mins = en12464.surface_minimums(room_type)
+    out = {}
+    for part in ("walls", "ceiling"):
+        lo_lux, lo_u0 = mins[part]
+        what = f"{en12464.SURFACE_REFERENCE}" + (f" ({room_type})" if room_type else "")
+        g = given.get(part)
+        if g is None:
+            out[part] = SurfaceRequirement(lo_lux, lo_u0, f"{what} minimum")
+            continue
+        lux, u0 = g
+        raised = lux < lo_lux or u0 < lo_u0
+        out[part] = SurfaceRequirement(
+            max(lux, lo_lux), max(u0, lo_u0),
+            f"spec, raised to the {what} minimum" if raised else "spec")
+    return out
 
 
 @dataclass
@@ -123,6 +170,13 @@ class RoomSpec:
     catalogue: Optional[tuple] = None
     shade_limit_lux: float = DEFAULT_SHADE_LIMIT_LUX
     ugr_max: Optional[float] = None
+    #: {'walls': SurfaceRequirement, 'ceiling': SurfaceRequirement}
+    surfaces: dict = field(default_factory=lambda: surface_requirements({}))
+    #: cylindrical illuminance Ez asked for (lux, u0, height_m) or None: stated in the
+    #: report, not designed for yet
+    cylindrical: Optional[dict] = None
+    #: annual operating hours (for the energy estimate) or None
+    operating_hours: Optional[float] = None
 
 
 @dataclass
@@ -267,10 +321,11 @@ def _mounting(d, where):
     return Mounting(kind, h)
 
 
-def _room(key, d, where, catalogue_names):
+def _room(key, d, where, catalogue_names, default_hours=None):
     from invrad_wb.core.design import en12464
     d = _object(d, where, ("work_plane", "room_type", "mounting", "catalogue",
-                           "shade_limit_lux", "ugr_max", "name"))
+                           "shade_limit_lux", "ugr_max", "name", "walls", "ceiling",
+                           "cylindrical", "operating_hours"))
     rtype = d.get("room_type")
     wp = d.get("work_plane")
     ugr_max = _number(d.get("ugr_max"), where / "ugr_max", "(UGR)", lo=5, hi=40,
@@ -305,16 +360,37 @@ def _room(key, d, where, catalogue_names):
         cat = tuple(cat)
     shade = _number(d.get("shade_limit_lux", DEFAULT_SHADE_LIMIT_LUX),
                     where / "shade_limit_lux", "lx", lo=0)
+    given = {}
+    for part in ("walls", "ceiling"):
+        if d.get(part) is not None:
+            sd = _object(d[part], where / part, ("lux", "u0"))
+            given[part] = (_number(sd.get("lux"), where / part / "lux", "lx", lo=0),
+                           _number(sd.get("u0", 0.10), where / part / "u0", "(Emin/Em)",
+                                   lo=0, hi=1.0))
+    cyl = d.get("cylindrical")
+    if cyl is not None:
+        cd = _object(cyl, where / "cylindrical", ("lux", "u0", "height_m"))
+        cyl = {"lux": _number(cd.get("lux"), where / "cylindrical" / "lux", "lx", lo=0),
+               "u0": _number(cd.get("u0", 0.10), where / "cylindrical" / "u0", "(Emin/Em)",
+                             lo=0, hi=1.0),
+               "height_m": _number(cd.get("height_m", 1.2), where / "cylindrical" / "height_m",
+                                   "m", lo=0, hi=20.0)}
+    elif rtype is not None and en12464.lookup(rtype).cylindrical_lux:
+        cyl = {"lux": en12464.lookup(rtype).cylindrical_lux, "u0": 0.10, "height_m": 1.2}
+    hours = _number(d.get("operating_hours", default_hours), where / "operating_hours",
+                    "h/a", lo=0, hi=8760.0, allow_none=True)
     return RoomSpec(key, work_plane, rtype, _mounting(d.get("mounting", "ceiling"),
                                                       where / "mounting"),
-                    cat, shade, ugr_max)
+                    cat, shade, ugr_max, surface_requirements(given, rtype), cyl, hours)
 
 
 def spec_from_dict(d, source="design spec", base_dir="."):
     """Check a design spec and build a :class:`DesignSpec` (raises SettingsError)."""
     where = _Where(source)
     d = _object(d, where, ("maintenance_factor", "catalogue", "rooms", "project",
-                           "description"))
+                           "description", "operating_hours"))
+    hours = _number(d.get("operating_hours"), where / "operating_hours", "h/a", lo=0,
+                    hi=8760.0, allow_none=True)
     mf = _number(d.get("maintenance_factor", 0.8), where / "maintenance_factor",
                  "(fraction)", lo=0, lo_open=True, hi=1.0)
     cat = d.get("catalogue")
@@ -330,7 +406,8 @@ def spec_from_dict(d, source="design spec", base_dir="."):
     if not isinstance(rooms_d, dict) or not rooms_d:
         raise (where / "rooms").error("no rooms: give requirements per room id or name"
                                       " (or '*' for every room)")
-    rooms = {str(k): _room(str(k), v, where / "rooms" / k, names) for k, v in rooms_d.items()}
+    rooms = {str(k): _room(str(k), v, where / "rooms" / k, names, hours)
+             for k, v in rooms_d.items()}
     spec = DesignSpec(mf, catalogue, rooms, source)
     for key, rs in rooms.items():
         if not spec.entries_for(rs):

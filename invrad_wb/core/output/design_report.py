@@ -1,8 +1,10 @@
 """The design report a lighting designer hands to a client (HTML + CSV + PNG).
 
-Per room: required vs achieved maintained Em, Emin, Emax, U0 with pass/fail, the room's
-dimensions and reflectances, the luminaire schedule (type, count, lm, W, efficacy,
-dimming), installed W and W/m^2, notes where the catalogue cannot comply, and the work-plane
+Per room: the room summary as DIALux gives it (task area, immediate surroundings, walls,
+ceiling, cylindrical illuminance, UGR: required, achieved, pass/fail each), Emin, Emax, the
+room's dimensions and reflectances, the luminaire schedule (type, count, lm, W, efficacy,
+dimming), power drawn at the designed output and installed (rated) W, W/m^2,
+W/m^2/100 lx, a deep-dimming flag and the energy per year where operating hours are given, notes where the catalogue cannot comply, and the work-plane
 plan: false colour over the EN 12464-1 calculation grid, labelled iso-lux lines, the value
 of every grid point, the luminaires and the room outline. A whole-floor plan shows every
 room with its luminaires and Em. Figures are drawn with matplotlib (Agg canvas, no pyplot
@@ -20,6 +22,7 @@ import numpy as np
 
 from invrad_wb.core.io.atomic import atomic_dir
 from invrad_wb.core.design.accent import SPOT_TOLERANCE
+from invrad_wb.core.design.en12464 import SURFACE_REFERENCE
 from invrad_wb.core.output import document
 from invrad_wb.core.output.figures import figure as _fig, iso_levels, png as _png
 
@@ -228,6 +231,43 @@ def _csv(rows, fields):
     return buf.getvalue()
 
 
+def summary_rows(r):
+    """The room summary as DIALux gives it: one row per EN 12464-1 item (task area,
+    immediate surroundings, walls, ceiling, cylindrical illuminance, UGR) with its
+    requirement, the achieved figure and the verdict ('pass', 'FAIL', or '-' where the
+    item is stated but not computed)."""
+    m, q, v = r.metrics, r.requirement, r.verdicts
+    rows = [{"item": "task area (work plane)",
+             "required": f"Em >= {q.lux:g} lx, U0 >= {q.u0:.2f}",
+             "achieved": f"Em {m.em:.0f} lx, U0 {m.u0:.2f}",
+             "verdict": "pass" if v["Em"] and v["U0"] else "FAIL", "source": q.source},
+            {"item": "immediate surroundings", "required": "-",
+             "achieved": "not computed", "verdict": "-",
+             "source": "the task area is the whole room less its border zone"}]
+    for part in ("walls", "ceiling"):
+        sq = r.surface_reqs.get(part)
+        if sq is None:
+            continue
+        em, _, u0 = m.surfaces[part]
+        rows.append({"item": part, "required": f"Em >= {sq.lux:g} lx, U0 >= {sq.u0:.2f}",
+                     "achieved": f"Em {em:.0f} lx, U0 {u0:.2f}",
+                     "verdict": "pass" if v.get(part) else "FAIL", "source": sq.source})
+    if r.cylindrical is not None:
+        c = r.cylindrical
+        rows.append({"item": "cylindrical illuminance Ez",
+                     "required": f"Ez >= {c['lux']:g} lx, U0 >= {c['u0']:.2f}"
+                                 f" at {c['height_m']:g} m",
+                     "achieved": "not computed", "verdict": "-",
+                     "source": "not designed for yet"})
+    ugr = "not computable" if r.ugr is None else ("< 10" if r.ugr < 10 else f"{r.ugr:.1f}")
+    rows.append({"item": "UGR (CIE 117, worst standard observer)",
+                 "required": "-" if r.ugr_limit is None else f"<= {r.ugr_limit:g}",
+                 "achieved": ugr,
+                 "verdict": ("-" if "UGR" not in v else "pass" if v["UGR"] else "FAIL"),
+                 "source": "spec or room type" if r.ugr_limit is not None else "no limit given"})
+    return rows
+
+
 def room_rows(result):
     """Rows of the compliance table: one per room (dicts, strings formatted)."""
     rows = []
@@ -243,10 +283,24 @@ def room_rows(result):
                        em_ok=v["Em"], u0_ok=v["U0"], ok=r.compliant,
                        watts=f"{r.watts:.1f}", wpm2=f"{r.watts / max(r.area_m2, 1e-9):.2f}",
                        layout=r.candidate.geom.describe(), source=q.source,
-                       ugr="-" if r.ugr is None else f"{r.ugr:.1f}",
+                       ugr="n/c" if r.ugr is None else f"{r.ugr:.1f}",
                        ugr_limit="-" if r.ugr_limit is None else f"{r.ugr_limit:g}",
                        ugr_ok=v.get("UGR", True),
                        height=f"{q.height_m:g}", margin=f"{q.margin_m:g}",
+                       summary=summary_rows(r),
+                       walls=_surface_text(r, "walls"), ceiling=_surface_text(r, "ceiling"),
+                       walls_ok=v.get("walls", True), ceiling_ok=v.get("ceiling", True),
+                       designed_w=f"{r.watts:.1f}", rated_w=f"{r.rated_watts:.1f}",
+                       rated_wpm2=f"{r.w_per_m2:.2f}",
+                       wpm2_100lx=("-" if r.w_per_m2_100lx is None
+                                   else f"{r.w_per_m2_100lx:.2f}"),
+                       output=f"{100 * r.candidate.dim:.0f}",
+                       deep_dimming=r.deep_dimming,
+                       energy=(None if r.energy_kwh is None else f"{r.energy_kwh:.0f}"),
+                       hours=(None if r.operating_hours is None
+                              else f"{r.operating_hours:g}"),
+                       leni=(None if r.energy_kwh is None
+                             else f"{r.energy_kwh / max(r.area_m2, 1e-9):.1f}"),
                        spots=[{"centre": ", ".join(f"{x:.2f}" for x in s.goal.centre),
                                "tol": f"{100 * SPOT_TOLERANCE:.0f} %",
                                "target": f"{s.goal.target_mean:.0f}",
@@ -256,6 +310,14 @@ def room_rows(result):
                               for s in r.spots if s.goal.kind == "spot"])
         rows.append(row)
     return rows
+
+
+def _surface_text(r, part):
+    """'Em lx / U0' of a surface grid, or '-'."""
+    if r.metrics is None or part not in r.metrics.surfaces:
+        return "-"
+    em, _, u0 = r.metrics.surfaces[part]
+    return f"{em:.0f} / {u0:.2f}"
 
 
 def write_design_report(result, out_dir, title="Lighting design", project=None, pdf=True,
@@ -291,13 +353,19 @@ def write_design_report(result, out_dir, title="Lighting design", project=None, 
         _write(tmp, "schedule.csv", _csv(sched, list(sched[0]) if sched else ["room"]))
         rows = room_rows(result)
         _write(tmp, "rooms.csv", _csv(rows, ["name", "area", "size", "em_req", "em", "emin",
-                                              "emax", "u0_req", "u0", "ugr", "ugr_limit", "ok",
-                                              "watts", "wpm2", "layout"]))
+                                              "emax", "u0_req", "u0", "walls", "ceiling",
+                                              "ugr", "ugr_limit", "ok", "watts", "rated_w",
+                                              "rated_wpm2", "wpm2_100lx", "energy",
+                                              "layout"]))
         area = sum(r.area_m2 for r in designed)
         html = document.render_page(
             _TEMPLATE, title=title, project=project, date=datetime.date.today().isoformat(),
             mf=result.spec.maintenance_factor, rooms=rows, plans=plans, schedule=sched,
             total_w=f"{result.watts:.1f}", total_wpm2=f"{result.watts / max(area, 1e-9):.2f}",
+            rated_w=f"{result.rated_watts:.1f}",
+            rated_wpm2=f"{result.rated_watts / max(area, 1e-9):.2f}",
+            energy=(None if result.energy_kwh is None else f"{result.energy_kwh:.0f}"),
+            surface_ref=SURFACE_REFERENCE,
             compliant=result.compliant, n_lum=len(result.luminaires),
             catalogue=result.spec.catalogue, floors=floors)
         _write(tmp, "index.html", html)

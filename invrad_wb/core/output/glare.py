@@ -25,6 +25,8 @@ from invrad_wb.core.model.scene import plane_basis
 
 #: seated observer's eye height (metres), CIE 117 / EN 12464-1
 EYE_HEIGHT_M = 1.2
+#: CIE 147 small source: projected luminous areas below this (m^2) count as this
+SMALL_SOURCE_M2 = 0.005
 
 
 def guth_index(tau_deg, sigma_deg):
@@ -34,6 +36,13 @@ def guth_index(tau_deg, sigma_deg):
     ln_p = ((35.2 - 0.31889 * t - 1.22 * np.exp(-2.0 * t / 9.0)) * 1e-3 * s
             + (21.0 + 0.26667 * t - 0.002963 * t * t) * 1e-5 * s * s)
     return np.exp(ln_p)
+
+
+def is_small_source(lum):
+    """True where UGR rates the luminaire by the CIE 147 small-source rule (no luminous
+    area, or one below ``SMALL_SOURCE_M2``)."""
+    area = _luminous_area(lum)
+    return area is None or area < SMALL_SOURCE_M2
 
 
 def _luminous_area(lum):
@@ -49,7 +58,8 @@ def ugr(luminaires, eye, view, background_lux):
     Parameters
     ----------
     luminaires : list of Luminaire (a luminous area: a disk radius or a photometry file's
-        luminous opening; a luminaire without one is skipped)
+        luminous opening; without one, or below ``SMALL_SOURCE_M2`` projected: the CIE 147
+        small-source rule)
     background_lux : float, indirect illuminance at the eye on a plane facing the view (lx)
 
     Returns
@@ -64,7 +74,7 @@ def ugr(luminaires, eye, view, background_lux):
         area = _luminous_area(lum)
         d = lum.position - eye
         r = float(np.linalg.norm(d))
-        if area is None or r < 1e-6 or d[2] <= 0 or d @ v <= 0:
+        if r < 1e-6 or d[2] <= 0 or d @ v <= 0:
             continue
         to_eye = -d / r
         cos_e = float(to_eye @ lum.normal)
@@ -76,7 +86,7 @@ def ugr(luminaires, eye, view, background_lux):
                 np.array([to_eye @ u, to_eye @ w, cos_e])))
         else:
             i_cd = lum.flux_lm / math.pi * cos_e
-        a_proj = area * cos_e
+        a_proj = max(SMALL_SOURCE_M2 if area is None else area * cos_e, SMALL_SOURCE_M2)
         sigma = math.degrees(math.acos(min(1.0, float(d @ v) / r)))
         perp = d - (d @ v) * v
         tau = math.degrees(math.atan2(abs(float(np.cross(v, [0.0, 0.0, 1.0]) @ perp)),
@@ -88,6 +98,65 @@ def ugr(luminaires, eye, view, background_lux):
         return None
     lb = max(background_lux, 1e-6) / math.pi
     return 8.0 * math.log10(0.25 / lb * total)
+
+
+def unit_glare(eye, view, positions, normals, area_m2=None, photometry=None):
+    """Vectorised glare terms of luminaires of one type at unit flux: ``(L,)`` values of
+    ``L^2 omega / p^2`` per lm^2 (a luminaire of flux F adds ``F^2`` times its term to the
+    sum of :func:`ugr`), 0 for those the observer does not see (behind, below the eye,
+    facing away). Same rules as :func:`ugr` (which it is tested against).
+
+    Parameters
+    ----------
+    eye, view : (3,) float64, eye position (m) and horizontal line of sight
+    positions, normals : (L, 3) float64, luminaire centres (m) and facing directions
+    area_m2 : float or None, luminous area (None: a small source)
+    photometry : object with ``intensity_per_lm(local_dirs)`` or None (lambertian)
+    """
+    eye = np.asarray(eye, dtype=np.float64)
+    v = np.asarray(view, dtype=np.float64)
+    v = v / np.linalg.norm(v)
+    P = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    N = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    out = np.zeros(len(P))
+    d = P - eye
+    r = np.linalg.norm(d, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        to_eye = -d / r[:, None]
+        cos_e = np.einsum("ij,ij->i", to_eye, N)
+        seen = (r > 1e-6) & (d[:, 2] > 0) & (d @ v > 0) & (cos_e > 1e-6)
+    if not seen.any():
+        return out
+    d, r, to_eye, cos_e, N = d[seen], r[seen], to_eye[seen], cos_e[seen], N[seen]
+    if photometry is not None:
+        i_lm = np.zeros(len(d))
+        for key in np.unique(np.round(N, 9), axis=0):
+            rows = np.flatnonzero(np.all(np.abs(N - key) < 1e-8, axis=1))
+            u, w = plane_basis(N[rows[0]])
+            local = np.stack([to_eye[rows] @ u, to_eye[rows] @ w, cos_e[rows]], -1)
+            i_lm[rows] = photometry.intensity_per_lm(local)
+    else:
+        i_lm = cos_e / math.pi
+    a_proj = np.maximum(SMALL_SOURCE_M2 if area_m2 is None else area_m2 * cos_e,
+                        SMALL_SOURCE_M2)
+    sigma = np.degrees(np.arccos(np.clip((d @ v) / r, -1.0, 1.0)))
+    perp = d - np.outer(d @ v, v)
+    side = np.abs(perp @ np.cross(v, [0.0, 0.0, 1.0]))
+    tau = np.degrees(np.arctan2(side, np.maximum(perp[:, 2], 1e-12)))
+    p = guth_index(tau, sigma)
+    luminance = i_lm / a_proj
+    out[seen] = luminance ** 2 * (a_proj / r ** 2) / p ** 2
+    return out
+
+
+def ugr_from_sum(total, background_lux):
+    """UGR from the sum of ``L^2 omega / p^2`` and the background illuminance (lx)
+    (arrays broadcast; NaN where nothing is in view)."""
+    total = np.asarray(total, dtype=np.float64)
+    lb = np.maximum(np.asarray(background_lux, dtype=np.float64), 1e-6) / math.pi
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(total > 0, 8.0 * np.log10(0.25 / lb * np.maximum(total, 1e-300)),
+                        np.nan)
 
 
 def observers(droom, eye_height=EYE_HEIGHT_M, inset_m=0.5):

@@ -1,0 +1,260 @@
+"""Design to the whole of EN 12464-1: legal spec values never crash, walls and ceiling
+requirements, UGR of every entry, installed power; each checked against an independent
+computation."""
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from invrad_wb.core.synthetic import generate as g
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _cli(args, cwd):
+    """``python -m invrad_wb`` of THIS tree (not whichever copy is installed)."""
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    return subprocess.run([sys.executable, "-m", "invrad_wb", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=300)
+
+
+def _write_room(path, size=(5.0, 4.0, 2.8), cell=0.4):
+    from invrad_wb.core.io.sceneio import write_scene
+    sc = g.with_reflectances(g.box_room(size=size, cell=cell))
+    write_scene(path, sc, lux=np.full(len(sc.vertices), np.nan))
+    return sc
+
+
+# ----------------------------------------------------------------------------- slice 1
+def test_null_upper_mounting_height_never_crashes_after_the_computation(tmp_path):
+    """``"mount_height_m": [2, null]`` ("no upper limit") is legal: the design, its
+    RESULT.json and its report are written, the null kept as null."""
+    _write_room(tmp_path / "room.ply")
+    (tmp_path / "d.json").write_text(json.dumps(
+        {"catalogue": [{"name": "HB", "flux_lm": 2000, "watts": 15.0,
+                        "mount_height_m": [2, None]},
+                       {"name": "HIGH", "flux_lm": 12000, "watts": 85.0,
+                        "mount_height_m": [4, None]}],
+         "rooms": {"0": {"work_plane": {"lux": 300, "u0": 0.4}}}}))
+    cp = _cli(["design", "room.ply", "--spec", "d.json", "-o", "r.json", "--report", "rep"],
+              tmp_path)
+    assert cp.returncode in (0, 3), cp.stderr
+    assert "internal error" not in cp.stderr
+    data = json.loads((tmp_path / "r.json").read_text(),
+                      parse_constant=lambda c: pytest.fail(f"{c} in RESULT.json"))
+    cat = {e["name"]: e for e in data["catalogue"]}
+    assert cat["HB"]["mount_height_m"] == [2.0, None]
+    assert cat["HIGH"]["mount_height_m"] == [4.0, None]
+    # the 2.8 m ceiling is below the high-bay's 4 m: only HB is used
+    assert {lum["type"] for lum in data["luminaires"]} == {"HB"}
+    assert (tmp_path / "rep" / "index.html").exists()
+
+
+# ----------------------------------------------------------------------------- slice 2
+CAT = [{"name": "DL-1000", "flux_lm": 1000, "watts": 8.5},
+       {"name": "DL-2000", "flux_lm": 2000, "watts": 15.5},
+       {"name": "DL-3500", "flux_lm": 3500, "watts": 26.0, "dimming": [0.1, 1.0]}]
+
+
+def _spec(room, cat=CAT, **top):
+    from invrad_wb.core.design.spec import spec_from_dict
+    return spec_from_dict({"maintenance_factor": 0.8, "catalogue": cat, "rooms": {"0": room},
+                           **top})
+
+
+def _wall_mean_by_hand(size, lum_pos, flux, n=160):
+    """Area mean and least illuminance of the four walls of a box from a lambertian point
+    luminaire facing down (I = F cos(g) / pi), no reflections: a fine midpoint rule."""
+    L, W, H = size
+    total, area, least = 0.0, 0.0, np.inf
+    for axis, fixed, normal, length in ((0, 0.0, (1, 0, 0), W), (0, L, (-1, 0, 0), W),
+                                        (1, 0.0, (0, 1, 0), L), (1, W, (0, -1, 0), L)):
+        a = (np.arange(n) + 0.5) / n * length
+        z = (np.arange(n) + 0.5) / n * H
+        A, Z = np.meshgrid(a, z, indexing="ij")
+        P = np.zeros(A.shape + (3,))
+        P[..., axis] = fixed
+        P[..., 1 - axis] = A
+        P[..., 2] = Z
+        d = P - np.asarray(lum_pos)
+        r2 = np.einsum("...i,...i", d, d)
+        r = np.sqrt(r2)
+        cos_g = np.maximum(-d[..., 2] / r, 0.0)              # from the downward normal
+        cos_s = np.maximum(-(d @ np.asarray(normal, float)) / r, 0.0)
+        E = flux / math.pi * cos_g * cos_s / r2
+        total += E.sum() * (length / n) * (H / n)
+        area += length * H
+        least = min(least, float(E.min()))
+    return total / area, least
+
+
+def test_wall_illuminance_of_one_luminaire_matches_the_analytic_integral():
+    from invrad_wb.core.design.evaluate import RoomModel, surface_grids
+    from invrad_wb.core.design.room import DesignRoom
+    from invrad_wb.core.model.luminaires import Luminaire
+    size = (5.0, 4.0, 2.8)
+    sc = g.box_room(size=size, cell=0.4, reflectance=0.0)     # direct light only
+    dr = DesignRoom(sc, 0)
+    grids = surface_grids(sc, 0, dr)
+    assert set(grids) == {"walls", "ceiling"}
+    assert grids["walls"][2].sum() == pytest.approx(2 * (5 + 4) * 2.8, rel=1e-6)
+    assert grids["ceiling"][2].sum() == pytest.approx(20.0, rel=1e-6)
+    pts, _ = dr.grid(0.75, 0.5)
+    model = RoomModel(sc, dr, pts, 1.0, "numpy", surfaces=grids)
+    pos = (1.5, 1.2, 2.79)
+    lux, _ = model.exact([Luminaire(pos, [0, 0, -1], 3000.0)])
+    from invrad_wb.core.design.search import Metrics
+    met = Metrics.of(lux, lux, model.layout)
+    em, emin, u0 = met.surfaces["walls"]
+    # point by point: the textbook formula at the grid's own points, normals and weights
+    P, N, w = grids["walls"]
+    d = P - np.asarray(pos)
+    r2 = np.einsum("ij,ij->i", d, d)
+    e = (3000.0 / math.pi * np.maximum(-d[:, 2], 0) / np.sqrt(r2)
+         * np.maximum(-np.einsum("ij,ij->i", d, N), 0) / np.sqrt(r2) / r2)
+    assert em == pytest.approx(np.sum(w * e) / w.sum(), rel=2e-3)
+    assert emin == pytest.approx(e.min(), rel=2e-3, abs=1e-3)
+    # the EN 12464-1 grid (cells of p) represents the whole wall: a fine integral
+    want_em, want_min = _wall_mean_by_hand(size, pos, 3000.0)
+    assert em == pytest.approx(want_em, rel=0.04)
+    # the grid's least point is no darker than the wall's darkest spot
+    assert emin >= want_min - 1e-9 and u0 == pytest.approx(emin / em)
+    # a downlight sends no direct light to its own ceiling
+    assert met.surfaces["ceiling"][0] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_surfaces_obey_energy_conservation_with_interreflection():
+    """Closed box, one reflectance rho everywhere: everything the luminaire emits is
+    absorbed in the end, so the area mean of the total illuminance over all six faces is
+    F / ((1 - rho) A) whatever the layout."""
+    from invrad_wb.core.design.evaluate import RoomModel, surface_grids
+    from invrad_wb.core.design.room import DesignRoom
+    from invrad_wb.core.design.search import Metrics
+    from invrad_wb.core.model.luminaires import Luminaire
+    size, rho, flux = (5.0, 4.0, 2.8), 0.5, 3000.0
+    sc = g.box_room(size=size, cell=0.4, reflectance=rho)
+    dr = DesignRoom(sc, 0)
+    grids = surface_grids(sc, 0, dr)
+    n = 40
+    xy = np.stack(np.meshgrid((np.arange(n) + 0.5) * 5 / n, (np.arange(n) + 0.5) * 4 / n,
+                              indexing="ij"), -1).reshape(-1, 2)
+    grids["floor"] = (np.c_[xy, np.full(len(xy), 1e-3)], np.tile([0, 0, 1.0], (len(xy), 1)),
+                      np.full(len(xy), 20.0 / len(xy)))
+    pts, _ = dr.grid(0.75, 0.5)
+    model = RoomModel(sc, dr, pts, 1.0, "numpy", surfaces=grids)
+    lux, direct = model.exact([Luminaire((1.5, 1.2, 2.79), [0, 0, -1], flux)])
+    met = Metrics.of(lux, direct, model.layout)
+    areas = {k: float(v[2].sum()) for k, v in grids.items()}
+    mean = sum(met.surfaces[k][0] * areas[k] for k in areas) / sum(areas.values())
+    assert mean == pytest.approx(flux / ((1 - rho) * sum(areas.values())), rel=0.06)
+    # the ceiling is lit by interreflection alone, and evenly
+    assert met.surfaces["ceiling"][0] > 0 and met.surfaces["ceiling"][2] > 0.3
+
+
+def test_spec_walls_ceiling_defaults_minimums_and_cylindrical():
+    from invrad_wb.errors import SettingsError
+    office = _spec({"room_type": "office"}).rooms["0"]
+    assert (office.surfaces["walls"].lux, office.surfaces["ceiling"].lux) == (75, 50)
+    assert "EN 12464-1:2021" in office.surfaces["walls"].source
+    assert office.ugr_max == 19 and office.cylindrical["lux"] == 150
+    plain = _spec({"work_plane": {"lux": 200}}).rooms["0"]
+    assert (plain.surfaces["walls"].lux, plain.surfaces["walls"].u0) == (50, 0.1)
+    assert (plain.surfaces["ceiling"].lux, plain.surfaces["ceiling"].u0) == (30, 0.1)
+    asked = _spec({"work_plane": {"lux": 200}, "walls": {"lux": 120, "u0": 0.3},
+                   "ceiling": {"lux": 10}, "ugr_max": 22,
+                   "cylindrical": {"lux": 100}}).rooms["0"]
+    assert (asked.surfaces["walls"].lux, asked.surfaces["walls"].u0) == (120, 0.3)
+    assert asked.surfaces["walls"].source == "spec"
+    # below the standard's minimum: raised, and said so
+    assert asked.surfaces["ceiling"].lux == 30 and "raised" in asked.surfaces["ceiling"].source
+    assert asked.ugr_max == 22 and asked.cylindrical == {"lux": 100, "u0": 0.1,
+                                                         "height_m": 1.2}
+    for bad, words in (({"walls": {"lux": -1}}, "walls.lux"),
+                       ({"ceiling": {"lux": 30, "colour": 1}}, "unknown key 'colour'"),
+                       ({"walls": {"lux": 50, "u0": 2}}, "walls.u0")):
+        with pytest.raises(SettingsError, match=words):
+            _spec({"work_plane": {"lux": 200}, **bad})
+
+
+def test_design_meets_walls_and_ceiling_by_an_independent_solve():
+    """A corridor-like requirement (100 lx) with walls asked at 150 lx: the design lights
+    the walls enough (the work plane alone would not need it), by a fresh exact solve."""
+    from invrad_wb.core.design.design import design_room
+    from invrad_wb.core.design.evaluate import RoomModel, surface_grids
+    from invrad_wb.core.design.room import DesignRoom
+    from invrad_wb.core.design.search import Metrics
+    sc = g.with_reflectances(g.box_room(size=(5.0, 4.0, 2.8), cell=0.4))
+    base = design_room(sc, _spec({"work_plane": {"lux": 100, "u0": 0.4}}), 0)
+    rd = design_room(sc, _spec({"work_plane": {"lux": 100, "u0": 0.4},
+                                "walls": {"lux": 150, "u0": 0.2}}), 0)
+    assert base.compliant and rd.compliant
+    assert rd.verdicts["walls"] and rd.verdicts["ceiling"]
+    assert base.metrics.surfaces["walls"][0] < 150 <= rd.metrics.surfaces["walls"][0]
+    assert rd.watts > base.watts
+    dr = DesignRoom(sc, 0)
+    grids = surface_grids(sc, 0, dr)
+    pts, _ = dr.grid(0.75, 0.5)
+    lux, direct = RoomModel(sc, dr, pts, 0.8, surfaces=grids).exact(rd.luminaires)
+    met = Metrics.of(lux, direct, RoomModel(sc, dr, pts, 0.8, surfaces=grids).layout)
+    assert met.surfaces["walls"][0] >= 150 * 0.999
+    assert met.surfaces["walls"][2] >= 0.2 and met.surfaces["ceiling"][0] >= 30
+    d = rd.to_dict()
+    assert d["pass"]["walls"] and d["surfaces"]["walls"]["required"]["lux"] == 150
+    # walls' uniformity out of reach: their Em is still met (by output), U0 fails
+    even = design_room(sc, _spec({"work_plane": {"lux": 100, "u0": 0.4},
+                                  "walls": {"lux": 150, "u0": 0.99}}), 0)
+    assert not even.compliant and not even.verdicts["walls"]
+    assert even.metrics.surfaces["walls"][0] >= 150 and even.verdicts["Em"]
+    # asked too much of the walls: not compliant, and the note names them
+    hard = design_room(sc, _spec({"work_plane": {"lux": 100, "u0": 0.4},
+                                  "walls": {"lux": 5000}}), 0)
+    assert not hard.compliant and not hard.verdicts["walls"]
+    assert any(n.startswith("walls:") for n in hard.notes)
+
+
+# ----------------------------------------------------------------------------- slices 4, 5
+def test_power_deep_dimming_energy_and_the_room_summary_through_the_cli(tmp_path):
+    """A corridor (100 lx) with only a strong dimmable type: installed (rated) power,
+    W/m^2, W/m^2/100 lx, the deep-dimming flag and kWh/a from the operating hours, in
+    RESULT.json, on the console and in the report's room summary."""
+    _write_room(tmp_path / "room.ply", size=(8.0, 2.0, 2.6))
+    (tmp_path / "d.json").write_text(json.dumps(
+        {"maintenance_factor": 0.8, "operating_hours": 2500,
+         "catalogue": [{"name": "BIG", "flux_lm": 6000, "watts": 40.0,
+                        "dimming": [0.1, 1.0]}],
+         "rooms": {"0": {"room_type": "corridor"}}}))
+    cp = _cli(["design", "room.ply", "--spec", "d.json", "-o", "r.json", "--report", "rep"],
+              tmp_path)
+    assert cp.returncode == 0, cp.stdout + cp.stderr
+    data = json.loads((tmp_path / "r.json").read_text())
+    room = data["rooms"][0]
+    pw = room["power"]
+    n = len(data["luminaires"])
+    assert pw["rated_w"] == pytest.approx(40.0 * n)
+    assert pw["designed_w"] == pytest.approx(40.0 * n * room["dim"], rel=1e-3)
+    assert pw["rated_w_per_m2"] == pytest.approx(40.0 * n / 16.0, rel=1e-3)
+    assert pw["rated_w_per_m2_100lx"] == pytest.approx(
+        pw["rated_w_per_m2"] / (room["em_lux"] / 100), rel=1e-3)
+    assert room["dim"] < 0.5 and pw["deep_dimming"]
+    assert any("deep dimming" in note for note in room["notes"])
+    assert pw["energy_kwh_per_year"] == pytest.approx(pw["designed_w"] * 2.5, rel=1e-3)
+    assert pw["leni_kwh_per_m2_year"] == pytest.approx(pw["energy_kwh_per_year"] / 16,
+                                                       rel=1e-2)
+    assert data["total_rated_watts"] == pytest.approx(pw["rated_w"])
+    assert "installed" in cp.stdout and "kWh/a" in cp.stdout
+    # every requirement judged: walls and ceiling (EN minimums), UGR limit 28 of corridors
+    assert set(room["pass"]) >= {"Em", "U0", "walls", "ceiling", "UGR"}
+    assert room["surfaces"]["walls"]["required"]["lux"] == 50
+    assert room["surfaces"]["ceiling"]["required"]["lux"] == 30
+    html = (tmp_path / "rep" / "index.html").read_text(encoding="utf-8")
+    for words in ("Room summary", "task area (work plane)", "immediate surroundings",
+                  "walls", "ceiling", "UGR (CIE 117", "installed (rated) power",
+                  "W/m&sup2;/100 lx", "deep dimming", "kWh/a", "maintenance factor 0.8",
+                  "EN 12464-1:2021 5.2.3"):
+        assert words in html, words
+    rows = (tmp_path / "rep" / "rooms.csv").read_text(encoding="utf-8").splitlines()
+    assert "rated_w" in rows[0] and "walls" in rows[0]
