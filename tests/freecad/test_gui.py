@@ -430,7 +430,7 @@ class TestDisplayNumpy(FreeCADTestCase):
         np.testing.assert_allclose(rgb[4], rgb[0])             # beyond the scale: its end
         np.testing.assert_allclose(rgb[3], np.array(images.NAN_GREY) / 255.0)
         lay = display.legend_layout("Deviation from\ntarget", 0.5, [], vmin=-0.5,
-                                    fmt=display._percent)
+                                    fmt=display.percent)
         self.assertEqual([t for _, t in lay["ticks"]],
                          ["-50 %", "-25 %", "0 %", "+25 %", "+50 %"])
         ys = [y for y, _ in lay["ticks"]]
