@@ -36,24 +36,35 @@ def _face_set(coin, tris, two_sided=False):
     return sep
 
 
+def _flat_unpickable(coin, node):
+    """Clicks go through ``node``'s children to what is behind them, and they are drawn
+    in their own colours, unlit."""
+    pick = coin.SoPickStyle()
+    pick.style = coin.SoPickStyle.UNPICKABLE
+    node.addChild(pick)
+    light = coin.SoLightModel()
+    light.model = coin.SoLightModel.BASE_COLOR
+    node.addChild(light)
+
+
+def _black_text(coin, node, font_name, size):
+    """Text after this in ``node`` is black, in ``font_name`` at ``size`` points."""
+    mat = coin.SoMaterial()
+    mat.diffuseColor = (0.0, 0.0, 0.0)
+    node.addChild(mat)
+    font = coin.SoFont()
+    font.name = font_name
+    font.size = size
+    node.addChild(font)
+
+
 def build_labels(labels):
     """Room names in the 3D view (screen-aligned text, drawn last and on top: the
     translucent work plane is drawn after opaque things and would cover them)."""
     coin = _coin()
     sep = coin.SoAnnotation()
-    pick = coin.SoPickStyle()
-    pick.style = coin.SoPickStyle.UNPICKABLE
-    sep.addChild(pick)
-    light = coin.SoLightModel()
-    light.model = coin.SoLightModel.BASE_COLOR
-    sep.addChild(light)
-    mat = coin.SoMaterial()
-    mat.diffuseColor = (0.0, 0.0, 0.0)
-    sep.addChild(mat)
-    font = coin.SoFont()
-    font.name = "Sans:Bold"
-    font.size = 14
-    sep.addChild(font)
+    _flat_unpickable(coin, sep)
+    _black_text(coin, sep, "Sans:Bold", 14)
     for name, (x, y, z) in labels:
         t = coin.SoSeparator()
         tr = coin.SoTranslation()
@@ -81,12 +92,7 @@ def build_overlay(geom, work_plane_transparency=0.25):
     coin = _coin()
     root = coin.SoSeparator()
     root.setName(OVERLAY_NAME)
-    pick = coin.SoPickStyle()
-    pick.style = coin.SoPickStyle.UNPICKABLE
-    root.addChild(pick)
-    light = coin.SoLightModel()
-    light.model = coin.SoLightModel.BASE_COLOR
-    root.addChild(light)
+    _flat_unpickable(coin, root)
     coords = coin.SoCoordinate3()
     pts = geom["points"]
     coords.point.setValues(0, len(pts), [tuple(map(float, p)) for p in pts])
@@ -170,9 +176,6 @@ def build_legend(title, vmax, swatches=(), over=False, vmin=0.0, cmap=None, fmt=
     skip.setName(LEGEND_NAME)
     ann = coin.SoAnnotation()
     skip.addChild(ann)
-    pick = coin.SoPickStyle()
-    pick.style = coin.SoPickStyle.UNPICKABLE
-    ann.addChild(pick)
     cam = coin.SoOrthographicCamera()
     # LEAVE_AS_IS (4): normalised [-1, 1] view coordinates; pivy 0.6 lacks the name
     cam.viewportMapping = getattr(coin.SoCamera, "LEAVE_AS_IS", 4)
@@ -181,9 +184,7 @@ def build_legend(title, vmax, swatches=(), over=False, vmin=0.0, cmap=None, fmt=
     cam.nearDistance = 1.0
     cam.farDistance = 10.0
     ann.addChild(cam)
-    light = coin.SoLightModel()
-    light.model = coin.SoLightModel.BASE_COLOR
-    ann.addChild(light)
+    _flat_unpickable(coin, ann)
     px0, py0, px1, py1 = lay["panel"]
     ann.addChild(_quad(coin, px0 - 0.004, py0 - 0.006, px1 + 0.004, py1 + 0.006,
                        (0.35, 0.35, 0.35), z=-0.2))
@@ -230,13 +231,7 @@ def build_legend(title, vmax, swatches=(), over=False, vmin=0.0, cmap=None, fmt=
     lines.addChild(ls)
     ann.addChild(lines)
     text = coin.SoSeparator()
-    tm = coin.SoMaterial()
-    tm.diffuseColor = (0.0, 0.0, 0.0)
-    text.addChild(tm)
-    font = coin.SoFont()
-    font.name = "Sans"
-    font.size = 13
-    text.addChild(font)
+    _black_text(coin, text, "Sans", 13)
     for y, s in lay["ticks"]:
         text.addChild(_text(coin, bx1 + 0.02, y - 0.015, s))
     for y, s in lay["title"]:

@@ -298,46 +298,39 @@ def show_deviation(doc, limit=DEVIATION_LIMIT):
                 vmax=float(limit), mesh=mesh, deviation=True)
 
 
+def _switch(doc, title, mode_name, back, forth, ready=None):
+    """A show/hide command: ``back(doc)`` when ``mode_name`` is shown (returns False),
+    else ``forth(doc)`` (returns True). Errors are reported, not raised, like every GUI
+    action, and leave no overlay."""
+    import FreeCAD
+    from invrad_wb.gui import messages
+    doc = doc or FreeCAD.ActiveDocument
+    if doc is None or (ready is not None and not ready(doc)):
+        return False
+    try:
+        if is_shown(doc, mode_name):
+            back(doc)
+            return False
+        forth(doc)
+    except Exception as exc:
+        hide(doc)
+        messages.exception(title, exc)
+        return False
+    return True
+
+
 def toggle_deviation(doc=None):
     """Switch between the achieved illuminance and its deviation from the targets; True
     if the deviation is shown afterwards."""
-    import FreeCAD
-    from invrad_wb.gui import messages
-    doc = doc or FreeCAD.ActiveDocument
-    if doc is None or not has_achieved(doc):
-        return False
-    try:
-        if is_shown(doc, "deviation"):
-            show_achieved(doc, *last_achieved(doc))
-            return False
-        show_deviation(doc)
-    except Exception as exc:
-        hide(doc)
-        messages.exception("Show deviation", exc)
-        return False
-    return True
+    return _switch(doc, "Show deviation", "deviation",
+                   lambda d: show_achieved(d, *last_achieved(d)), show_deviation,
+                   ready=has_achieved)
 
 
 def toggle_targets(doc=None):
-    """Show the targets, or hide them if they are shown; True if shown afterwards.
-
-    Errors (no rooms, a bad target) are reported, not raised, like every GUI action.
-    """
-    import FreeCAD
-    from invrad_wb.gui import messages
-    doc = doc or FreeCAD.ActiveDocument
-    if doc is None:
-        return False
-    if is_shown(doc, "targets"):
-        hide(doc)
-        return False
-    try:
-        show_targets(doc)
-    except Exception as exc:
-        hide(doc)
-        messages.exception("Show targets", exc)
-        return False
-    return True
+    """Show the targets, or hide them if they are shown; True if shown afterwards (no
+    rooms, a bad target: reported)."""
+    return _switch(doc, "Show targets", "targets", hide, show_targets)
 
 
 def refresh(doc):

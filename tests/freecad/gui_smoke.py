@@ -127,6 +127,64 @@ def relaunch(argv):
     return 0 if not bad and data.get("finished") else 1
 
 
+# --------------------------------------------------------------------------- panel widths
+def clipped(form):
+    """The visible widgets of a laid-out form whose text does not fit their width:
+    ``[(kind, objectName, text, needed px, has px)]``. Drop-downs (their current text
+    with the frame and arrow Qt adds for ``minimumContentsLength``), labels (the whole
+    text, or the longest word where they wrap), buttons and check boxes, group titles,
+    spin boxes (their text) and table columns (header and cells against the column's
+    width, and a table that scrolls sideways)."""
+    from PySide import QtGui
+    out = []
+
+    def adv(fm, text):
+        return max((fm.horizontalAdvance(t) if hasattr(fm, "horizontalAdvance")
+                    else fm.width(t)) for t in (text.split("\n") or [""]))
+
+    def add(kind, w, text, need, has):
+        if need > has + 1:
+            out.append((kind, w.objectName(), text, int(need), int(has)))
+
+    for w in form.findChildren(QtGui.QWidget):
+        if not w.isVisibleTo(form) or not w.isVisible():
+            continue
+        fm = w.fontMetrics()
+        if isinstance(w, QtGui.QComboBox):
+            text = w.currentText()
+            frame = w.sizeHint().width() - w.minimumContentsLength() * adv(fm, "x")
+            if w.sizeAdjustPolicy() != QtGui.QComboBox.AdjustToMinimumContentsLengthWithIcon:
+                frame = 32
+            add("drop-down", w, text, frame + adv(fm, text), w.width())
+        elif isinstance(w, QtGui.QLabel) and w.text() and not w.pixmap():
+            text = w.text()
+            if w.wordWrap():
+                need = max(adv(fm, t) for t in text.split()) if text.split() else 0
+            else:
+                need = adv(fm, text)
+            add("label", w, text, need, w.contentsRect().width())
+        elif isinstance(w, (QtGui.QCheckBox, QtGui.QPushButton, QtGui.QRadioButton)):
+            add("button", w, w.text(), w.sizeHint().width(), w.width())
+        elif isinstance(w, QtGui.QGroupBox) and w.title():
+            add("group title", w, w.title(), adv(fm, w.title()) + 16, w.width())
+        elif isinstance(w, QtGui.QAbstractSpinBox):
+            text = w.text()
+            add("spin box", w, text, adv(fm, text) + 30, w.width())
+        elif isinstance(w, QtGui.QTableWidget):
+            head = w.horizontalHeader()
+            for c in range(w.columnCount()):
+                if w.isColumnHidden(c):
+                    continue
+                item = w.horizontalHeaderItem(c)
+                text = item.text() if item is not None else ""
+                need = max(head.sectionSizeHint(c), w.sizeHintForColumn(c))
+                add("table column", w, text, need, head.sectionSize(c))
+            bar = w.horizontalScrollBar()
+            if bar.maximum() > 0:
+                out.append(("table scrolls sideways", w.objectName(), "", bar.maximum(), 0))
+    return out
+
+
 # --------------------------------------------------------------------------- inside
 class Smoke:
     """The steps, driven by a QTimer so that FreeCAD's event loop keeps running."""
@@ -205,27 +263,35 @@ class Smoke:
         self.check(f"widget picture {name}", ok, path)
 
     def fits(self, panel, name):
-        """The task panel fits a 1280 x 800 screen (its size hint) and FreeCAD's narrowest
-        task view (its minimum width), and the task view shows it without a horizontal
-        scroll bar (nothing clipped on the right)."""
+        """The task panel fits FreeCAD's default task view (the combo view of a 1280 x 800
+        window, where the panel is shown now) and a 1280 x 800 screen: its minimum width
+        fits the task view, the task view has nothing to scroll sideways, and no text in
+        it is cut (:func:`clipped`: a drop-down, label, button, group title or table
+        column narrower than its text). The earlier check read only the form's minimum
+        size and the scroll bar's visibility: tables and drop-downs report small minimum
+        sizes and cut their text instead (the design panel's "Downlight 100...", "be (EN",
+        "Custom En"), and it ran before the task view had laid the panel out."""
         import FreeCADGui
         from PySide import QtGui
-        from invrad_wb.gui import taskpanel
-        QtGui.QApplication.processEvents()
+        for _ in range(3):
+            QtGui.QApplication.processEvents()
         hint, least = panel.form.sizeHint(), panel.form.minimumSizeHint()
         # the task view, found from the main window: walking up from the form with
         # parentWidget() left its Python wrapper "already deleted" (PySide ownership)
         areas = [a for a in FreeCADGui.getMainWindow().findChildren(QtGui.QScrollArea)
                  if a.isAncestorOf(panel.form)]
         area = areas[-1] if areas else None
-        bar = area is not None and area.horizontalScrollBar().isVisible()
-        self.check(f"{name} panel fits 1280 x 800 and a {taskpanel.NARROW_WIDTH_PX} px task"
-                   " view, no horizontal scrolling",
-                   hint.width() <= 1280 and hint.height() <= 800
-                   and least.width() <= taskpanel.NARROW_WIDTH_PX and not bar,
+        view_w = area.viewport().width() if area is not None else None
+        sideways = area is not None and area.horizontalScrollBar().maximum() > 0
+        cut = clipped(panel.form)
+        self.check(f"{name} panel fits the default task view ({view_w} px) and 1280 x 800:"
+                   " nothing cut, no sideways scrolling",
+                   area is not None and hint.height() <= 800 and least.width() <= view_w
+                   and panel.form.width() <= view_w and not sideways and not cut,
                    {"hint": (hint.width(), hint.height()),
-                    "minimum": (least.width(), least.height()), "scroll bar": bar,
-                    "task view": area.viewport().width() if area is not None else None})
+                    "minimum": (least.width(), least.height()),
+                    "form": panel.form.width(), "sideways": sideways,
+                    "task view": view_w, "cut": cut})
 
     def tick(self):
         from PySide import QtCore
@@ -499,6 +565,7 @@ class Smoke:
             self.grab(FreeCADGui.getMainWindow(), "main_window")
         adv.setChecked(True)
         self.check("'Advanced' shows them", panel.widget("threshold").isVisibleTo(panel.form))
+        self.fits(panel, "locate, advanced settings shown,")
         if not self.quick:
             QtGui.QApplication.processEvents()
             self.grab(panel.form, "panel_locate_settings")
@@ -586,7 +653,7 @@ class Smoke:
                    st is not None and display.state(doc)["vmax"] == st["vmax"],
                    (st, display.state(doc)))
         self.check("the spot's edge is drawn finer than the room mesh",
-                   display.state(doc)["triangles"] > len(display._ACHIEVED[doc.Name][0]
+                   display.state(doc)["triangles"] > len(display.last_achieved(doc)[0]
                                                          .scene.faces),
                    display.state(doc))
         FreeCADGui.runCommand("InvRad_ToggleDeviation")
@@ -828,6 +895,7 @@ class Smoke:
         req = panel.widget("requirements")
         self.check("FZK-Haus: the spec fills one requirement row per room",
                    req.rowCount() == 7, req.rowCount())
+        self.fits(panel, "FZK-Haus design")
         self.grab(panel.form, "fzk_panel_design")
         before, t1 = len(messages.LOG), time.time()
         self.check("FZK-Haus: design panel accepted", panel.accept())
