@@ -414,7 +414,7 @@ class Smoke:
                    sorted(m for m in before if m.startswith("invrad_wb")))
         FreeCADGui.activateWorkbench("InvRadWorkbench")
         yield None
-        from invrad_wb.gui import commands, display, messages, runner, taskpanel
+        from invrad_wb.gui import commands, designpanel, display, messages, runner, taskpanel
         from invrad_wb.gui import progress
         from invrad_wb.app import document, fixtures, targets
         messages.QUIET = True
@@ -752,8 +752,8 @@ class Smoke:
         FreeCADGui.runCommand("InvRad_Design")
         yield None
         panel = taskpanel.ACTIVE
-        self.check("design panel opens", isinstance(panel, taskpanel.DesignPanel))
-        if not isinstance(panel, taskpanel.DesignPanel):
+        self.check("design panel opens", isinstance(panel, designpanel.DesignPanel))
+        if not isinstance(panel, designpanel.DesignPanel):
             return
         # FreeCAD's own combo view width (about 260 px in a 1280 x 800 window on 1.0):
         # the panel is laid out for it (catalogue details in a form, fields under their
@@ -883,13 +883,13 @@ class Smoke:
                    "Galerie" not in [n for n, _ in display.shown_labels(doc)]
                    and len(display.shown_labels(doc)) == 5, display.shown_labels(doc))
         # the design panel with the bundled requirements (examples/fzk_design.json)
-        from invrad_wb.gui import taskpanel
+        from invrad_wb.gui import designpanel, taskpanel
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.runCommand("InvRad_Design")
         yield None
         panel = taskpanel.ACTIVE
         if not self.check("FZK-Haus: design panel opens",
-                          isinstance(panel, taskpanel.DesignPanel), panel):
+                          isinstance(panel, designpanel.DesignPanel), panel):
             return
         panel.open_spec(os.path.join(ROOT, "examples", "fzk_design.json"))
         req = panel.widget("requirements")

@@ -24,7 +24,8 @@ from invrad_wb.app.pipeline import PipelineSettings
 from invrad_wb.core.inverse.locate import LocateSettings
 from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.errors import SceneError
-from invrad_wb.gui import commands, display, messages, params, runner, selection, taskpanel
+from invrad_wb.gui import (commands, designpanel, display, messages, params, runner,
+                           selection, taskpanel)
 
 TEST_ROOT = "User parameter:BaseApp/Preferences/Mod/InvRadTest"
 
@@ -88,7 +89,7 @@ class TestResources(FreeCADTestCase):
 
     def test_design_panel_form_and_default_spec(self):
         w = _ui_widgets(taskpanel.ui_path("design.ui"))
-        for name in taskpanel.DesignPanel.RUN_FIELDS + (
+        for name in designpanel.DesignPanel.RUN_FIELDS + (
                 "rooms_label", "catalogue", "requirements", "add_entry", "remove_entry",
                 "load_spec", "save_spec", "maintenance_factor", "height_m", "margin_m",
                 "mounting", "pendant_height_m"):
@@ -247,6 +248,38 @@ class TestParams(ParamsIsolated):
         self.assertEqual((s.flux_lm, s.resolution_m, s.backend, s.replace, s.rooms),
                          (1234.0, 0.25, "numpy", False, ["Space"]))
         self.assertEqual(s.locate["threshold"], 50.0)
+
+    def test_design_and_verify_write_to_separate_report_folders(self):
+        # unsaved, saved, and under a chosen report folder: never the same folder, so
+        # a design's client report and a verification report never replace each other
+        kinds = ("verify", "design")
+        unsaved = [runner.default_report_dir(self.doc, k) for k in kinds]
+        self.doc.saveAs(self.path("house.FCStd"))
+        saved = [runner.default_report_dir(self.doc, k) for k in kinds]
+        params.save_run({"report_dir": self.path("reports")})
+        chosen = [runner.default_report_dir(self.doc, k) for k in kinds]
+        for verify_dir, design_dir in (unsaved, saved, chosen):
+            self.assertNotEqual(os.path.normpath(verify_dir), os.path.normpath(design_dir))
+            self.assertFalse(design_dir.startswith(verify_dir + os.sep))
+            self.assertFalse(verify_dir.startswith(design_dir + os.sep))
+        self.assertEqual(saved, [self.path("house_invrad_report"),
+                                 self.path("house_invrad_design")])
+        self.assertTrue(all(d.startswith(self.path("reports")) for d in chosen))
+        with self.assertRaises(ValueError):
+            runner.default_report_dir(self.doc, "locate")
+
+    def test_progress_messages_in_plain_words(self):
+        from invrad_wb.gui.progress import PLAIN_WORDS, plain_words
+        self.assertEqual(plain_words("Küche: vote maps"), "Küche: looking for positions")
+        self.assertEqual(plain_words("cancelled: Office: votes"),
+                         "cancelled: Office: weighing positions")
+        self.assertEqual(plain_words("forward solve: 4 luminaire(s)"),
+                         "computing the light: 4 luminaire(s)")
+        self.assertEqual(plain_words("Office: design"), "Office: design")
+        for method, _ in PLAIN_WORDS:
+            said = plain_words(f"Bad: {method}").lower()
+            self.assertNotIn("vote", said)
+            self.assertNotIn("peak", said)
 
 
 class TestDisplayNumpy(FreeCADTestCase):
