@@ -20,16 +20,31 @@ _NOT_OBSTACLES = {"Space", "Wall", "Structure", "Window", "Door", "Floor", "Buil
                   "Site", "BuildingPart", "Equipment", "Roof", "Covering", "InvRadTarget"}
 _NOT_OBSTACLE_IFC = {"Slab", "Wall", "Window", "Door", "Roof", "Covering", "Beam", "Column",
                      "Light Fixture", "Building Storey", "Building", "Site", "Space"}
+#: The same for NativeIFC objects (their ``IfcClass``).
+_NOT_OBSTACLE_CLASS = {"IfcSlab", "IfcWall", "IfcWallStandardCase", "IfcWindow", "IfcDoor",
+                       "IfcRoof", "IfcCovering", "IfcBeam", "IfcColumn", "IfcLightFixture",
+                       "IfcBuildingStorey", "IfcBuilding", "IfcSite", "IfcSpace",
+                       "IfcProject", "IfcOpeningElement", "IfcPlate", "IfcMember"}
+
+
+#: The direction towards the eye of FreeCAD's isometric view (Std_ViewIsometric): room
+#: names keep clear of what stands in a room both from above and in this view.
+ISO_EYE = (1.0, -1.0, 1.0)
+#: Pendant rods are sampled this often (metres) between a luminaire and its ceiling.
+ROD_STEP_M = 0.1
 
 
 def room_labels(building, height_m=None):
     """``[(room label, (x, y, z) mm)]``: where each room's name is written: inside the
-    floor's outline as far as possible from the walls, from the room's light fixtures and
-    from other objects standing in the room (a stair, furniture), so that the name covers
-    none of them (as on the design report's plans); :data:`LABEL_BELOW_CEILING_M` below
-    the room's lowest ceiling (at least :data:`LABEL_MIN_HEIGHT_M` above its floor), or
-    ``height_m`` above its floor: seen from above at an angle the name then stands in
-    the room's open top, not on the wall in front of it."""
+    floor's outline as far as possible from the walls, from the room's light fixtures
+    (with their pendant rods up to the ceiling) and from other objects standing in the
+    room (a stair, furniture), so that the name covers none of them, seen from above (as
+    on the design report's plans) and in FreeCAD's isometric view (:data:`ISO_EYE`: what
+    stands below or above the name's height is moved along the view direction onto its
+    plane, :func:`iso_shadow`); :data:`LABEL_BELOW_CEILING_M` below the room's lowest
+    ceiling (at least :data:`LABEL_MIN_HEIGHT_M` above its floor), or ``height_m`` above
+    its floor: seen from above at an angle the name then stands in the room's open top,
+    not on the wall in front of it."""
     from invrad_wb.core.output.design_report import label_point
     # the names are screen text (about 7 x 13 px a character); seen whole, a building of
     # extent X metres spans about 500 px: a character is about X / 70 m wide
@@ -43,24 +58,36 @@ def room_labels(building, height_m=None):
         v = corners.reshape(-1, 3)
         lo = v.min(axis=0)
         c = 0.5 * (v.min(axis=0) + v.max(axis=0))[:2]
-        edges = _outline_edges(corners) if m.floor_triangles.any() else []
-        if len(edges):
-            half = (0.5 * char_m * max(len(p.space.Label), 1) + 0.1, char_m + 0.1)
-            # the walls count as points too, in label boxes: a long name keeps further
-            # from the walls beside it than from those above and below it
-            avoid = (_fixture_xy(p.space) + _edge_points(edges, 0.5 * char_m)
-                     + _obstacle_xy(p.space, edges, lo[2], lo[2] + LABEL_CLEAR_HEIGHT_M))
-            c = label_point(edges, avoid, half_size=half)
+        ceil = [i for i, k in enumerate(m.face_kind) if k == "ceiling"]
+        top = m.vertices[np.unique(m.triangles[np.isin(m.triangle_face, ceil)])] \
+            if ceil else m.vertices
+        ceiling_z = float(top[:, 2].min())
         if height_m is not None:
             z = lo[2] + height_m
         else:
-            ceil = [i for i, k in enumerate(m.face_kind) if k == "ceiling"]
-            top = m.vertices[np.unique(m.triangles[np.isin(m.triangle_face, ceil)])] \
-                if ceil else m.vertices
-            z = max(lo[2] + LABEL_MIN_HEIGHT_M,
-                    float(top[:, 2].min()) - LABEL_BELOW_CEILING_M)
+            z = max(lo[2] + LABEL_MIN_HEIGHT_M, ceiling_z - LABEL_BELOW_CEILING_M)
+        edges = _outline_edges(corners) if m.floor_triangles.any() else []
+        if len(edges):
+            half = (0.5 * char_m * max(len(p.space.Label), 1) + 0.1, char_m + 0.1)
+            things = np.asarray(
+                _fixture_points(p.space, ceiling_z)
+                + _obstacle_xyz(p.space, edges, lo[2], lo[2] + LABEL_CLEAR_HEIGHT_M),
+                dtype=np.float64).reshape(-1, 3)
+            # the walls count as points too, in label boxes: a long name keeps further
+            # from the walls beside it than from those above and below it
+            avoid = (_edge_points(edges, 0.5 * char_m) + list(things[:, :2])
+                     + list(iso_shadow(things, z)))
+            c = label_point(edges, avoid, half_size=half)
         out.append((p.space.Label, (1000.0 * c[0], 1000.0 * c[1], 1000.0 * z)))
     return out
+
+
+def iso_shadow(points, z, eye=ISO_EYE):
+    """(k, 2) plan points at height ``z`` that an orthographic view from ``eye`` shows
+    where it shows ``points`` (k, 3), metres: each moved along the view direction."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    e = np.asarray(eye, dtype=np.float64)
+    return pts[:, :2] - (pts[:, 2:3] - z) * (e[:2] / e[2])
 
 
 def _edge_points(edges, step):
@@ -134,9 +161,9 @@ def _in_triangles(p, tri):
     return bool(np.any(~(neg & pos)))
 
 
-def _obstacle_xy(space, edges, z0, z1):
-    """Plan points (metres) of objects standing in a room between heights ``z0`` and
-    ``z1`` (a stair, furniture, a railing): vertices of their shapes inside the floor's
+def _obstacle_xyz(space, edges, z0, z1):
+    """Points (metres, with their heights) of objects standing in a room between heights
+    ``z0`` and ``z1`` (a stair, furniture, a railing): vertices of their shapes inside the floor's
     outline ``edges``. The building's envelope (walls, slabs, doors, windows, the rooms
     themselves) and the light fixtures (counted apart) are not obstacles."""
     from invrad_wb.app.document import object_type
@@ -150,7 +177,8 @@ def _obstacle_xy(space, edges, z0, z1):
     for obj in doc.Objects:
         try:
             if object_type(obj) in _NOT_OBSTACLES or getattr(obj, "IfcType", "") in \
-                    _NOT_OBSTACLE_IFC or not getattr(obj, "Visibility", True):
+                    _NOT_OBSTACLE_IFC or getattr(obj, "IfcClass", "") in \
+                    _NOT_OBSTACLE_CLASS or not getattr(obj, "Visibility", True):
                 continue
             shape = getattr(obj, "Shape", None)
             if shape is None or shape.isNull() or not shape.Vertexes:
@@ -160,12 +188,12 @@ def _obstacle_xy(space, edges, z0, z1):
                     or bb.ZMax < 1000.0 * z0 or bb.ZMin > 1000.0 * z1
                     or bb.XLength > 0.9 * (hi[0] - lo[0]) and bb.YLength > 0.9 * (hi[1] - lo[1])):
                 continue
-            xy = np.array([[v.Point.x, v.Point.y] for v in shape.Vertexes
-                           if 1000.0 * z0 - 1.0 <= v.Point.z <= 1000.0 * z1]) / 1000.0
+            xyz = np.array([[v.Point.x, v.Point.y, v.Point.z] for v in shape.Vertexes
+                            if 1000.0 * z0 - 1.0 <= v.Point.z <= 1000.0 * z1]) / 1000.0
         except Exception:          # an object without readable geometry is no obstacle
             continue
-        if len(xy):
-            out += list(xy[_inside(edges, xy)])
+        if len(xyz):
+            out += list(xyz[_inside(edges, xyz[:, :2])])
     return out
 
 
@@ -180,13 +208,17 @@ def _outline_edges(tri):
     return e[cnt[np.asarray(inv).reshape(-1)] == 1]
 
 
-def _fixture_xy(space):
-    """Plan positions (metres) of the light fixtures in a Space (none if unreadable)."""
+def _fixture_points(space, ceiling_z):
+    """Points (metres) of the light fixtures in a Space: each luminaire, and for a
+    pendant its rod up to ``ceiling_z`` every :data:`ROD_STEP_M` (none if unreadable)."""
     try:
         from invrad_wb.app import fixtures
-        return [fixtures.fixture_luminaire(o).position[:2]
-                for o in fixtures.room_fixtures(space, generated_only=False)]
+        pos = [np.asarray(fixtures.fixture_luminaire(o).position, dtype=np.float64)
+               for o in fixtures.room_fixtures(space, generated_only=False)]
     except Exception:
         return []
-
-
+    out = []
+    for x, y, z in pos:
+        n = max(int(np.ceil((ceiling_z - z) / ROD_STEP_M)), 0)
+        out += [(x, y, z + k * (ceiling_z - z) / max(n, 1)) for k in range(n + 1)]
+    return out

@@ -451,6 +451,44 @@ class TestDisplayNumpy(FreeCADTestCase):
         high = [((0.0, 0.0, -1.0), -9000.0)]
         self.assertEqual(display.label_visibility(b, labels, high).tolist(), [False, True])
 
+    def test_room_names_clear_of_pendant_rods_and_stairs_from_above_and_isometric(self):
+        # a pendant hanging 1 m below the ceiling and a stair: the name's box keeps clear
+        # of the luminaire, its rod and the stair in plan and in FreeCAD's isometric view
+        # (where a rod stands over the name's point when they line up along the view)
+        import Part
+        from invrad_wb.gui import roomlabels
+        room = make_walled_room(self.doc, size=(6.0, 4.0, 2.7), label="Wohnen")
+        targets.set_work_plane(room, 300.0)
+        stair = self.doc.addObject("Part::Feature", "Stair")
+        stair.Shape = Part.makeCylinder(700, 2700, FreeCAD.Vector(1500, 2500, 0))
+        self.doc.recompute()
+        pend = [Luminaire([x, 2.0, 1.7], [0, 0, -1], 1500.0) for x in (2.5, 3.5, 4.5)]
+        fixtures.insert_fixtures(self.doc, [(room, pend)])
+        b = pipeline.prepare(self.doc, PipelineSettings(flux_lm=1.0, resolution_m=0.25))
+        (name, (x, y, z)), = display.room_labels(b)
+        label = np.array([x, y, z]) / 1000.0
+        # what the name must not cover: the rods (luminaire to ceiling), the stair
+        rods = np.array([[p.position[0], p.position[1], h] for p in pend
+                         for h in np.linspace(1.7, 2.7, 11)])
+        ang = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+        drum = np.array([[1.5 + 0.7 * np.cos(a), 2.5 + 0.7 * np.sin(a), h]
+                         for a in ang for h in np.linspace(0.0, 2.0, 5)])
+        # the name's half box (the same rule as room_labels: ~7 px a character)
+        char = 6.4 / 70.0
+        hx, hy = 0.5 * char * len(name), char
+        for what, pts in (("rods", rods), ("stair", drum)):
+            for view, flat in (("above", pts[:, :2]),
+                               ("isometric", roomlabels.iso_shadow(pts, label[2]))):
+                d = np.abs(flat - label[:2])
+                inside = (d[:, 0] < hx) & (d[:, 1] < hy)
+                self.assertFalse(inside.any(), f"{name} over the {what} seen {view}:"
+                                 f" label {label.round(2)}, {flat[inside][:3]}")
+        self.assertTrue(0.1 < label[0] < 5.9 and 0.1 < label[1] < 3.9, label)
+        # the isometric shadow: a point 1 m above the name's height appears where a
+        # point 1 m along the view's horizontal direction at its height does
+        sh = roomlabels.iso_shadow([[0.0, 0.0, 3.0]], 2.0)
+        np.testing.assert_allclose(sh, [[-1.0, 1.0]])
+
     def test_deviation_view_numbers_colours_and_legend(self):
         from invrad_wb.core.output import images
         dev = display.deviation([500.0, 0.0, np.nan, 250.0], [600.0, 75.0, 10.0, 125.0])
