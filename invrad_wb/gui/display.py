@@ -366,3 +366,54 @@ def _detach(overlay):
             sensor.detach()
         except Exception:
             pass
+
+
+#: The left strip of the view that the legend takes (normalised width, of 2): framing
+#: keeps the building right of it.
+LEGEND_STRIP = 0.30
+
+
+def frame_rooms(doc, view=None, aspect=None, slack=1.04):
+    """Frame a 3D view on the document's rooms (their solids' bounding box), not on
+    everything in it (a site's terrain, a far-off survey point): the building fills the
+    view right of the legend's strip. ``aspect``: width / height of the picture to fill
+    (default the view's). Orthographic views keep their direction; returns False (and
+    fits everything) when the document has no readable room."""
+    import FreeCADGui
+    from pivy import coin
+    from invrad_wb.app.rooms import find_spaces, room_shape
+    view = view or FreeCADGui.getDocument(doc.Name).activeView()
+    bb = None
+    for sp in find_spaces(doc):
+        try:
+            b = room_shape(sp).BoundBox
+        except Exception:             # a room without geometry frames nothing
+            continue
+        if bb is None:
+            bb = b
+        else:
+            bb.add(b)
+    if bb is None:
+        view.fitAll()
+        return False
+    if aspect is None:
+        try:
+            w, h = view.getSize()
+            aspect = w / max(h, 1)
+        except Exception:
+            aspect = 4.0 / 3.0
+    cam = view.getCameraNode()
+    box = coin.SbBox3f(bb.XMin, bb.YMin, bb.ZMin, bb.XMax, bb.YMax, bb.ZMax)
+    share = 1.0 - LEGEND_STRIP / 2.0                  # the width right of the legend
+    cam.viewBoundingBox(box, aspect * share, slack)
+    if cam.isOfType(coin.SoOrthographicCamera.getClassTypeId()):
+        # as wide as the box needs at the picture's aspect, then moved so that the box
+        # sits in the middle of the part right of the legend
+        width = cam.height.getValue() * aspect
+        if aspect < 1.0:
+            width = cam.height.getValue()
+        right = cam.orientation.getValue().multVec(coin.SbVec3f(1, 0, 0))
+        pos = cam.position.getValue()
+        shift = -0.5 * (LEGEND_STRIP / 2.0) * width
+        cam.position.setValue(pos + right * shift)
+    return True

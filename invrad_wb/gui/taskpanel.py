@@ -67,7 +67,11 @@ def fill_combo(w, choices):
     w.clear()
     for value, text in choices:
         w.addItem(text, value)
-    # a drop-down narrower than its items (fit_narrow) still lists them whole
+    # its narrowest shows its longest item whole (a form layout then puts it under its
+    # label where both do not fit side by side: 'Work plane of the room' was cut to
+    # 110 px, 'By light' to 'By ligh'); its open list lists them whole
+    longest = max((len(text) for _, text in choices), default=COMBO_MIN_CHARS)
+    w.setMinimumContentsLength(max(COMBO_MIN_CHARS, longest + 1))
     w.view().setMinimumWidth(w.view().sizeHintForColumn(0) + 8)
 
 
@@ -300,10 +304,9 @@ def run_locate(doc, rooms=None):
 
 
 # ------------------------------------------------------------------------- targets
-#: Panel kinds -> the app's target kinds.
-TARGET_KINDS = [("Uniform", "Uniform illuminance on the faces"), ("Spot", "Spot"),
-                ("Texture", "Illuminance image"), ("Shade", "Shade (0 lx)"),
-                ("WorkPlane", "Work plane of the room")]
+#: Panel kinds -> the app's target kinds (short: the kind's tooltip says more).
+TARGET_KINDS = [("Uniform", "Uniform"), ("Spot", "Spot"), ("Texture", "Image"),
+                ("Shade", "Shade (0 lx)"), ("WorkPlane", "Work plane")]
 
 
 class TargetPanel(Panel):

@@ -284,14 +284,17 @@ class Smoke:
         view_w = area.viewport().width() if area is not None else None
         sideways = area is not None and area.horizontalScrollBar().maximum() > 0
         cut = clipped(panel.form)
-        self.check(f"{name} panel fits the default task view ({view_w} px) and 1280 x 800:"
+        widest = sorted(((w.minimumSizeHint().width(), w.objectName() or type(w).__name__)
+                         for w in panel.form.findChildren(QtGui.QWidget)
+                         if w.isVisibleTo(panel.form)), reverse=True)[:4]
+        self.check(f"{name} panel fits the default task view ({view_w} px):"
                    " nothing cut, no sideways scrolling",
-                   area is not None and hint.height() <= 800 and least.width() <= view_w
+                   area is not None and least.width() <= view_w
                    and panel.form.width() <= view_w and not sideways and not cut,
                    {"hint": (hint.width(), hint.height()),
                     "minimum": (least.width(), least.height()),
                     "form": panel.form.width(), "sideways": sideways,
-                    "task view": view_w, "cut": cut})
+                    "task view": view_w, "cut": cut, "widest": widest})
 
     def tick(self):
         from PySide import QtCore
@@ -332,7 +335,17 @@ class Smoke:
             self.polling = False
             self.next_step.start(0)      # after the events already queued, as before
 
+    #: What the OpenCL compiler says (PoCL's clang: "AVX vector argument ... changes the
+    #: ABI", "1 warning generated."; pyopencl's CompilerWarning): never for the user.
+    COMPILER_WORDS = ("changes the ABI", "warning generated", "warnings generated",
+                      "CompilerWarning", "Build on <pyopencl")
+
     def finish(self):
+        text = self.report_view()
+        said = [l for l in (text or "").splitlines()
+                if any(w in l for w in self.COMPILER_WORDS)]
+        self.check("no compiler warning in the report view after every run",
+                   text is not None and not said, said[:5] if text is not None else text)
         self.finished = True
         self.save()
         sys.stdout.flush()
@@ -368,6 +381,16 @@ class Smoke:
                                                    FreeCAD.Rotation()))
         return view
 
+    def frame(self, view=None):
+        """The view framed on the active document's rooms, right of the legend, for the
+        screenshots' 1000 x 750 (display.frame_rooms; fitAll framed the site and left
+        half of every picture white)."""
+        import FreeCAD
+        import FreeCADGui
+        from invrad_wb.gui import display
+        view = view or FreeCADGui.activeDocument().activeView()
+        display.frame_rooms(FreeCAD.ActiveDocument, view, aspect=1000 / 750)
+
     def view_iso(self, hide=()):
         import FreeCADGui
         for o in hide:
@@ -375,7 +398,7 @@ class Smoke:
         v = FreeCADGui.activeDocument().activeView()
         v.setCameraType("Orthographic")
         v.viewIsometric()
-        v.fitAll()
+        self.frame(v)
 
     def view_inside(self, eye, target):
         import FreeCADGui
@@ -639,9 +662,13 @@ class Smoke:
         self.check("verify wrote the metrics spreadsheet", sheet is not None
                    and sheet.get("A2") == "Office", messages.LOG[-1:])
         self.check("verify is one undo step", doc.UndoCount == n0 + 1, (n0, doc.UndoCount))
-        report = os.path.join(self.out, doc.Name)
-        self.check("verify wrote summary.json",
-                   os.path.isfile(os.path.join(report, "summary.json")), report)
+        report = runner.default_report_dir(doc, "verify")
+        self.check("verify wrote summary.json into its own report folder",
+                   report == os.path.join(self.out, doc.Name, "verify")
+                   and os.path.isfile(os.path.join(report, "summary.json")), report)
+        self.verify_report = os.path.join(report, "summary.json")
+        with open(self.verify_report, "rb") as fh:
+            self.verify_summary = fh.read()
         self.check("achieved illuminance shown", display.mode(doc) == "achieved")
         self.view_iso(hide=ceiling)
         self.shot("office_achieved")
@@ -747,7 +774,7 @@ class Smoke:
         import FreeCADGui
         from PySide import QtGui
         from invrad_wb.app import fixtures
-        from invrad_wb.gui import messages, taskpanel
+        from invrad_wb.gui import designpanel, messages, runner, taskpanel
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.runCommand("InvRad_Design")
         yield None
@@ -796,6 +823,14 @@ class Smoke:
                    (last, len(fx), n0, doc.UndoCount, [f.Description for f in fx]))
         self.check("the office meets its requirement", "meets its requirements" in last[2],
                    last[2])
+        design_dir = runner.default_report_dir(doc, "design")
+        with open(self.verify_report, "rb") as fh:
+            kept = fh.read() == self.verify_summary
+        self.check("design wrote its report into a folder of its own; the verification"
+                   " report is untouched",
+                   os.path.isfile(os.path.join(design_dir, "summary.json")) and kept
+                   and os.path.dirname(self.verify_report) != design_dir,
+                   (design_dir, os.listdir(os.path.dirname(design_dir)), kept))
         self.view_iso(hide=ceiling)
         self.shot("office_designed")
 
@@ -826,7 +861,7 @@ class Smoke:
         view = self.plan_cut(doc)
         self.view_iso()
         view.viewTop()
-        view.fitAll()
+        self.frame(view)
         self.shot("fzk_targets")
         FreeCADGui.doCommand("import invrad_wb.gui.runner")
         FreeCADGui.doCommand(f"invrad_wb.gui.runner.locate(App.getDocument({doc.Name!r}),"
@@ -858,7 +893,7 @@ class Smoke:
         self.check("FZK-Haus: no doubled fixtures (none closer than 0.6 m)", not close,
                    close)
         view.viewTop()
-        view.fitAll()
+        self.frame(view)
         self.shot("fzk_located_top")
         self.view_iso()
         self.shot("fzk_located_iso")
@@ -869,7 +904,7 @@ class Smoke:
         self.check("FZK-Haus: verify", display.mode(doc) == "achieved",
                    messages.LOG[-1:])
         view.viewTop()
-        view.fitAll()
+        self.frame(view)
         self.shot("fzk_achieved_top")
         self.view_iso()
         self.shot("fzk_achieved_iso")
@@ -877,7 +912,7 @@ class Smoke:
         yield None
         self.check("FZK-Haus: deviation shown", display.mode(doc) == "deviation")
         view.viewTop()
-        view.fitAll()
+        self.frame(view)
         self.shot("fzk_deviation_top")
         self.check("FZK-Haus: in the plan cut only the ground floor's room names",
                    "Galerie" not in [n for n, _ in display.shown_labels(doc)]
@@ -909,7 +944,7 @@ class Smoke:
                    "every requirement met" in last[2], last[2])
         print(f"FZK-Haus design in the GUI: {time.time() - t1:.1f} s\n{last[2]}")
         view.viewTop()
-        view.fitAll()
+        self.frame(view)
         self.shot("fzk_designed_top")
         self.view_iso()
         self.shot("fzk_designed_iso")
@@ -972,6 +1007,20 @@ class Smoke:
         for name, v in lux.items():
             if name in spaces:
                 targets.set_work_plane(spaces[name], v)
+        # the targets in false colour with their legend and the rooms' names, as in a
+        # classic document, framed on the building (not the site's terrain)
+        from invrad_wb.gui import display
+        FreeCADGui.runCommand("InvRad_ToggleTargets")
+        yield None
+        view = self.plan_cut(doc)
+        view.viewTop()
+        self.frame(view)
+        yield None
+        self.check("NativeIFC FZK-Haus: targets in false colour with the ground floor's"
+                   " names", display.mode(doc) == "targets"
+                   and sorted(n for n, _ in display.shown_labels(doc)) == sorted(lux),
+                   (display.mode(doc), display.shown_labels(doc)))
+        self.shot("native_fzk_targets_top")
         n0 = doc.UndoCount
         t1 = time.time()
         FreeCADGui.doCommand("import invrad_wb.gui.runner")
@@ -1015,14 +1064,22 @@ class Smoke:
                     if t.isVisible()])
         if tb:
             self.grab(tb[0], "native_bim_invrad_toolbar")
-        view = self.plan_cut(doc)
+        before = len(messages.LOG)
+        FreeCADGui.runCommand("InvRad_Verify")
+        yield self.said("Verify and report", before)
+        yield self.idle
+        self.check("NativeIFC FZK-Haus: verified, the achieved light in false colour with"
+                   " the legend and the ground floor's names",
+                   display.mode(doc) == "achieved"
+                   and sorted(n for n, _ in display.shown_labels(doc)) == sorted(lux),
+                   (display.mode(doc), display.shown_labels(doc), messages.LOG[-1:]))
         view.viewIsometric()
-        view.fitAll()
+        self.frame(view)
         yield None
         self.shot("native_fzk_located_iso")
         self.main_window_shot("native_fzk_bim_workbench")
         view.viewTop()
-        view.fitAll()
+        self.frame(view)
         yield None
         self.shot("native_fzk_located_top")
 

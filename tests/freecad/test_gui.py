@@ -71,6 +71,21 @@ class TestResources(FreeCADTestCase):
             self.assertTrue(entry == "Separator" or entry in names, entry)
         self.assertTrue(os.path.isfile(commands.WORKBENCH_ICON))
 
+    def test_no_two_widgets_share_a_layout_cell(self):
+        # (a row moved between groups once landed on another's row: Qt then squeezed the
+        # check box into the field column, its text cut)
+        for ui in ("design.ui", "locate_settings.ui", "target.ui", "repeak.ui"):
+            dom = xml.dom.minidom.parse(taskpanel.ui_path(ui))
+            for lay in dom.getElementsByTagName("layout"):
+                cells = set()
+                for it in lay.childNodes:
+                    if getattr(it, "tagName", "") != "item" or not it.getAttribute("row"):
+                        continue
+                    r, c = int(it.getAttribute("row")), int(it.getAttribute("column"))
+                    for k in range(c, c + int(it.getAttribute("colspan") or 1)):
+                        self.assertNotIn((r, k), cells, f"{ui}: row {r} column {k}")
+                        cells.add((r, k))
+
     def test_locate_panel_has_a_widget_for_every_setting(self):
         widgets = _ui_widgets(taskpanel.ui_path("locate_settings.ui"))
         for f in dataclasses.fields(LocateSettings):
