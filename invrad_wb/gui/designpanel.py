@@ -51,7 +51,7 @@ class DesignPanel(Panel):
         self.selected = list(rooms or [])
         self.spaces = self.selected or find_spaces(doc)
         self.types = [(CUSTOM, "Custom Em / U0"), (SKIP, "(not designed)")] + [
-            (n, f"{n.replace('_', ' ')} ({en12464.lookup(n).em_lux:g} lx)")
+            (n, n.replace("_", " "))
             for n in en12464.names()]
         fill_combo(self.widget("mounting"), MOUNTINGS)
         fill_combo(self.widget("room_type"), self.types)

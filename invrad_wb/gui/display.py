@@ -373,10 +373,11 @@ def _detach(overlay):
 LEGEND_STRIP = 0.30
 
 
-def frame_rooms(doc, view=None, aspect=None, slack=1.04):
+def frame_rooms(doc, view=None, aspect=None, slack=1.15):
     """Frame a 3D view on the document's rooms (their solids' bounding box), not on
     everything in it (a site's terrain, a far-off survey point): the building fills the
-    view right of the legend's strip. ``aspect``: width / height of the picture to fill
+    view right of the legend's strip (``slack``: room for the walls and slabs around
+    the rooms). ``aspect``: width / height of the picture to fill
     (default the view's). Orthographic views keep their direction; returns False (and
     fits everything) when the document has no readable room."""
     import FreeCADGui

@@ -128,7 +128,7 @@ def locate(doc=None, rooms=None, run=None, locate=None):
             if "mean_achieved_lux" in d:
                 lines.append(f"  {r['room']} {part.replace('_', ' ')}: mean"
                              f" {d['mean_achieved_lux']:.0f} lx for"
-                             f" {d['mean_target_lux']:.0f} lx, RMSE"
+                             f" {d['mean_target_lux']:.0f} lx, typical deviation"
                              f" {100 * d['rms_relative_error']:.0f} %")
     messages.show("info", title, "\n".join(lines), box=False)
     return res
@@ -352,7 +352,9 @@ def verify(doc=None, rooms=None, report_dir=None, show=True):
             messages.warning(title, f"could not show the result in false colour: {exc}")
     lines = [f"{len(vr.luminaires)} luminaire(s) in {len(vr.building.rooms)} room(s);"
              f" report: {html}"]
-    lines += ["  " + s for s in results.describe_rows(vr.rows)]
+    # the report view in an architect's words (the report's appendix keeps RMSE)
+    lines += ["  " + s.replace("RMSE", "typical deviation")
+              for s in results.describe_rows(vr.rows)]
     if skipped:
         lines.append(f"  left out (no LuminousFlux): {', '.join(skipped)}")
     messages.show("info", title, "\n".join(lines), box=False)

@@ -70,8 +70,10 @@ def fill_combo(w, choices):
     # its narrowest shows its longest item whole (a form layout then puts it under its
     # label where both do not fit side by side: 'Work plane of the room' was cut to
     # 110 px, 'By light' to 'By ligh'); its open list lists them whole
-    longest = max((len(text) for _, text in choices), default=COMBO_MIN_CHARS)
-    w.setMinimumContentsLength(max(COMBO_MIN_CHARS, longest + 1))
+    fm = w.fontMetrics()
+    adv = fm.horizontalAdvance if hasattr(fm, "horizontalAdvance") else fm.width
+    frame = w.minimumSizeHint().width() - w.minimumContentsLength() * adv("x")
+    w.setMinimumWidth(frame + max((adv(text) for _, text in choices), default=0))
     w.view().setMinimumWidth(w.view().sizeHintForColumn(0) + 8)
 
 
