@@ -50,8 +50,12 @@ def room_labels(building, height_m=None):
     # extent X metres spans about 500 px: a character is about X / 70 m wide
     allv = building.scene.vertices
     char_m = float(np.max(np.ptp(allv[:, :2], axis=0))) / 70.0 if len(allv) else 0.1
+    from invrad_wb.app.rooms import room_name
     out = []
     for p in building.rooms:
+        # the name the user knows: a NativeIFC IfcSpace's LongName ("Wohnen"), not its
+        # Label (the IFC Name, "2")
+        name = room_name(p.space)
         m = p.mesh
         tri = m.triangles[m.floor_triangles] if m.floor_triangles.any() else m.triangles
         corners = m.vertices[tri]                       # (t, 3, 3) metres
@@ -68,7 +72,7 @@ def room_labels(building, height_m=None):
             z = max(lo[2] + LABEL_MIN_HEIGHT_M, ceiling_z - LABEL_BELOW_CEILING_M)
         edges = _outline_edges(corners) if m.floor_triangles.any() else []
         if len(edges):
-            half = (0.5 * char_m * max(len(p.space.Label), 1) + 0.1, char_m + 0.1)
+            half = (0.5 * char_m * max(len(name), 1) + 0.1, char_m + 0.1)
             things = np.asarray(
                 _fixture_points(p.space, ceiling_z)
                 + _obstacle_xyz(p.space, edges, lo[2], lo[2] + LABEL_CLEAR_HEIGHT_M),
@@ -78,7 +82,7 @@ def room_labels(building, height_m=None):
             avoid = (_edge_points(edges, 0.5 * char_m) + list(things[:, :2])
                      + list(iso_shadow(things, z)))
             c = label_point(edges, avoid, half_size=half)
-        out.append((p.space.Label, (1000.0 * c[0], 1000.0 * c[1], 1000.0 * z)))
+        out.append((name, (1000.0 * c[0], 1000.0 * c[1], 1000.0 * z)))
     return out
 
 
@@ -194,7 +198,56 @@ def _obstacle_xyz(space, edges, z0, z1):
             continue
         if len(xyz):
             out += list(xyz[_inside(edges, xyz[:, :2])])
+    xyz = _native_obstacles(space)
+    if len(xyz):
+        xyz = xyz[(xyz[:, 2] >= z0 - 1e-3) & (xyz[:, 2] <= z1)]
+        out += list(xyz[_inside(edges, xyz[:, :2])])
     return out
+
+
+#: IFC classes that stand in a room and that a name must not cover (NativeIFC draws
+#: them from the file: they are no document objects to read a shape from).
+NATIVE_OBSTACLES = ("IfcStair", "IfcStairFlight", "IfcRamp", "IfcRampFlight", "IfcRailing",
+                    "IfcFurnishingElement", "IfcFurniture", "IfcSanitaryTerminal")
+_NATIVE_CACHE = {}       # id of the IFC file -> (k, 3) vertices, metres
+
+
+def _native_obstacles(space):
+    """(k, 3) vertices (metres, world coordinates) of the stairs, railings and furniture
+    of a NativeIFC space's IFC file, from ifcopenshell's geometry (once per file); an
+    empty array for a classic room or where the geometry cannot be read."""
+    from invrad_wb.app.rooms import is_native
+    if not is_native(space):
+        return np.zeros((0, 3))
+    try:
+        from invrad_wb.app import nativeifc
+        ifc = nativeifc.ifcfile(space)
+    except Exception:
+        return np.zeros((0, 3))
+    got = _NATIVE_CACHE.get(id(ifc))
+    if got is not None and got[0] is ifc:
+        return got[1]
+    pts = []
+    try:
+        import ifcopenshell.geom
+        settings = ifcopenshell.geom.settings()
+        settings.set(settings.USE_WORLD_COORDS, True)
+        for cls in NATIVE_OBSTACLES:
+            try:
+                elements = ifc.by_type(cls, include_subtypes=False)
+            except Exception:         # a class this schema lacks
+                continue
+            for el in elements:
+                try:
+                    shape = ifcopenshell.geom.create_shape(settings, el)
+                except Exception:     # no body representation
+                    continue
+                pts.append(np.asarray(shape.geometry.verts, dtype=np.float64).reshape(-1, 3))
+    except Exception:
+        pts = []
+    xyz = np.concatenate(pts) if pts else np.zeros((0, 3))
+    _NATIVE_CACHE[id(ifc)] = (ifc, xyz)
+    return xyz
 
 
 def _outline_edges(tri):

@@ -335,7 +335,8 @@ class TargetPanel(Panel):
             c = mm_to_m(point_mm)
             for axis, v in zip("xyz", c):
                 self.widget(f"centre_{axis}").setValue(float(v))
-        self.widget("room_label").setText(space.Label)
+        from invrad_wb.app.rooms import room_name
+        self.widget("room_label").setText(room_name(space))
         self.widget("faces_label").setText(", ".join(self.faces) or "(the whole room)")
         set_value(self.widget("kind"), kind or (stored["kind"] if self.faces else "WorkPlane"))
         self.widget("kind").currentIndexChanged.connect(self.update_groups)
