@@ -344,7 +344,8 @@ class DesignPanel(Panel):
         if path is None:
             from PySide import QtGui
             path, _ = QtGui.QFileDialog.getOpenFileName(
-                self.form, "Open design spec", "", "Design spec (*.json);;All files (*)")
+                self.form, "Open requirements", "",
+                "Catalogue and requirements (*.json);;All files (*)")
             if not path:
                 return
         try:
@@ -358,7 +359,7 @@ class DesignPanel(Panel):
                 if p and not os.path.isabs(p):
                     e["photometry"] = os.path.join(base, p)
         except (OSError, ValueError) as exc:
-            messages.exception("Open design spec", ValueError(f"{path}: {exc}"))
+            messages.exception("Open requirements", ValueError(f"{path}: {exc}"))
             return
         self.show_spec(data)
 
@@ -370,13 +371,13 @@ class DesignPanel(Panel):
         try:
             spec, _ = self.check()
         except Exception as exc:
-            messages.exception("Save design spec", exc)
+            messages.exception("Save requirements", exc)
             return
         if path is None:
             from PySide import QtGui
             path, _ = QtGui.QFileDialog.getSaveFileName(
-                self.form, "Save design spec", "design.json",
-                "Design spec (*.json);;All files (*)")
+                self.form, "Save requirements", "design.json",
+                "Catalogue and requirements (*.json);;All files (*)")
             if not path:
                 return
         atomic_write_text(path, json.dumps(spec, indent=1))
