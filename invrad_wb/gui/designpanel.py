@@ -338,16 +338,19 @@ class DesignPanel(Panel):
         return spec, run
 
     # ---------------------------------------------------------------- files
+    def _ask_path(self, how, title, start):
+        """A file dialog's answer (QFileDialog.<how>), '' when cancelled."""
+        from PySide import QtGui
+        path, _ = getattr(QtGui.QFileDialog, how)(
+            self.form, title, start, "Catalogue and requirements (*.json);;All files (*)")
+        return path
+
     def open_spec(self, path=None):
         """Fill the panel from a DESIGN.json file (a file dialog without ``path``)."""
         import json
-        if path is None:
-            from PySide import QtGui
-            path, _ = QtGui.QFileDialog.getOpenFileName(
-                self.form, "Open requirements", "",
-                "Catalogue and requirements (*.json);;All files (*)")
-            if not path:
-                return
+        path = path or self._ask_path("getOpenFileName", "Open requirements", "")
+        if not path:
+            return
         try:
             with open(path, "r", encoding="utf-8") as fh:
                 data = json.load(fh)
@@ -373,13 +376,9 @@ class DesignPanel(Panel):
         except Exception as exc:
             messages.exception("Save requirements", exc)
             return
-        if path is None:
-            from PySide import QtGui
-            path, _ = QtGui.QFileDialog.getSaveFileName(
-                self.form, "Save requirements", "design.json",
-                "Catalogue and requirements (*.json);;All files (*)")
-            if not path:
-                return
+        path = path or self._ask_path("getSaveFileName", "Save requirements", "design.json")
+        if not path:
+            return
         atomic_write_text(path, json.dumps(spec, indent=1))
 
     # ---------------------------------------------------------------- dialog
