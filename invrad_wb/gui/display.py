@@ -404,17 +404,28 @@ def frame_rooms(doc, view=None, aspect=None, slack=1.15):
         except Exception:
             aspect = 4.0 / 3.0
     cam = view.getCameraNode()
-    box = coin.SbBox3f(bb.XMin, bb.YMin, bb.ZMin, bb.XMax, bb.YMax, bb.ZMax)
     share = 1.0 - LEGEND_STRIP / 2.0                  # the width right of the legend
-    cam.viewBoundingBox(box, aspect * share, slack)
-    if cam.isOfType(coin.SoOrthographicCamera.getClassTypeId()):
-        # as wide as the box needs at the picture's aspect, then moved so that the box
-        # sits in the middle of the part right of the legend
-        width = cam.height.getValue() * aspect
-        if aspect < 1.0:
-            width = cam.height.getValue()
-        right = cam.orientation.getValue().multVec(coin.SbVec3f(1, 0, 0))
-        pos = cam.position.getValue()
-        shift = -0.5 * (LEGEND_STRIP / 2.0) * width
-        cam.position.setValue(pos + right * shift)
+    if not cam.isOfType(coin.SoOrthographicCamera.getClassTypeId()):
+        box = coin.SbBox3f(bb.XMin, bb.YMin, bb.ZMin, bb.XMax, bb.YMax, bb.ZMax)
+        cam.viewBoundingBox(box, aspect * share, slack)
+        return True
+    # orthographic: the box's corners on the view's axes (coin's viewBoundingBox fits
+    # the box's bounding sphere, which left a plan a third empty)
+    rot = cam.orientation.getValue()
+    axes = np.array([list(rot.multVec(coin.SbVec3f(*a)).getValue())
+                     for a in ((1, 0, 0), (0, 1, 0), (0, 0, 1))])
+    corners = np.array([[x, y, z] for x in (bb.XMin, bb.XMax) for y in (bb.YMin, bb.YMax)
+                        for z in (bb.ZMin, bb.ZMax)])
+    proj = corners @ axes.T                           # (8, 3): right, up, back
+    lo, hi = proj.min(axis=0), proj.max(axis=0)
+    height = slack * max(hi[1] - lo[1], (hi[0] - lo[0]) / (aspect * share))
+    width = height * max(aspect, 1.0)
+    mid = 0.5 * (lo + hi)
+    depth = hi[2] - lo[2]
+    # the box in the middle of the part right of the legend, the eye in front of it
+    eye = ((mid[0] - 0.5 * (LEGEND_STRIP / 2.0) * width) * axes[0] + mid[1] * axes[1]
+           + (hi[2] + depth + 1000.0) * axes[2])
+    cam.position.setValue(coin.SbVec3f(*map(float, eye)))
+    cam.height.setValue(float(height))
+    cam.focalDistance.setValue(float(depth + 1000.0 + 0.5 * depth))
     return True

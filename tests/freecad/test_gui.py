@@ -504,6 +504,48 @@ class TestDisplayNumpy(FreeCADTestCase):
         sh = roomlabels.iso_shadow([[0.0, 0.0, 3.0]], 2.0)
         np.testing.assert_allclose(sh, [[-1.0, 1.0]])
 
+    def test_views_framed_on_the_rooms_right_of_the_legend(self):
+        # an orthographic view from above and an isometric one: the rooms (not a far-off
+        # site) fill the picture's height or the width right of the legend, whole
+        from pivy import coin
+        room = make_walled_room(self.doc, size=(6.0, 4.0, 2.7), label="Room")
+        site = self.doc.addObject("Part::Feature", "Site")
+        import Part
+        site.Shape = Part.makeBox(60000, 60000, 10, FreeCAD.Vector(-30000, -30000, -20))
+        self.doc.recompute()
+        bb = room.Shape.BoundBox
+        corners = np.array([[x, y, z] for x in (bb.XMin, bb.XMax) for y in (bb.YMin, bb.YMax)
+                            for z in (bb.ZMin, bb.ZMax)])
+
+        class View:
+            def __init__(self, rot):
+                self.cam = coin.SoOrthographicCamera()
+                self.cam.orientation.setValue(rot)
+
+            def getCameraNode(self):
+                return self.cam
+
+        top = coin.SbRotation()
+        iso = coin.SbRotation(coin.SbVec3f(0, 0, 1), coin.SbVec3f(1, -1, 1))
+        aspect = 4.0 / 3.0
+        for name, rot in (("top", top), ("isometric", iso)):
+            v = View(rot)
+            self.assertTrue(display.frame_rooms(self.doc, v, aspect=aspect))
+            cam = v.cam
+            r = cam.orientation.getValue()
+            ax = np.array([list(r.multVec(coin.SbVec3f(*a)).getValue())
+                           for a in ((1, 0, 0), (0, 1, 0))])
+            p = (corners - np.array(cam.position.getValue().getValue())) @ ax.T
+            h = cam.height.getValue()
+            w = h * aspect
+            # normalised view coordinates: x in [-1, 1] across the width, y up
+            x, y = 2 * p[:, 0] / w, 2 * p[:, 1] / h
+            self.assertTrue((x >= -1 + display.LEGEND_STRIP - 1e-6).all() and (x <= 1).all()
+                            and (np.abs(y) <= 1).all(), (name, x, y))
+            fill = max((y.max() - y.min()) / 2,
+                       (x.max() - x.min()) / (2 - display.LEGEND_STRIP))
+            self.assertGreater(fill, 0.8, name)
+
     def test_deviation_view_numbers_colours_and_legend(self):
         from invrad_wb.core.output import images
         dev = display.deviation([500.0, 0.0, np.nan, 250.0], [600.0, 75.0, 10.0, 125.0])
