@@ -157,45 +157,40 @@ class ToggleDeviation(_Command):
         return doc is not None and not _busy() and display.has_achieved(doc)
 
 
-class Locate(_Command):
-    NAME = "InvRad_Locate"
-    PIXMAP = "locate.svg"
-    MENU = "Locate luminaires"
+class _PanelCommand(_Command):
+    """A command that opens a task panel for the selected rooms (or every room):
+    ``PANEL`` names its class, ``"<module of invrad_wb.gui>.<class>"``."""
+
+    PANEL = ""
+
+    def Activated(self):
+        import importlib
+        import FreeCADGui
+        from invrad_wb.gui import selection
+        module, cls = self.PANEL.rsplit(".", 1)
+        try:
+            panel = getattr(importlib.import_module(f"invrad_wb.gui.{module}"), cls)
+            FreeCADGui.Control.showDialog(panel(_active_doc(), selection.rooms()))
+        except Exception as exc:
+            messages.exception(self.MENU, exc)
+
+    def IsActive(self):
+        return super().IsActive() and _no_task_dialog()
+
+
+class Locate(_PanelCommand):
+    NAME, PIXMAP, MENU = "InvRad_Locate", "locate.svg", "Locate luminaires"
+    PANEL = "taskpanel.LocatePanel"
     TIP = ("Find where luminaires of the given flux must go to light the selected rooms"
            " (or every room with targets) as asked, and insert them as light fixtures")
 
-    def Activated(self):
-        import FreeCADGui
-        from invrad_wb.gui import selection, taskpanel
-        try:
-            rooms = selection.rooms()
-            FreeCADGui.Control.showDialog(taskpanel.LocatePanel(_active_doc(), rooms))
-        except Exception as exc:
-            messages.exception(self.MENU, exc)
 
-    def IsActive(self):
-        return super().IsActive() and _no_task_dialog()
-
-
-class Design(_Command):
-    NAME = "InvRad_Design"
-    PIXMAP = "design.svg"
-    MENU = "Design lighting"
+class Design(_PanelCommand):
+    NAME, PIXMAP, MENU = "InvRad_Design", "design.svg", "Design lighting"
+    PANEL = "designpanel.DesignPanel"
     TIP = ("Choose luminaires from a catalogue, and how many go where, to meet each room's"
            " requirement (Em, U0 on the work plane; EN 12464-1 room types) with the fewest"
            " watts; insert them as light fixtures and write the client report")
-
-    def Activated(self):
-        import FreeCADGui
-        from invrad_wb.gui import selection, taskpanel
-        try:
-            rooms = selection.rooms()
-            FreeCADGui.Control.showDialog(taskpanel.DesignPanel(_active_doc(), rooms))
-        except Exception as exc:
-            messages.exception(self.MENU, exc)
-
-    def IsActive(self):
-        return super().IsActive() and _no_task_dialog()
 
 
 class Repeak(_Command):
@@ -237,9 +232,7 @@ class Verify(_Command):
 
 
 class Settings(_Command):
-    NAME = "InvRad_Settings"
-    PIXMAP = "settings.svg"
-    MENU = "Locate settings..."
+    NAME, PIXMAP, MENU = "InvRad_Settings", "settings.svg", "Locate settings..."
     TIP = "Every locate setting (kept between sessions), without running"
 
     def Activated(self):

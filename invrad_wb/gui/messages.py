@@ -64,7 +64,8 @@ def exception(title, exc):
     """Report an exception: invrad errors as their message, others with the traceback."""
     from invrad_wb.errors import Cancelled, InvradError
     if isinstance(exc, Cancelled):
-        warning(title, f"{exc}\nThe document was not changed.")
+        from invrad_wb.gui.progress import plain_words
+        warning(title, f"{plain_words(exc)}\nThe document was not changed.")
     elif isinstance(exc, InvradError):
         error(title, f"{exc}\nThe document was not changed.")
     else:

@@ -14,6 +14,31 @@ import threading
 import time
 
 
+#: The method's step names in progress messages (the core's, also the CLI's) and the words
+#: the dialog shows an architect instead; the docs and the Advanced settings keep the
+#: method's terms.
+PLAIN_WORDS = (("voting points", "sampling the targets"),
+               ("vote maps", "looking for positions"),
+               ("votes", "weighing positions"),
+               ("peaks and refinement", "placing luminaires"),
+               ("refinement", "fine-tuning positions"),
+               ("peaks", "placing luminaires"),
+               ("forward solve", "computing the light"))
+
+
+def plain_words(message):
+    """A progress message in plain words: each ": "-separated part that names one of the
+    method's steps (:data:`PLAIN_WORDS`) translated; a room's name and the rest as they
+    are."""
+    parts = str(message).split(": ")
+    for i, part in enumerate(parts):
+        for method, plain in PLAIN_WORDS:
+            if part == method or part.startswith(method + " "):
+                parts[i] = plain + part[len(method):]
+                break
+    return ": ".join(parts)
+
+
 class Job:
     """Shared state between the worker and the dialog (plain attributes: the GIL suffices)."""
 
@@ -28,7 +53,7 @@ class Job:
 
     def progress(self, fraction, message):
         self.fraction = min(max(float(fraction), 0.0), 1.0)
-        self.message = str(message)
+        self.message = plain_words(message)
         return not self.cancelled
 
 

@@ -128,7 +128,7 @@ def locate(doc=None, rooms=None, run=None, locate=None):
             if "mean_achieved_lux" in d:
                 lines.append(f"  {r['room']} {part.replace('_', ' ')}: mean"
                              f" {d['mean_achieved_lux']:.0f} lx for"
-                             f" {d['mean_target_lux']:.0f} lx, RMSE"
+                             f" {d['mean_target_lux']:.0f} lx, typical deviation"
                              f" {100 * d['rms_relative_error']:.0f} %")
     messages.show("info", title, "\n".join(lines), box=False)
     return res
@@ -150,7 +150,8 @@ def design(doc=None, spec=None, rooms=None, run=None):
 
     A room with a requirement but no work-plane target first gets one (its own undo step,
     taken back if the design fails or is cancelled); the fixtures are the second undo step.
-    The client report goes to :func:`default_report_dir`. Returns the PipelineResult, or
+    The client report goes to :func:`default_report_dir` ("design": not Verify's
+    folder). Returns the PipelineResult, or
     None after an error or a cancel (already reported).
     """
     title = "Design lighting"
@@ -172,7 +173,7 @@ def design(doc=None, spec=None, rooms=None, run=None):
                              " (add one per room, or '*' for every room)", doc.Label)
         with transaction(doc, "invrad: work planes for the design"):
             added = app_design.work_planes_for(spaces, dspec)
-        out = default_report_dir(doc)
+        out = default_report_dir(doc, "design")
         settings = params.pipeline_settings(rooms=[sp.Name for sp in spaces],
                                             report_dir=out, insert=False, run=run)
         settings.design = dspec
@@ -291,17 +292,27 @@ def repeak(doc=None, threshold=None, neighbourhood_m=None):
     return lums
 
 
-def default_report_dir(doc):
-    """Where *Verify and report* writes: ``Run/report_dir``/<document>, else next to the
-    saved document (``<name>_invrad_report``), else FreeCAD's user data folder."""
+#: The report folders' names per action: Design's client report and Verify's
+#: verification report go to folders of their own, so neither replaces the other.
+REPORT_KINDS = {"verify": "report", "design": "design"}
+
+
+def default_report_dir(doc, kind="verify"):
+    """Where *Verify and report* (``kind`` "verify") or *Design* ("design") writes:
+    ``Run/report_dir``/<document>/<kind>, else next to the saved document
+    (``<name>_invrad_report``, ``<name>_invrad_design``), else FreeCAD's user data
+    folder (``invrad/reports/<document>/<kind>``)."""
     import FreeCAD
+    if kind not in REPORT_KINDS:
+        raise ValueError(f"report kind {kind!r} is not one of {sorted(REPORT_KINDS)}")
     base = params.load_run().get("report_dir") or ""
     if base:
-        return os.path.join(base, doc.Name)
+        return os.path.join(base, doc.Name, kind)
     if doc.FileName:
         stem = os.path.splitext(os.path.basename(doc.FileName))[0]
-        return os.path.join(os.path.dirname(doc.FileName), f"{stem}_invrad_report")
-    return os.path.join(FreeCAD.getUserAppDataDir(), "invrad", "reports", doc.Name)
+        return os.path.join(os.path.dirname(doc.FileName),
+                            f"{stem}_invrad_{REPORT_KINDS[kind]}")
+    return os.path.join(FreeCAD.getUserAppDataDir(), "invrad", "reports", doc.Name, kind)
 
 
 def verify(doc=None, rooms=None, report_dir=None, show=True):
@@ -341,7 +352,9 @@ def verify(doc=None, rooms=None, report_dir=None, show=True):
             messages.warning(title, f"could not show the result in false colour: {exc}")
     lines = [f"{len(vr.luminaires)} luminaire(s) in {len(vr.building.rooms)} room(s);"
              f" report: {html}"]
-    lines += ["  " + s for s in results.describe_rows(vr.rows)]
+    # the report view in an architect's words (the report's appendix keeps RMSE)
+    lines += ["  " + s.replace("RMSE", "typical deviation")
+              for s in results.describe_rows(vr.rows)]
     if skipped:
         lines.append(f"  left out (no LuminousFlux): {', '.join(skipped)}")
     messages.show("info", title, "\n".join(lines), box=False)

@@ -24,7 +24,8 @@ from invrad_wb.app.pipeline import PipelineSettings
 from invrad_wb.core.inverse.locate import LocateSettings
 from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.errors import SceneError
-from invrad_wb.gui import commands, display, messages, params, runner, selection, taskpanel
+from invrad_wb.gui import (commands, designpanel, display, messages, params, runner,
+                           selection, taskpanel)
 
 TEST_ROOT = "User parameter:BaseApp/Preferences/Mod/InvRadTest"
 
@@ -70,6 +71,21 @@ class TestResources(FreeCADTestCase):
             self.assertTrue(entry == "Separator" or entry in names, entry)
         self.assertTrue(os.path.isfile(commands.WORKBENCH_ICON))
 
+    def test_no_two_widgets_share_a_layout_cell(self):
+        # (a row moved between groups once landed on another's row: Qt then squeezed the
+        # check box into the field column, its text cut)
+        for ui in ("design.ui", "locate_settings.ui", "target.ui", "repeak.ui"):
+            dom = xml.dom.minidom.parse(taskpanel.ui_path(ui))
+            for lay in dom.getElementsByTagName("layout"):
+                cells = set()
+                for it in lay.childNodes:
+                    if getattr(it, "tagName", "") != "item" or not it.getAttribute("row"):
+                        continue
+                    r, c = int(it.getAttribute("row")), int(it.getAttribute("column"))
+                    for k in range(c, c + int(it.getAttribute("colspan") or 1)):
+                        self.assertNotIn((r, k), cells, f"{ui}: row {r} column {k}")
+                        cells.add((r, k))
+
     def test_locate_panel_has_a_widget_for_every_setting(self):
         widgets = _ui_widgets(taskpanel.ui_path("locate_settings.ui"))
         for f in dataclasses.fields(LocateSettings):
@@ -88,7 +104,7 @@ class TestResources(FreeCADTestCase):
 
     def test_design_panel_form_and_default_spec(self):
         w = _ui_widgets(taskpanel.ui_path("design.ui"))
-        for name in taskpanel.DesignPanel.RUN_FIELDS + (
+        for name in designpanel.DesignPanel.RUN_FIELDS + (
                 "rooms_label", "catalogue", "requirements", "add_entry", "remove_entry",
                 "load_spec", "save_spec", "maintenance_factor", "height_m", "margin_m",
                 "mounting", "pendant_height_m"):
@@ -249,6 +265,38 @@ class TestParams(ParamsIsolated):
         self.assertEqual((s.flux_lm, s.resolution_m, s.backend, s.replace, s.rooms),
                          (1234.0, 0.25, "numpy", False, ["Space"]))
         self.assertEqual(s.locate["threshold"], 50.0)
+
+    def test_design_and_verify_write_to_separate_report_folders(self):
+        # unsaved, saved, and under a chosen report folder: never the same folder, so
+        # a design's client report and a verification report never replace each other
+        kinds = ("verify", "design")
+        unsaved = [runner.default_report_dir(self.doc, k) for k in kinds]
+        self.doc.saveAs(self.path("house.FCStd"))
+        saved = [runner.default_report_dir(self.doc, k) for k in kinds]
+        params.save_run({"report_dir": self.path("reports")})
+        chosen = [runner.default_report_dir(self.doc, k) for k in kinds]
+        for verify_dir, design_dir in (unsaved, saved, chosen):
+            self.assertNotEqual(os.path.normpath(verify_dir), os.path.normpath(design_dir))
+            self.assertFalse(design_dir.startswith(verify_dir + os.sep))
+            self.assertFalse(verify_dir.startswith(design_dir + os.sep))
+        self.assertEqual(saved, [self.path("house_invrad_report"),
+                                 self.path("house_invrad_design")])
+        self.assertTrue(all(d.startswith(self.path("reports")) for d in chosen))
+        with self.assertRaises(ValueError):
+            runner.default_report_dir(self.doc, "locate")
+
+    def test_progress_messages_in_plain_words(self):
+        from invrad_wb.gui.progress import PLAIN_WORDS, plain_words
+        self.assertEqual(plain_words("Küche: vote maps"), "Küche: looking for positions")
+        self.assertEqual(plain_words("cancelled: Office: votes"),
+                         "cancelled: Office: weighing positions")
+        self.assertEqual(plain_words("forward solve: 4 luminaire(s)"),
+                         "computing the light: 4 luminaire(s)")
+        self.assertEqual(plain_words("Office: design"), "Office: design")
+        for method, _ in PLAIN_WORDS:
+            said = plain_words(f"Bad: {method}").lower()
+            self.assertNotIn("vote", said)
+            self.assertNotIn("peak", said)
 
 
 class TestDisplayNumpy(FreeCADTestCase):
@@ -420,6 +468,86 @@ class TestDisplayNumpy(FreeCADTestCase):
         high = [((0.0, 0.0, -1.0), -9000.0)]
         self.assertEqual(display.label_visibility(b, labels, high).tolist(), [False, True])
 
+    def test_room_names_clear_of_pendant_rods_and_stairs_from_above_and_isometric(self):
+        # a pendant hanging 1 m below the ceiling and a stair: the name's box keeps clear
+        # of the luminaire, its rod and the stair in plan and in FreeCAD's isometric view
+        # (where a rod stands over the name's point when they line up along the view)
+        import Part
+        from invrad_wb.gui import roomlabels
+        room = make_walled_room(self.doc, size=(6.0, 4.0, 2.7), label="Wohnen")
+        targets.set_work_plane(room, 300.0)
+        stair = self.doc.addObject("Part::Feature", "Stair")
+        stair.Shape = Part.makeCylinder(700, 2700, FreeCAD.Vector(1500, 2500, 0))
+        self.doc.recompute()
+        pend = [Luminaire([x, 2.0, 1.7], [0, 0, -1], 1500.0) for x in (2.5, 3.5, 4.5)]
+        fixtures.insert_fixtures(self.doc, [(room, pend)])
+        b = pipeline.prepare(self.doc, PipelineSettings(flux_lm=1.0, resolution_m=0.25))
+        (name, (x, y, z)), = display.room_labels(b)
+        label = np.array([x, y, z]) / 1000.0
+        # what the name must not cover: the rods (luminaire to ceiling), the stair
+        rods = np.array([[p.position[0], p.position[1], h] for p in pend
+                         for h in np.linspace(1.7, 2.7, 11)])
+        ang = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+        drum = np.array([[1.5 + 0.7 * np.cos(a), 2.5 + 0.7 * np.sin(a), h]
+                         for a in ang for h in np.linspace(0.0, 2.0, 5)])
+        # the name's half box (the same rule as room_labels: ~7 px a character)
+        char = 6.4 / 70.0
+        hx, hy = 0.5 * char * len(name), char
+        for what, pts in (("rods", rods), ("stair", drum)):
+            for view, flat in (("above", pts[:, :2]),
+                               ("isometric", roomlabels.iso_shadow(pts, label[2]))):
+                d = np.abs(flat - label[:2])
+                inside = (d[:, 0] < hx) & (d[:, 1] < hy)
+                self.assertFalse(inside.any(), f"{name} over the {what} seen {view}:"
+                                 f" label {label.round(2)}, {flat[inside][:3]}")
+        self.assertTrue(0.1 < label[0] < 5.9 and 0.1 < label[1] < 3.9, label)
+        # the isometric shadow: a point 1 m above the name's height appears where a
+        # point 1 m along the view's horizontal direction at its height does
+        sh = roomlabels.iso_shadow([[0.0, 0.0, 3.0]], 2.0)
+        np.testing.assert_allclose(sh, [[-1.0, 1.0]])
+
+    def test_views_framed_on_the_rooms_right_of_the_legend(self):
+        # an orthographic view from above and an isometric one: the rooms (not a far-off
+        # site) fill the picture's height or the width right of the legend, whole
+        from pivy import coin
+        room = make_walled_room(self.doc, size=(6.0, 4.0, 2.7), label="Room")
+        site = self.doc.addObject("Part::Feature", "Site")
+        import Part
+        site.Shape = Part.makeBox(60000, 60000, 10, FreeCAD.Vector(-30000, -30000, -20))
+        self.doc.recompute()
+        bb = room.Shape.BoundBox
+        corners = np.array([[x, y, z] for x in (bb.XMin, bb.XMax) for y in (bb.YMin, bb.YMax)
+                            for z in (bb.ZMin, bb.ZMax)])
+
+        class View:
+            def __init__(self, rot):
+                self.cam = coin.SoOrthographicCamera()
+                self.cam.orientation.setValue(rot)
+
+            def getCameraNode(self):
+                return self.cam
+
+        top = coin.SbRotation()
+        iso = coin.SbRotation(coin.SbVec3f(0, 0, 1), coin.SbVec3f(1, -1, 1))
+        aspect = 4.0 / 3.0
+        for name, rot in (("top", top), ("isometric", iso)):
+            v = View(rot)
+            self.assertTrue(display.frame_rooms(self.doc, v, aspect=aspect))
+            cam = v.cam
+            r = cam.orientation.getValue()
+            ax = np.array([list(r.multVec(coin.SbVec3f(*a)).getValue())
+                           for a in ((1, 0, 0), (0, 1, 0))])
+            p = (corners - np.array(cam.position.getValue().getValue())) @ ax.T
+            h = cam.height.getValue()
+            w = h * aspect
+            # normalised view coordinates: x in [-1, 1] across the width, y up
+            x, y = 2 * p[:, 0] / w, 2 * p[:, 1] / h
+            self.assertTrue((x >= -1 + display.LEGEND_STRIP - 1e-6).all() and (x <= 1).all()
+                            and (np.abs(y) <= 1).all(), (name, x, y))
+            fill = max((y.max() - y.min()) / 2,
+                       (x.max() - x.min()) / (2 - display.LEGEND_STRIP))
+            self.assertGreater(fill, 0.8, name)
+
     def test_deviation_view_numbers_colours_and_legend(self):
         from invrad_wb.core.output import images
         dev = display.deviation([500.0, 0.0, np.nan, 250.0], [600.0, 75.0, 10.0, 125.0])
@@ -432,7 +560,7 @@ class TestDisplayNumpy(FreeCADTestCase):
         np.testing.assert_allclose(rgb[4], rgb[0])             # beyond the scale: its end
         np.testing.assert_allclose(rgb[3], np.array(images.NAN_GREY) / 255.0)
         lay = display.legend_layout("Deviation from\ntarget", 0.5, [], vmin=-0.5,
-                                    fmt=display._percent)
+                                    fmt=display.percent)
         self.assertEqual([t for _, t in lay["ticks"]],
                          ["-50 %", "-25 %", "0 %", "+25 %", "+50 %"])
         ys = [y for y, _ in lay["ticks"]]

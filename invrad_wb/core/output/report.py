@@ -626,7 +626,7 @@ def _metric_rows(m, v):
          "achieved": fmt_lux(m["emax"]), "diff": _diff(m["emax"], m["target_emax"]),
          "ok": None},
         {"label": "U0 = Emin / Em", "target": fmt_ratio(m["target_u0"]) + (
-            f" (asks {fmt_ratio(v['u0_required'])})" if np.isfinite(v["u0_required"])
+            f" (needed: {fmt_ratio(v['u0_required'])})" if np.isfinite(v["u0_required"])
             and v["u0_required"] < m["target_u0"] - 1e-9 else ""),
          "achieved": fmt_ratio(m["u0"]), "diff": du, "ok": v["u0"]}]
 
