@@ -5,6 +5,7 @@ design`` and ``freecad --targets`` read); laid out for FreeCAD's default task vi
 catalogue's names whole, the selected entry's numbers in a form below; the requirements'
 room, Em and U0 in the table, the room type in a drop-down below it).
 """
+import json
 import os
 
 from invrad_wb.gui import messages, params
@@ -30,6 +31,8 @@ class DesignPanel(Panel):
     UI = "design.ui"
 
     CAT_COLUMNS = ("name", "flux_lm", "watts", "dim_percent", "photometry")
+    #: entry keys the table shows (dim_percent is the entry's "dimming")
+    TABLE_KEYS = ("name", "flux_lm", "watts", "dimming", "photometry")
     #: Catalogue columns shown in the table (the names, whole); the others are edited in
     #: the form below it for the selected entry (a second column cut the names to
     #: "Downlight 100..." in the default task view).
@@ -199,6 +202,12 @@ class DesignPanel(Panel):
         cat.insertRow(row)
         for col, text in enumerate(cells):
             cat.setItem(row, col, QtGui.QTableWidgetItem(text))
+        # what the table has no column for (luminous size, mounting, heights) stays with
+        # the entry: the name cell carries it, spec() gives it back
+        extra = {k: v for k, v in e.items() if k not in self.TABLE_KEYS}
+        if extra:
+            from PySide import QtCore
+            cat.item(row, 0).setData(QtCore.Qt.UserRole, json.dumps(extra))
         if entry is None or not isinstance(entry, dict):     # a new entry: edit it now
             cat.selectRow(row)
 
@@ -289,8 +298,13 @@ class DesignPanel(Panel):
             except ValueError:
                 raise SettingsError(f"{where}: flux, power and dimming must be numbers,"
                                     f" got {text[1]!r}, {text[2]!r}, {text[3]!r}")
-            e = {"name": text[0], "flux_lm": flux, "watts": watts,
-                 "dimming": [dim / 100.0, 1.0]}
+            e = {}
+            from PySide import QtCore
+            extra = cat.item(row, 0).data(QtCore.Qt.UserRole) if cat.item(row, 0) else None
+            if extra:
+                e.update(json.loads(extra))
+            e.update({"name": text[0], "flux_lm": flux, "watts": watts,
+                      "dimming": [dim / 100.0, 1.0]})
             if text[4]:
                 e["photometry"] = text[4]
             entries.append(e)

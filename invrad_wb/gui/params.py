@@ -72,14 +72,17 @@ DISPLAY = {
 }
 
 
-#: The design panel's first catalogue and requirement: generic LED downlights and an
+#: The design panel's first catalogue and requirement: generic round LED panels (a luminous
+#: opening of 0.6 m across, so that UGR is computed from a real luminance: a point source
+#: is rated as CIE 147's small source, which no office limit of 19 admits) and an
 #: EN 12464-1 office; the architect replaces them with her own catalogue.
 DEFAULT_DESIGN = {
     "maintenance_factor": 0.8,
     "catalogue": [
-        {"name": "Downlight 1000 lm", "flux_lm": 1000.0, "watts": 8.5},
-        {"name": "Downlight 2000 lm", "flux_lm": 2000.0, "watts": 15.5},
-        {"name": "Panel 3500 lm", "flux_lm": 3500.0, "watts": 26.0, "dimming": [0.1, 1.0]},
+        {"name": "Panel 1000 lm", "flux_lm": 1000.0, "watts": 8.5, "radius_m": 0.3},
+        {"name": "Panel 2000 lm", "flux_lm": 2000.0, "watts": 15.5, "radius_m": 0.3},
+        {"name": "Panel 3500 lm", "flux_lm": 3500.0, "watts": 26.0, "radius_m": 0.3,
+         "dimming": [0.1, 1.0]},
     ],
     "rooms": {"*": {"room_type": "office"}},
 }

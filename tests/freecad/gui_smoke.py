@@ -807,6 +807,9 @@ class Smoke:
         spec, run = panel.check()
         self.check("design panel gives a spec the core accepts",
                    spec["rooms"]["Office"]["room_type"] == "office", spec["rooms"])
+        self.check("the catalogue keeps what the table does not show (luminous size)",
+                   [e.get("radius_m") for e in spec["catalogue"]] == [0.3] * 3,
+                   spec["catalogue"])
         before = len(messages.LOG)
         self.check("design panel accepted", panel.accept())
         yield lambda: any(m[1] == "Design lighting" for m in messages.LOG[before:])
