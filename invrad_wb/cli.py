@@ -403,6 +403,11 @@ def build_parser():
     g.add_argument("--refine", type=_bool, help="joint refinement (true)")
     g.add_argument("--optimiser", choices=("lm", "es"))
     g.add_argument("--indirect", choices=("radiosity", "ambient", "none"))
+    g.add_argument("--aim", choices=("fixed", "free"),
+                   help="fixed: luminaires face along their surface's normal (default);"
+                        " free: fit each mounted luminaire's aim too (adjustable spots)")
+    g.add_argument("--max-tilt", dest="max_tilt_deg", type=float, metavar="DEG",
+                   help="with --aim free: largest tilt from the surface's normal (70)")
     p.set_defaults(func=_cmd_locate)
 
     p = sub.add_parser("verify", help="report how close given luminaires come to the targets")

@@ -152,3 +152,71 @@ def test_c0_in_json():
     with pytest.raises(LuminaireError, match="c0 must not be parallel"):
         luminaire_from_dict({**d, "c0": [0.5, 0, -0.866]})
     assert "c0" not in luminaire_from_dict({**d, "c0": None}).to_dict()
+
+
+# ---------------------------------------------------------------- locate --aim free
+from invrad_wb.core.inverse.locate import LocateSettings, locate  # noqa: E402
+from invrad_wb.errors import SettingsError  # noqa: E402
+
+
+def test_aim_settings():
+    assert LocateSettings().aim == "fixed"
+    assert LocateSettings.from_dict({"aim": "free", "max_tilt_deg": 50}).max_tilt_deg == 50
+    with pytest.raises(SettingsError, match="aim must be one of"):
+        LocateSettings.from_dict({"aim": "tilted"})
+    with pytest.raises(SettingsError, match="max_tilt_deg"):
+        LocateSettings.from_dict({"aim": "free", "max_tilt_deg": 95})
+
+
+def test_cli_aim_options():
+    from invrad_wb.cli import _settings_from_args, build_parser
+    args = build_parser().parse_args(["locate", "scene.ply", "--flux", "1000", "-o", "r.json",
+                                      "--aim", "free", "--max-tilt", "55"])
+    s = _settings_from_args(args)
+    assert (s.aim, s.max_tilt_deg) == ("free", 55.0)
+
+
+@pytest.fixture(scope="module")
+def spot_room():
+    """A ceiling spot aimed 35 degrees at a wall beside a downlight (direct light)."""
+    phot = read_photometry(os.path.join(PHOT, "spot.ies"))
+    scene = generate.box_room((4.0, 3.0, 2.7), cell=0.1, reflectance=0.0)
+    aim = aiming.aim_from_tilt_pan(DOWN, 35.0, 180.0)        # towards the wall x = 0
+    true = [Luminaire([1.3, 1.6, 2.7], aim, 1200.0, photometry=phot,
+                      c0=aiming.aimed_c0(DOWN, aim)),
+            Luminaire([2.9, 1.4, 2.7], DOWN, 1200.0, photometry=phot)]
+    lux = render(scene, true, interreflection=False, backend="numpy")
+    return scene.with_vertex_lux(lux), true, phot
+
+
+def _check_found(found, true, flux_tol=None):
+    assert len(found) == len(true), [L.to_dict() for L in found]
+    for t in true:
+        f = min(found, key=lambda L: np.linalg.norm(L.position - t.position))
+        assert np.linalg.norm(f.position - t.position) < 0.05
+        assert np.degrees(np.arccos(np.clip(f.normal @ t.normal, -1, 1))) < 2.0
+        if flux_tol:
+            assert f.flux_lm == pytest.approx(t.flux_lm, rel=flux_tol)
+        tilt, _ = aiming.tilt_pan(t.normal, DOWN)
+        assert f.extra["tilt_deg"] == pytest.approx(tilt, abs=2.0)
+
+
+def test_locate_aim_free_finds_a_tilted_spot(spot_room):
+    scene, true, phot = spot_room
+    res = locate(scene, 1200.0, LocateSettings(aim="free", indirect="none"),
+                 photometry=phot, backend="numpy")
+    _check_found(res.luminaires, true)
+    # the result's normal is the aim, with the photometry's C = 0 axis turned with it
+    spot = max(res.luminaires, key=lambda L: L.extra["tilt_deg"])
+    assert spot.c0 is not None and abs(spot.c0 @ spot.normal) < 1e-9
+    assert spot.to_dict()["normal"] == [round(float(x), 6) for x in spot.normal]
+
+
+def test_locate_aim_fixed_keeps_luminaires_facing_their_surface(spot_room):
+    """The default cannot explain the spot: every luminaire faces straight down."""
+    scene, true, phot = spot_room
+    res = locate(scene, 1200.0, LocateSettings(indirect="none", overlap_levels=1),
+                 photometry=phot, backend="numpy")
+    assert all(L.normal @ DOWN > 0.999 or L.extra.get("mount") == "pendant"
+               for L in res.luminaires)
+    assert all("tilt_deg" not in L.extra for L in res.luminaires)

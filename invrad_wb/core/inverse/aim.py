@@ -1,0 +1,261 @@
+"""Aimed luminaires as unknowns (``locate --aim free``, issue 23).
+
+The thesis' votes assume each luminaire faces along the normal of the surface it is on. An
+adjustable spot (a ceiling gimbal aimed 15-60 degrees off vertical at a painting) votes for
+nothing there: its light arrives from a direction the votes do not consider.
+
+Global search from the lit footprint: a beam's light on a surface is brightest near where
+its axis meets it, so every *hot spot* of the targets (a local maximum of the target
+illuminance, taken at the lux-weighted centre of its bright neighbourhood) is a place some
+luminaire may be aimed at. For every hot spot and every apex on a grid over the room's
+mounting surfaces (the surface vote maps, :data:`APEX_STEP_M` apart) from which the hot spot
+lies within the largest tilt, a luminaire at the apex aimed at the hot spot is scored as the
+greedy selection would score it alone: the robust log cost of the targets with its light
+(its flux fitted to the footprint when the fluxes are free). The best apexes of each hot
+spot (distinct, :data:`KEEP_PER_SPOT`) join the vote peaks (which become aimable too: a
+downlight is an aimable luminaire whose fitted tilt is 0) as candidates, all ranked by
+that score; the joint refinement (:mod:`invrad_wb.core.inverse.refine`) then fits the aim
+(two gnomonic coordinates, tilt at most ``max_tilt_deg``) with the position and the flux.
+
+The scoring ignores occlusion (the refinement does not).
+"""
+import numpy as np
+
+from invrad_wb.core.inverse.refine import LOG_SCALE_LIMIT, Light
+from invrad_wb.core.model.aiming import aimed_c0
+
+#: apex grid spacing on the mounting surfaces (metres)
+APEX_STEP_M = 0.3
+#: radius (m) within which a hot spot is the brightest target point (same facing)
+HOT_RADIUS_M = 0.4
+#: at most this many hot spots per room (brightest relative to their surroundings first)
+MAX_HOT_SPOTS = 24
+#: apexes kept per hot spot, at least ``APEX_APART_M`` apart
+KEEP_PER_SPOT = 2
+APEX_APART_M = 0.6
+#: luminaires scored per batch (memory: batch x points x 3 float64)
+BATCH = 64
+
+
+def hot_spots(positions, normals, lux, radius=HOT_RADIUS_M, most=MAX_HOT_SPOTS):
+    """(h, 3) aim points and (h, 3) their normals: local maxima of the target illuminance
+    over points facing the same way, each moved to the lux-weighted centre of the points
+    around it brighter than half its peak; ranked by the peak over the median of its
+    surroundings (a dim spot on a dark wall counts as much as a bright one)."""
+    from scipy.spatial import cKDTree
+    lit = np.flatnonzero(lux > 0)
+    if not len(lit):
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    P, Nn, E = positions[lit], normals[lit], lux[lit]
+    tree = cKDTree(P)
+    near = tree.query_ball_point(P, radius)
+    wide = tree.query_ball_point(P, 2.5 * radius)
+    spots = []
+    for i, nb in enumerate(near):
+        nb = np.asarray(nb)
+        same = nb[Nn[nb] @ Nn[i] > 0.9]
+        if E[i] < E[same].max():
+            continue
+        wb = np.asarray(wide[i])
+        wb = wb[Nn[wb] @ Nn[i] > 0.9]
+        bright = wb[E[wb] > 0.5 * E[i]]
+        w = E[bright] ** 2
+        centre = (P[bright] * w[:, None]).sum(0) / w.sum()
+        contrast = E[i] / max(float(np.median(E[wb])), 1e-9)
+        spots.append((contrast * np.sqrt(E[i]), centre, Nn[i]))
+    spots.sort(key=lambda t: -t[0])
+    spots = spots[:most]
+    return (np.array([s[1] for s in spots]).reshape(-1, 3),
+            np.array([s[2] for s in spots]).reshape(-1, 3))
+
+
+def apex_grid(canvas, step=APEX_STEP_M):
+    """Mounting positions: (n, 3) points, (n, 3) mount normals, (n,) map indices, on
+    every surface vote map's allowed pixels, about ``step`` apart."""
+    P, M, K = [], [], []
+    for k, m in enumerate(canvas.maps):
+        if m.kind != "surface":
+            continue
+        s = max(1, int(round(step / m.pixel)))
+        centres = m.pixel_centres()
+        mask = m.mask.copy()
+        sub = np.zeros_like(mask)
+        sub[s // 2::s, s // 2::s] = True
+        pick = mask & sub
+        pts = centres[pick]
+        P.append(pts)
+        M.append(np.repeat(np.asarray(m.normal, np.float64)[None], len(pts), 0))
+        K.append(np.full(len(pts), k))
+    if not P:
+        return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, int)
+    return np.concatenate(P), np.concatenate(M), np.concatenate(K)
+
+
+#: the lone scores use at most this many of the room's voting points (every n-th)
+SCORE_POINTS = 1200
+
+
+class _Scorer:
+    """The refinement problem's cost on a subset of its points, for many lone luminaires
+    at once (no occlusion, no interreflection of their own)."""
+
+    def __init__(self, prob, most=SCORE_POINTS):
+        step = max(1, int(np.ceil(len(prob.positions) / most)))
+        sl = slice(0, None, step)
+        self.pos, self.nrm = prob.positions[sl], prob.normals[sl]
+        self.target, self.log_target = prob.target[sl], prob.log_target[sl]
+        self.base = prob.indirect[sl]
+        w = prob.w_area[sl]
+        self.w = w / w.sum()
+        self.eps, self.c, self.flux = prob.eps_lux, prob.robust_scale, prob.flux
+        phot = prob.photometry
+        self.phot = phot
+        # rotationally symmetric: the intensity depends on gamma only
+        self.sym = None if phot is None or not np.allclose(phot.table, phot.table[:1]) \
+            else phot.table[0]
+        self.cost0 = self.cost_of(np.zeros((1, len(self.pos))))[0]
+
+    def direct(self, C, N, Mn):
+        """(K, k) lux of luminaires of the problem's flux at ``C`` aimed ``N``, mounted
+        facing ``Mn``."""
+        d = self.pos[None] - C[:, None]                           # (K, k, 3)
+        r2 = np.maximum(np.einsum("Kkj,Kkj->Kk", d, d), 1e-12)
+        w = d / np.sqrt(r2)[..., None]
+        cs = -np.einsum("kj,Kkj->Kk", self.nrm, w)
+        front = np.einsum("Kkj,Kj->Kk", d, Mn) > 0
+        cg = np.einsum("Kkj,Kj->Kk", w, N)
+        if self.phot is None:
+            i_lm = np.maximum(cg, 0.0) / np.pi
+        elif self.sym is not None:
+            i_lm = np.interp(np.degrees(np.arccos(np.clip(cg, -1, 1))),
+                             np.arange(len(self.sym)), self.sym)
+        else:
+            U = _aimed_c0_many(Mn, N)
+            V = np.cross(N, U)
+            local = np.stack([np.einsum("Kkj,Kj->Kk", w, U), np.einsum("Kkj,Kj->Kk", w, V),
+                              cg], axis=-1)
+            i_lm = self.phot.intensity_per_lm(local)
+        return np.where((cs > 0) & front, self.flux * i_lm * cs / r2, 0.0)
+
+    def cost_of(self, E):
+        r = np.log(E + self.base[None] + self.eps) - self.log_target[None]
+        c = self.c
+        return (self.w[None] * c * c * (np.sqrt(1.0 + (r / c) ** 2) - 1.0)).sum(1)
+
+    def score(self, C, N, Mn, free_flux):
+        """(costs (K,), flux scales (K,)) of each luminaire alone, its flux fitted to its
+        footprint (the points it lights with more than half its peak) when
+        ``free_flux``."""
+        E = self.direct(C, N, Mn)
+        scale = np.ones(len(C))
+        if free_flux:
+            for i, e in enumerate(E):
+                top = e.max()
+                foot = (e > 0.5 * top) & (self.target > 0) if top > 0 else None
+                if foot is not None and foot.any():
+                    scale[i] = np.exp(np.clip(np.median(np.log(self.target[foot] / e[foot])),
+                                              -LOG_SCALE_LIMIT, LOG_SCALE_LIMIT))
+            E = E * scale[:, None]
+        return self.cost_of(E), scale
+
+
+def _aimed_c0_many(Mn, N):
+    """(K, 3) :func:`invrad_wb.core.model.aiming.aimed_c0` of many luminaires."""
+    from invrad_wb.core.model.scene import plane_basis
+    out = np.empty_like(N)
+    for m in np.unique(Mn, axis=0):
+        sel = np.all(Mn == m, axis=1)
+        u, _ = plane_basis(m)
+        a = N[sel]
+        v = np.cross(m, a)
+        c = a @ m
+        # Rodrigues: R u = u + v x u + v x (v x u) / (1 + c)
+        vu = np.cross(v, u)
+        out[sel] = u + vu + np.cross(v, vu) / (1.0 + c)[:, None]
+    return out
+
+
+def footprint_candidates(run, s):
+    """Aimed candidates (list of :class:`Light`, best first) from the hot spots of a
+    room's targets (module docstring), each with its lone score in ``peak_score``."""
+    canvas = run.canvas
+    pts = run.points
+    H, Hn = hot_spots(pts.positions, pts.normals, pts.lux)
+    P, Mn, K = apex_grid(canvas)
+    if not len(H) or not len(P):
+        return []
+    scorer = _Scorer(run.problem)
+    cost0 = scorer.cost0
+    cos_max = np.cos(np.radians(s.max_tilt_deg))
+    out = []
+    for h, hn in zip(H, Hn):
+        d = h - P
+        dist = np.linalg.norm(d, axis=1)
+        ok = (np.einsum("ij,ij->i", d, Mn) > cos_max * dist) & ((P - h) @ hn > 0.05) \
+            & (dist > 0.2)
+        idx = np.flatnonzero(ok)
+        if not len(idx):
+            continue
+        aims = d[idx] / dist[idx, None]
+        costs, scales = [], []
+        for b in range(0, len(idx), BATCH):
+            sl = slice(b, b + BATCH)
+            c, sc = scorer.score(P[idx[sl]], aims[sl], Mn[idx[sl]], run.free_flux)
+            costs.append(c)
+            scales.append(sc)
+        costs, scales = np.concatenate(costs), np.concatenate(scales)
+        kept = []
+        for j in np.argsort(costs):
+            if costs[j] >= cost0 or len(kept) >= KEEP_PER_SPOT:
+                break
+            if any(np.linalg.norm(P[idx[j]] - P[idx[i]]) < APEX_APART_M for i in kept):
+                continue
+            kept.append(j)
+        for j in kept:
+            out.append(_aimed_light(canvas, K[idx[j]], P[idx[j]], aims[j], s,
+                                    scale=scales[j], score=(cost0 - costs[j]) / cost0))
+    out.sort(key=lambda L: -L.peak_score)
+    return out
+
+
+def _aimed_light(canvas, k, position, aim, s, scale=1.0, score=0.0):
+    m = canvas.maps[k]
+    return Light(kind="surface", position=np.asarray(position, np.float64).copy(),
+                 normal=np.asarray(aim, np.float64).copy(), map_index=int(k), plane=m.plane,
+                 peak_score=float(score), origin=m.origin.copy(), u=m.u.copy(),
+                 v=m.v.copy(), flux_scale=float(scale),
+                 mount=np.asarray(m.normal, np.float64).copy(),
+                 max_tilt=float(s.max_tilt_deg))
+
+
+def aimed_candidates(run, s, cands):
+    """The candidates of ``locate --aim free``: the vote peaks' surface candidates made
+    aimable (mounted where they are, aim free) and the footprint candidates, all ranked
+    by their lone score; mid-air (pendant) candidates keep their fixed aim and rank."""
+    scorer = _Scorer(run.problem)
+    cost0 = scorer.cost0
+    ranked = []
+    for L in cands:
+        if L.kind != "surface":
+            ranked.append((L, None))
+            continue
+        A = L.copy()
+        A.mount = np.asarray(L.normal, np.float64).copy()
+        A.max_tilt = float(s.max_tilt_deg)
+        c, _ = scorer.score(A.position[None], A.normal[None], A.mount[None], run.free_flux)
+        ranked.append((A, float((cost0 - c[0]) / cost0)))
+    for L in footprint_candidates(run, s):
+        ranked.append((L, L.peak_score))
+    scored = sorted([t for t in ranked if t[1] is not None], key=lambda t: -t[1])
+    # pendant candidates keep their place in the vote order, after the scored ones
+    return [L for L, _ in scored] + [L for L, sc in ranked if sc is None]
+
+
+def aim_extra(light):
+    """Result extras of an aimed luminaire: its mount normal, tilt and pan (degrees),
+    and its photometry's C = 0 axis."""
+    from invrad_wb.core.model.aiming import tilt_pan
+    t, p = tilt_pan(light.normal, light.mount)
+    return {"mount_normal": [round(float(x), 6) for x in light.mount],
+            "tilt_deg": round(t, 3), "pan_deg": round(p, 3)}, aimed_c0(light.mount,
+                                                                        light.normal)
