@@ -9,12 +9,13 @@ its axis meets it, so every *hot spot* of the targets (a local maximum of the ta
 illuminance, taken at the lux-weighted centre of its bright neighbourhood) is a place some
 luminaire may be aimed at. For every hot spot and every apex on a grid over the room's
 mounting surfaces (the surface vote maps, :data:`APEX_STEP_M` apart) from which the hot spot
-lies within the largest tilt, a luminaire at the apex aimed at the hot spot is scored as the
-greedy selection would score it alone: the robust log cost of the targets with its light
-(its flux fitted to the footprint when the fluxes are free). The best apexes of each hot
-spot (distinct, :data:`KEEP_PER_SPOT`) join the vote peaks (which become aimable too: a
-downlight is an aimable luminaire whose fitted tilt is 0) as candidates, all ranked by
-that score; the joint refinement (:mod:`invrad_wb.core.inverse.refine`) then fits the aim
+lies within the largest tilt, a luminaire at the apex aimed at the hot spot is scored
+alone: the area-weighted squared error of linear illuminance with its light (its flux the
+least-squares one when the fluxes are free; :meth:`_Scorer.cost_of` says why not the
+refinement's log cost). The best apexes of each hot spot (distinct,
+:data:`KEEP_PER_SPOT`) are polished by a pattern search over the apex and the axis' meeting
+point (:func:`_polish`) and join the vote peaks (which become aimable too: a downlight is
+an aimable luminaire whose fitted tilt is 0) as candidates, all ranked by that score; the joint refinement (:mod:`invrad_wb.core.inverse.refine`) then fits the aim
 (two gnomonic coordinates, tilt at most ``max_tilt_deg``) with the position and the flux.
 
 The scoring ignores occlusion (the refinement does not).
