@@ -82,3 +82,23 @@ def test_direct_and_interreflected_light_agree_with_radiance(room, tmp_path, whe
     # the means over the points: Radiance's ambient cache interpolates (a few % per point)
     ratio = total[pick].mean() / rad_total.mean()
     assert ratio == pytest.approx(1.0, abs=0.07), (where, ratio)
+
+
+def test_tilted_luminaire_agrees_with_radiance(room, tmp_path):
+    """An aimed luminaire (axis 40 degrees off vertical, pan 30 degrees): its direct and
+    interreflected light against Radiance's tilted disc."""
+    from invrad_wb.core.model.aiming import aim_from_tilt_pan
+    scene, pick = room
+    position = [1.5, 1.5, 2.4]     # 10 cm below the ceiling: the tilted disc clears it
+    aim = aim_from_tilt_pan([0, 0, -1], 40.0, 30.0)
+    lum = Luminaire(position, aim, FLUX)
+    total, direct, _ = render(scene, [lum], return_parts=True, backend="numpy")
+    pts = scene.vertices[pick]
+    rad_direct = radiance_lux(str(tmp_path), position, aim, pts, bounces=False)
+    np.testing.assert_allclose(direct[pick], rad_direct, rtol=0.03)
+    # not the untilted luminaire's light: the test would catch a dropped aim
+    flat = render(scene, [Luminaire(position, [0, 0, -1], FLUX)], return_parts=True,
+                  backend="numpy")[1]
+    assert np.max(np.abs(flat[pick] / rad_direct - 1.0)) > 0.1
+    rad_total = radiance_lux(str(tmp_path), position, aim, pts, bounces=True)
+    assert total[pick].mean() / rad_total.mean() == pytest.approx(1.0, abs=0.07)

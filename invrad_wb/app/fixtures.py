@@ -66,23 +66,24 @@ def new_guid():
     return ifcopenshell.guid.new()
 
 
-def fixture_axes(normal):
+def fixture_axes(normal, c0=None):
     """The fixture's local x, y, z axes in the building (unit vectors): z = -``normal`` (the
     light leaves along local -Z) and x the luminaire's C0 direction, the photometry frame
     of :func:`invrad_wb.core.model.scene.plane_basis` (+X for a downlight, horizontal on a
-    wall), so that a rectangular body lies the way its intensity table does."""
-    from invrad_wb.core.model.scene import plane_basis
+    wall), so that a rectangular body lies the way its intensity table does; an aimed
+    luminaire's own ``c0`` (its mounted C0 carried by the tilt) where it has one."""
+    from invrad_wb.core.model.aiming import photometric_frame
     n = np.asarray(normal, dtype=np.float64)
     n = n / np.linalg.norm(n)
-    u, v = plane_basis(n)
+    u, v = photometric_frame(n, c0)
     return u, -v, -n
 
 
-def fixture_rotation(normal):
+def fixture_rotation(normal, c0=None):
     """FreeCAD Rotation taking local -Z to the unit ``normal`` (the light direction) and
     local X to the luminaire's C0 axis (:func:`fixture_axes`)."""
     import FreeCAD
-    x, y, z = fixture_axes(normal)
+    x, y, z = fixture_axes(normal, c0)
     m = FreeCAD.Matrix()
     m.A11, m.A12, m.A13 = float(x[0]), float(y[0]), float(z[0])
     m.A21, m.A22, m.A23 = float(x[1]), float(y[1]), float(z[1])
@@ -321,7 +322,8 @@ def make_fixture(space, lum, label):
 
 def _placement(lum):
     import FreeCAD
-    return FreeCAD.Placement(vector_mm(lum.position), fixture_rotation(lum.normal))
+    return FreeCAD.Placement(vector_mm(lum.position),
+                             fixture_rotation(lum.normal, getattr(lum, "c0", None)))
 
 
 def _ensure_space_uid(space):
@@ -380,7 +382,13 @@ def fixture_luminaire(obj):
     pl = obj.getGlobalPlacement() if hasattr(obj, "getGlobalPlacement") else obj.Placement
     import FreeCAD
     d = pl.Rotation.multVec(FreeCAD.Vector(0, 0, -1))
+    x = pl.Rotation.multVec(FreeCAD.Vector(1, 0, 0))
     flux = float(getattr(obj, "LuminousFlux", 0.0))
-    return Luminaire(mm_to_m(pl.Base), [d.x, d.y, d.z], flux,
+    n = np.array([d.x, d.y, d.z])
+    # an aimed luminaire's C0 axis (local X) differs from its normal's own frame
+    c0 = np.array([x.x, x.y, x.z])
+    if np.allclose(c0, fixture_axes(n)[0], atol=1e-6):
+        c0 = None
+    return Luminaire(mm_to_m(pl.Base), n, flux,
                      mm_to_m(getattr(obj, "EmitterRadius", 0.0)),
-                     score=float(getattr(obj, "Score", 0.0)) or None)
+                     score=float(getattr(obj, "Score", 0.0)) or None, c0=c0)

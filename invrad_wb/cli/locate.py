@@ -48,6 +48,11 @@ def add_parser(sub):
     g.add_argument("--refine", type=bool_arg, help="joint refinement (true)")
     g.add_argument("--optimiser", choices=("lm", "es"))
     g.add_argument("--indirect", choices=("radiosity", "ambient", "none"))
+    g.add_argument("--aim", choices=("fixed", "free"),
+                   help="fixed: luminaires face along their surface's normal (default);"
+                        " free: fit each mounted luminaire's aim too (adjustable spots)")
+    g.add_argument("--max-tilt", dest="max_tilt_deg", type=float, metavar="DEG",
+                   help="with --aim free: largest tilt from the surface's normal (70)")
     p.set_defaults(func=run)
 
 

@@ -30,14 +30,15 @@ def _geometry(points, normals, c, n, flux):
 def photometric_numpy(points, normals, luminaires, bvh=None, occlusion=True):
     """Direct illuminance of luminaires with an intensity distribution (numpy), lux:
     ``E = I(direction) * cos(theta_s) / r^2`` with ``I = flux * photometry(direction)``
-    in the luminaire's frame (:mod:`invrad_wb.core.model.photometry`); disk luminaires
-    are taken at their centre."""
-    from invrad_wb.core.model.scene import plane_basis
+    in the luminaire's frame (:mod:`invrad_wb.core.model.photometry`; its C = 0 axis is
+    the luminaire's ``c0`` where it has one: an aimed spot, :mod:`invrad_wb.core.model.
+    aiming`); disk luminaires are taken at their centre."""
+    from invrad_wb.core.model.aiming import photometric_frame
     points = np.asarray(points, dtype=np.float64)
     normals = np.asarray(normals, dtype=np.float64)
     out = np.zeros(len(points))
     for lum in luminaires:
-        u, v = plane_basis(lum.normal)
+        u, v = photometric_frame(lum.normal, getattr(lum, "c0", None))
         r = points - lum.position
         r2 = np.maximum(np.einsum("ij,ij->i", r, r), 1e-12)
         d = r / np.sqrt(r2)[:, None]

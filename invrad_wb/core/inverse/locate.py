@@ -46,6 +46,7 @@ WORK_PLANE_CLEARANCE_M = 0.3
 #: the walls).
 MOUNT_CLEARANCE_M = 0.1
 INDIRECT_MODES = ("radiosity", "ambient", "none")
+AIM_MODES = ("fixed", "free")
 
 
 @dataclass
@@ -79,6 +80,11 @@ class LocateSettings:
     shade_limit_lux : a luminaire position is forbidden if it would put more than this on
         a point that must stay dark (None: 10 % of the median target, at least 1 lx)
     seed : seed of the voting point pattern offsets
+    aim : 'fixed' (each luminaire faces along its mounting surface's normal) or 'free'
+        (each mounted luminaire's aim is fitted too: adjustable spots,
+        :mod:`invrad_wb.core.inverse.aim`)
+    max_tilt_deg : with ``aim`` 'free', the largest tilt from the mounting surface's
+        normal (degrees, 0-89)
     """
 
     vote_model: str = "exact"
@@ -104,6 +110,8 @@ class LocateSettings:
     poor_fit: float = 0.08
     shade_limit_lux: float = None
     seed: int = 0
+    aim: str = "fixed"
+    max_tilt_deg: float = 70.0
 
     def _check_types(self):
         """Each setting has its field's type: a number is a real number (not text, not
@@ -155,6 +163,11 @@ class LocateSettings:
         if not (isinstance(self.overlap_levels, int) and 1 <= self.overlap_levels <= 16):
             raise SettingsError(f"overlap_levels must be an integer in 1-16, got"
                                 f" {self.overlap_levels!r}")
+        if self.aim not in AIM_MODES:
+            raise SettingsError(f"aim must be one of {AIM_MODES}, got {self.aim!r}")
+        if not (np.isfinite(self.max_tilt_deg) and 0 <= self.max_tilt_deg < 90):
+            raise SettingsError(f"max_tilt_deg must be in [0, 90) degrees, got"
+                                f" {self.max_tilt_deg!r}")
         if not 0 <= self.min_gain < 1:
             raise SettingsError(f"min_gain must be in [0, 1), got {self.min_gain!r}")
         return self
@@ -530,7 +543,9 @@ class _Indirect:
         self.gather = self.model.gather(points.positions, points.normals, patch)
 
     def __call__(self, lights, flux):
-        lums = [Luminaire(L.position, L.normal, flux, photometry=self.photometry)
+        from invrad_wb.core.model.aiming import aimed_c0
+        lums = [Luminaire(L.position, L.normal, flux, photometry=self.photometry,
+                          c0=None if L.mount is None else aimed_c0(L.mount, L.normal))
                 for L in lights]
         # each patch's mean direct light, exact near a luminaire (as the verification's)
         pdir = self.model.patch_direct(lums, bvh=self.bvh, occlusion=self.bvh is not None,
@@ -559,6 +574,9 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
         return
     fit = _RoomFit(run, s)
     cands = [_light_from_peak(p, run.canvas, flux) for p in peaks]
+    if s.aim == "free":
+        from invrad_wb.core.inverse.aim import aimed_candidates
+        cands = aimed_candidates(run, s, cands)
     lights, cost = fit.select(cands, progress, deadline)
     # light that several luminaires share: vote again with a fraction of each point's
     # light (thesis 5.2) and offer those peaks too
@@ -928,9 +946,13 @@ def _collect(rooms):
             flux = run.flux * L.flux_scale
             if run.free_flux:
                 flux = float(np.round(flux, 1))
+            extra, c0 = {"mount": "surface" if L.kind == "surface" else "pendant"}, None
+            if L.mount is not None:
+                from invrad_wb.core.inverse.aim import aim_extra
+                more, c0 = aim_extra(L)
+                extra.update(more)
             out.append(Luminaire(L.position, L.normal, flux, 0.0, room=int(run.room),
-                                 score=round(float(L.score), 4),
-                                 extra={"mount": "surface" if L.kind == "surface" else "pendant"}))
+                                 score=round(float(L.score), 4), extra=extra, c0=c0))
     return out
 
 
@@ -1244,7 +1266,8 @@ def _refine_problem(scene, pts, canvas, occ, s, flux, backend, has_rho, timings,
         lambda p, q, _b=occ: segments_occluded(_b, p, q, backend))
     prob = RefineProblem(positions=pts.positions, normals=pts.normals, target=pts.lux,
                          flux=flux, area=pts.area, bvh=occ, inside=_make_inside(canvas),
-                         occluded_fn=occluded_fn, photometry=photometry)
+                         occluded_fn=occluded_fn, photometry=photometry,
+                         free_aim=s.aim == "free")
     indirect_model = None
     if s.indirect != "none" and has_rho:
         per_lumen = _uniform_indirect_per_lumen(scene)

@@ -63,6 +63,20 @@ class Light:
     flux_scale: float = 1.0
     #: the flux is a parameter of the fit too (its log, after the position's)
     free_flux: bool = False
+    #: an aimable luminaire: the normal of the surface it is mounted on (``normal`` is
+    #: then its aim, the photometric axis); None: it faces along ``normal``
+    mount: np.ndarray = None
+    #: the aim is a parameter of the fit too (2 gnomonic coordinates after the position's,
+    #: :func:`invrad_wb.core.model.aiming.aim_offset`), its tilt at most ``max_tilt``
+    free_aim: bool = False
+    max_tilt: float = 70.0
+
+    def facing(self):
+        """The direction the luminaire's body faces: its mount normal, else its normal."""
+        return self.normal if self.mount is None else self.mount
+
+    def _npos(self):
+        return 2 if self.kind == "surface" else 3
 
     def params(self):
         if self.kind == "surface":
@@ -70,6 +84,9 @@ class Light:
             p = np.array([d @ self.u, d @ self.v])
         else:
             p = self.position.copy()
+        if self.free_aim:
+            from invrad_wb.core.model.aiming import aim_offset
+            p = np.append(p, aim_offset(self.mount, self.normal))
         if self.free_flux:
             p = np.append(p, np.log(self.flux_scale))
         return p
@@ -80,6 +97,10 @@ class Light:
             q.position = self.origin + p[0] * self.u + p[1] * self.v
         else:
             q.position = np.asarray(p[:3], dtype=np.float64).copy()
+        if self.free_aim:
+            from invrad_wb.core.model.aiming import aim_of_offset
+            n = self._npos()
+            q.normal = aim_of_offset(self.mount, p[n:n + 2], self.max_tilt)
         if self.free_flux:
             q.flux_scale = float(np.exp(np.clip(p[-1], -LOG_SCALE_LIMIT, LOG_SCALE_LIMIT)))
         return q
@@ -87,6 +108,8 @@ class Light:
     def dpos(self):
         """(n_params, 3) derivative of the position w.r.t. the parameters."""
         d = np.stack([self.u, self.v]) if self.kind == "surface" else np.eye(3)
+        if self.free_aim:
+            d = np.vstack([d, np.zeros((2, 3))])
         return np.vstack([d, np.zeros(3)]) if self.free_flux else d
 
     def own_indirect(self):
@@ -140,6 +163,8 @@ class RefineProblem:
     free_flux: bool = False
     #: the luminaires' intensity distribution (a Photometry; None: lambertian)
     photometry: object = None
+    #: fit the aim of aimable luminaires (those with a :attr:`Light.mount`) too
+    free_aim: bool = False
     stats: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -176,7 +201,7 @@ class RefineProblem:
         if self.bvh is None:
             return np.ones(len(self.positions), dtype=bool)
         key = (np.asarray(light.position, np.float64).tobytes(),
-               np.asarray(light.normal, np.float64).tobytes())
+               np.asarray(light.facing(), np.float64).tobytes())
         vis = self._vis_cache.get(key)
         if vis is not None:
             self.stats["visibility_reused"] += 1
@@ -189,13 +214,16 @@ class RefineProblem:
         return vis
 
     def _visibility(self, light):
+        # an aimed luminaire sees what is in front of its mounting surface (its photometry
+        # or cosine decides the rest), so its mask does not change with the aim
+        facing = light.facing()
         d = light.position - self.positions
-        front = (d @ light.normal < 0) & (np.einsum("ij,ij->i", d, self.normals) > 0)
+        front = (d @ facing < 0) & (np.einsum("ij,ij->i", d, self.normals) > 0)
         vis = np.zeros(len(self.positions), dtype=bool)
         idx = np.flatnonzero(front)
         if len(idx):
             p = self.positions[idx] + self.normals[idx] * C.RAY_EPS_M
-            q = np.broadcast_to(light.position + light.normal * C.RAY_EPS_M, (len(idx), 3))
+            q = np.broadcast_to(light.position + facing * C.RAY_EPS_M, (len(idx), 3))
             fn = self.occluded_fn or (lambda a, b: segments_occluded_numpy(self.bvh, a, b))
             vis[idx] = ~fn(p, q)
             self.stats["visibility_rays"] += len(idx)
@@ -257,13 +285,19 @@ class RefineProblem:
                 E += L.own_indirect()
         return E
 
-    def _photometric(self, C, N, scale):
+    def _photometric(self, C, N, scale, M=None):
         """E (K, k) of luminaires at ``C`` facing ``N`` with the problem's distribution:
-        E = F I(w)/F cos(theta_s) / r^2, w the unit direction luminaire -> point."""
+        E = F I(w)/F cos(theta_s) / r^2, w the unit direction luminaire -> point.
+        ``M``: per luminaire its mount normal or None (aimed: the C = 0 axis turns with
+        the tilt, :func:`invrad_wb.core.model.aiming.aimed_c0`)."""
         from invrad_wb.core.model.scene import plane_basis
+        from invrad_wb.core.model.aiming import aimed_c0, photometric_frame
         out = np.zeros((len(C), len(self.positions)))
         for i, (c, n) in enumerate(zip(C, N)):
-            u, v = plane_basis(n)
+            if M is None or M[i] is None or self._symmetric():
+                u, v = plane_basis(n)
+            else:
+                u, v = photometric_frame(n, aimed_c0(M[i], n))
             d = self.positions - c                                  # luminaire -> point
             r2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-12)
             w = d / np.sqrt(r2)[:, None]
@@ -272,8 +306,17 @@ class RefineProblem:
             out[i] = np.where(cs > 1e-9, scale[i] * self.flux * i_lm * cs / r2, 0.0)
         return out
 
-    def _photometric_lights(self, C, N, scale, V, with_grad):
-        E = np.where(V, self._photometric(C, N, scale), 0.0)
+    def _symmetric(self):
+        """Whether the distribution is rotationally symmetric (its frame's C = 0 axis
+        does not matter)."""
+        sym = getattr(self, "_sym", None)
+        if sym is None:
+            t = self.photometry.table
+            sym = self._sym = bool(np.array_equal(t, np.broadcast_to(t[:1], t.shape)))
+        return sym
+
+    def _photometric_lights(self, C, N, scale, V, with_grad, M=None):
+        E = np.where(V, self._photometric(C, N, scale, M), 0.0)
         if not with_grad:
             return E, None
         h = 1e-4
@@ -281,8 +324,9 @@ class RefineProblem:
         for j in range(3):
             dc = np.zeros(3)
             dc[j] = h
-            dE[..., j] = np.where(V, (self._photometric(C + dc, N, scale)
-                                      - self._photometric(C - dc, N, scale)) / (2 * h), 0.0)
+            dE[..., j] = np.where(V, (self._photometric(C + dc, N, scale, M)
+                                      - self._photometric(C - dc, N, scale, M)) / (2 * h),
+                                  0.0)
         return E, dE
 
     def lights_of(self, lights, vis_list, with_grad=False):
@@ -293,7 +337,9 @@ class RefineProblem:
             V = np.array(vis_list, dtype=bool).reshape(len(lights), -1)
             scale = np.array([L.flux_scale for L in lights])
             self.stats["evaluations"] += len(lights)
-            return self._photometric_lights(C, N, scale, V, with_grad)
+            M = [L.mount for L in lights]
+            return self._photometric_lights(C, N, scale, V, with_grad,
+                                            None if all(m is None for m in M) else M)
         C = np.array([L.position for L in lights], dtype=np.float64)   # (K, 3)
         N = np.array([L.normal for L in lights], dtype=np.float64)     # (K, 3)
         V = np.array(vis_list, dtype=bool).reshape(len(lights), -1)
@@ -331,6 +377,9 @@ class RefineProblem:
                     E += own
                 if with_jac:
                     block = de[i] @ L.dpos().T
+                    if L.free_aim:
+                        n = L._npos()
+                        block[:, n:n + 2] = self._aim_jacobian(L, vis_list[i])
                     if L.free_flux:
                         # d E / d ln(scale): the luminaire's whole light, direct + indirect
                         block[:, -1] = e[i] if own is None else e[i] + own
@@ -342,6 +391,20 @@ class RefineProblem:
         J = np.concatenate(jac_blocks, axis=1) / Ep[:, None] if jac_blocks else \
             np.zeros((len(r), 0))
         return r, J
+
+    def _aim_jacobian(self, L, vis, h=1e-4):
+        """(k, 2) d E / d aim coordinates of one aimable luminaire (central differences)."""
+        p = L.params()
+        n = L._npos()
+        out = np.empty((len(self.positions), 2))
+        for j in range(2):
+            q = p.copy()
+            q[n + j] += h
+            e1 = self.lights_of([L.with_params(q)], [vis])[0][0]
+            q[n + j] -= 2 * h
+            e0 = self.lights_of([L.with_params(q)], [vis])[0][0]
+            out[:, j] = (e1 - e0) / (2 * h)
+        return out
 
     def cost_of(self, r):
         c = self.robust_scale
@@ -375,7 +438,7 @@ class RefineProblem:
         for i in range(len(lights)):
             for j in range(i + 1, len(lights)):
                 a, b = lights[i], lights[j]
-                if a.normal @ b.normal < 0.5:
+                if a.facing() @ b.facing() < 0.5:
                     continue
                 diff = a.position - b.position
                 d = float(np.linalg.norm(diff))
@@ -405,6 +468,7 @@ class RefineProblem:
         out = [L.copy() for L in lights]
         for L in out:
             L.free_flux = self.free_flux
+            L.free_aim = self.free_aim and L.mount is not None
         return out
 
     def _packing(self, lights):
@@ -569,7 +633,7 @@ def greedy_select(problem, candidates, min_gain=0.05, min_gain_total=0.005, max_
             trace.append({"candidate": ci, "result": "time limit"})
             break
         near = [L for L in lights if np.linalg.norm(L.position - cand.position) < merge_distance
-                and L.normal @ cand.normal > 0.5]
+                and L.facing() @ cand.facing() > 0.5]
         if near:
             trace.append({"candidate": ci, "result": "near accepted luminaire"})
             continue
@@ -655,7 +719,7 @@ def swap_search(problem, lights, candidates, min_gain=0.05, merge_distance=0.25,
             rest = lights[:i] + lights[i + 1:]
             pool = [c for c in candidates
                     if not any(np.linalg.norm(L.position - c.position) < merge_distance
-                               and L.normal @ c.normal > 0.5 for L in lights)]
+                               and L.facing() @ c.facing() > 0.5 for L in lights)]
             # alternatives near the luminaire first (a pendant under a ceiling light, the
             # other of two overlapping peaks), then the best-scoring elsewhere
             pool.sort(key=lambda c: np.linalg.norm(c.position - lights[i].position))

@@ -41,6 +41,9 @@ class Luminaire:
     photometry : Photometry or None
         Its intensity distribution (:mod:`invrad_wb.core.model.photometry`); None:
         lambertian. The flux scales the distribution.
+    c0 : (3,) float64 or None
+        The C = 0 axis of its photometry (an aimed luminaire: its mounted C = 0 carried by
+        the tilt, :mod:`invrad_wb.core.model.aiming`); None: ``plane_basis(normal)``.
     """
 
     position: np.ndarray
@@ -51,11 +54,14 @@ class Luminaire:
     score: float = None
     extra: dict = field(default_factory=dict)
     photometry: object = None
+    c0: object = None
 
     def __post_init__(self):
         self.position = np.asarray(self.position, dtype=np.float64).reshape(3)
         n = np.asarray(self.normal, dtype=np.float64).reshape(3)
         self.normal = n / np.linalg.norm(n)
+        if self.c0 is not None:
+            self.c0 = np.asarray(self.c0, dtype=np.float64).reshape(3)
 
     def to_dict(self):
         d = {"position": [round(float(x), 6) for x in self.position],
@@ -65,6 +71,8 @@ class Luminaire:
             d["room"] = int(self.room)
         if self.score is not None:
             d["score"] = float(self.score)
+        if self.c0 is not None:
+            d["c0"] = [round(float(x), 6) for x in self.c0]
         d.update(self.extra)
         if self.photometry is not None and getattr(self.photometry, "path", None):
             d["photometry"] = self.photometry.path
@@ -105,7 +113,15 @@ def luminaire_from_dict(d, where="luminaire", base_dir=None):
                              " of lumens")
     if not np.isfinite(radius) or radius < 0:
         raise LuminaireError(f"{where}.radius_m is {d.get('radius_m')!r}: must be >= 0 metres")
-    known = {"position", "normal", "flux_lm", "radius_m", "room", "score", "photometry"}
+    c0 = None
+    if d.get("c0") is not None:
+        c0 = _vec3(d["c0"], f"{where}.c0")
+        if np.linalg.norm(np.cross(c0, nrm)) < 1e-6 * np.linalg.norm(nrm) * max(
+                np.linalg.norm(c0), 1e-300):
+            raise LuminaireError(f"{where}.c0 must not be parallel to its normal (it is the"
+                                 " photometry's C = 0 axis)")
+    known = {"position", "normal", "flux_lm", "radius_m", "room", "score", "photometry",
+             "c0"}
     extra = {k: v for k, v in d.items() if k not in known}
     phot = None
     if d.get("photometry") is not None:
@@ -116,7 +132,7 @@ def luminaire_from_dict(d, where="luminaire", base_dir=None):
         phot = read_photometry(f if os.path.isabs(f) or base_dir is None
                                else os.path.join(base_dir, f))
     return Luminaire(pos, nrm, flux, radius, room=d.get("room"), score=d.get("score"),
-                     extra=extra, photometry=phot)
+                     extra=extra, photometry=phot, c0=c0)
 
 
 def _space_of(scene, real, room):

@@ -685,11 +685,21 @@ def _unique_rows(parts):
     return rows if len(rows) > 1 else []
 
 
+def _facing(lum):
+    """:func:`facing_text`, with the tilt and pan of an aimed luminaire (locate --aim free
+    gives them in its extras)."""
+    ex = getattr(lum, "extra", None) or {}
+    if isinstance(ex.get("tilt_deg"), (int, float)) and ex["tilt_deg"] >= 0.5:
+        return (f"{facing_text(lum.normal)} (tilt {ex['tilt_deg']:.1f}\u00b0, pan"
+                f" {float(ex.get('pan_deg', 0.0)):.0f}\u00b0)")
+    return facing_text(lum.normal)
+
+
 def _lum_rows(run, idx):
     keys = _extra_keys(run.luminaires)
     return keys, [{"label": f"L{i + 1}", "position": ", ".join(
         f"{(round(float(x), 2) + 0.0):.2f}" for x in run.luminaires[i].position),
-        "facing": facing_text(run.luminaires[i].normal),
+        "facing": _facing(run.luminaires[i]),
         "flux": f"{run.luminaires[i].flux_lm:.0f}",
         "radius": f"{run.luminaires[i].radius_m:.2f}",
         "extra": [str(run.luminaires[i].extra.get(k, "")) for k in keys]} for i in idx]

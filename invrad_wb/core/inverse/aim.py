@@ -1,0 +1,326 @@
+"""Aimed luminaires as unknowns (``locate --aim free``, issue 23).
+
+The thesis' votes assume each luminaire faces along the normal of the surface it is on. An
+adjustable spot (a ceiling gimbal aimed 15-60 degrees off vertical at a painting) votes for
+nothing there: its light arrives from a direction the votes do not consider.
+
+Global search from the lit footprint: a beam's light on a surface is brightest near where
+its axis meets it, so every *hot spot* of the targets (a local maximum of the target
+illuminance, taken at the lux-weighted centre of its bright neighbourhood) is a place some
+luminaire may be aimed at. For every hot spot and every apex on a grid over the room's
+mounting surfaces (the surface vote maps, :data:`APEX_STEP_M` apart) from which the hot spot
+lies within the largest tilt, a luminaire at the apex aimed at the hot spot is scored
+alone: the area-weighted squared error of linear illuminance with its light (its flux the
+least-squares one when the fluxes are free; :meth:`_Scorer.cost_of` says why not the
+refinement's log cost). The best apexes of each hot spot (distinct,
+:data:`KEEP_PER_SPOT`) are polished by a pattern search over the apex and the axis' meeting
+point (:func:`_polish`) and join the vote peaks (which become aimable too: a downlight is
+an aimable luminaire whose fitted tilt is 0) as candidates, all ranked by that score; the joint refinement (:mod:`invrad_wb.core.inverse.refine`) then fits the aim
+(two gnomonic coordinates, tilt at most ``max_tilt_deg``) with the position and the flux.
+
+The scoring ignores occlusion (the refinement does not).
+"""
+import numpy as np
+
+from invrad_wb.core.inverse.refine import LOG_SCALE_LIMIT, Light
+from invrad_wb.core.model.aiming import aimed_c0
+
+#: apex grid spacing on the mounting surfaces (metres)
+APEX_STEP_M = 0.3
+#: radius (m) within which a hot spot is the brightest target point (same facing)
+HOT_RADIUS_M = 0.4
+#: at most this many hot spots per room (brightest relative to their surroundings first)
+MAX_HOT_SPOTS = 24
+#: apexes kept per hot spot, at least ``APEX_APART_M`` apart
+KEEP_PER_SPOT = 2
+APEX_APART_M = 0.6
+#: luminaires scored per batch (memory: batch x points x 3 float64)
+BATCH = 64
+
+
+def hot_spots(positions, normals, lux, radius=HOT_RADIUS_M, most=MAX_HOT_SPOTS):
+    """(h, 3) aim points and (h, 3) their normals: local maxima of the target illuminance
+    over points facing the same way, each moved to the lux-weighted centre of the points
+    around it brighter than half its peak; ranked by the peak over the median of its
+    surroundings (a dim spot on a dark wall counts as much as a bright one)."""
+    from scipy.spatial import cKDTree
+    lit = np.flatnonzero(lux > 0)
+    if not len(lit):
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    P, Nn, E = positions[lit], normals[lit], lux[lit]
+    # a spot counts where it is at least 1 % of the brightest target (noise on dark
+    # surfaces, a few lux beside nothing, is not a beam)
+    floor = 0.01 * float(E.max())
+    tree = cKDTree(P)
+    near = tree.query_ball_point(P, radius)
+    wide = tree.query_ball_point(P, 2.5 * radius)
+    spots = []
+    for i, nb in enumerate(near):
+        nb = np.asarray(nb)
+        same = nb[Nn[nb] @ Nn[i] > 0.9]
+        if E[i] < E[same].max() or E[i] < floor:
+            continue
+        wb = np.asarray(wide[i])
+        wb = wb[Nn[wb] @ Nn[i] > 0.9]
+        bright = wb[E[wb] > 0.5 * E[i]]
+        w = E[bright] ** 2
+        centre = (P[bright] * w[:, None]).sum(0) / w.sum()
+        contrast = E[i] / max(float(np.median(E[wb])), floor)
+        spots.append((contrast * np.sqrt(E[i]), centre, Nn[i]))
+    spots.sort(key=lambda t: -t[0])
+    spots = spots[:most]
+    return (np.array([s[1] for s in spots]).reshape(-1, 3),
+            np.array([s[2] for s in spots]).reshape(-1, 3))
+
+
+def apex_grid(canvas, step=APEX_STEP_M):
+    """Mounting positions: (n, 3) points, (n, 3) mount normals, (n,) map indices, on
+    every surface vote map's allowed pixels, about ``step`` apart."""
+    P, M, K = [], [], []
+    for k, m in enumerate(canvas.maps):
+        if m.kind != "surface":
+            continue
+        s = max(1, int(round(step / m.pixel)))
+        centres = m.pixel_centres()
+        mask = m.mask.copy()
+        sub = np.zeros_like(mask)
+        sub[s // 2::s, s // 2::s] = True
+        pick = mask & sub
+        pts = centres[pick]
+        P.append(pts)
+        M.append(np.repeat(np.asarray(m.normal, np.float64)[None], len(pts), 0))
+        K.append(np.full(len(pts), k))
+    if not P:
+        return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, int)
+    return np.concatenate(P), np.concatenate(M), np.concatenate(K)
+
+
+#: the lone scores use at most this many of the room's voting points (every n-th)
+SCORE_POINTS = 1200
+
+
+class _Scorer:
+    """The refinement problem's cost on a subset of its points, for many lone luminaires
+    at once (no occlusion, no interreflection of their own)."""
+
+    def __init__(self, prob, most=SCORE_POINTS):
+        step = max(1, int(np.ceil(len(prob.positions) / most)))
+        sl = slice(0, None, step)
+        self.pos, self.nrm = prob.positions[sl], prob.normals[sl]
+        self.target, self.log_target = prob.target[sl], prob.log_target[sl]
+        self.base = prob.indirect[sl]
+        w = prob.w_area[sl]
+        self.w = w / w.sum()
+        self.eps, self.c, self.flux = prob.eps_lux, prob.robust_scale, prob.flux
+        phot = prob.photometry
+        self.phot = phot
+        # rotationally symmetric: the intensity depends on gamma only
+        self.sym = None if phot is None or not np.allclose(phot.table, phot.table[:1]) \
+            else phot.table[0]
+        self.cost0 = self.cost_of(np.zeros((1, len(self.pos))))[0]
+        self.wT = self.w * self.target
+
+    def direct(self, C, N, Mn):
+        """(K, k) lux of luminaires of the problem's flux at ``C`` aimed ``N``, mounted
+        facing ``Mn``."""
+        d = self.pos[None] - C[:, None]                           # (K, k, 3)
+        r2 = np.maximum(np.einsum("Kkj,Kkj->Kk", d, d), 1e-12)
+        w = d / np.sqrt(r2)[..., None]
+        cs = -np.einsum("kj,Kkj->Kk", self.nrm, w)
+        front = np.einsum("Kkj,Kj->Kk", d, Mn) > 0
+        cg = np.einsum("Kkj,Kj->Kk", w, N)
+        if self.phot is None:
+            i_lm = np.maximum(cg, 0.0) / np.pi
+        elif self.sym is not None:
+            i_lm = np.interp(np.degrees(np.arccos(np.clip(cg, -1, 1))),
+                             np.arange(len(self.sym)), self.sym)
+        else:
+            U = _aimed_c0_many(Mn, N)
+            V = np.cross(N, U)
+            local = np.stack([np.einsum("Kkj,Kj->Kk", w, U), np.einsum("Kkj,Kj->Kk", w, V),
+                              cg], axis=-1)
+            i_lm = self.phot.intensity_per_lm(local)
+        return np.where((cs > 0) & front, self.flux * i_lm * cs / r2, 0.0)
+
+    def cost_of(self, E):
+        """Area-weighted squared error of linear illuminance (K,).
+
+        Not the refinement's robust log cost: alone, a luminaire spreading a little light
+        over the many points other luminaires light lowers the log cost more than the
+        spot that explains its own footprint exactly (measured on a gallery: a grazing
+        wall candidate 0.34, the true ceiling spot 0.24), and ranks first; in linear
+        light the brightest footprints go first and overshoot costs as much as a
+        shortfall (matching pursuit)."""
+        r = E + self.base[None] - self.target[None]
+        return (self.w[None] * r * r).sum(1)
+
+    def score(self, C, N, Mn, free_flux):
+        """(costs (K,), flux scales (K,)) of each luminaire alone, its flux the least
+        squares one (within the refinement's limits) when ``free_flux``."""
+        E = self.direct(C, N, Mn)
+        scale = np.ones(len(C))
+        if free_flux:
+            rest = self.target - self.base
+            num = E @ (self.w * rest)
+            den = np.maximum(
+                             (E * E) @ self.w, 1e-300)
+            lim = np.exp(LOG_SCALE_LIMIT)
+            scale = np.clip(num / den, 1.0 / lim, lim)
+            E = E * scale[:, None]
+        return self.cost_of(E), scale
+
+
+def _aimed_c0_many(Mn, N):
+    """(K, 3) :func:`invrad_wb.core.model.aiming.aimed_c0` of many luminaires."""
+    from invrad_wb.core.model.scene import plane_basis
+    out = np.empty_like(N)
+    for m in np.unique(Mn, axis=0):
+        sel = np.all(Mn == m, axis=1)
+        u, _ = plane_basis(m)
+        a = N[sel]
+        v = np.cross(m, a)
+        c = a @ m
+        # Rodrigues: R u = u + v x u + v x (v x u) / (1 + c)
+        vu = np.cross(v, u)
+        out[sel] = u + vu + np.cross(v, vu) / (1.0 + c)[:, None]
+    return out
+
+
+def footprint_candidates(run, s):
+    """Aimed candidates (list of :class:`Light`, best first) from the hot spots of a
+    room's targets (module docstring), each with its lone score in ``peak_score``."""
+    canvas = run.canvas
+    pts = run.points
+    H, Hn = hot_spots(pts.positions, pts.normals, pts.lux)
+    P, Mn, K = apex_grid(canvas)
+    if not len(H) or not len(P):
+        return []
+    scorer = _Scorer(run.problem)
+    cost0 = scorer.cost0
+    cos_max = np.cos(np.radians(s.max_tilt_deg))
+    out = []
+    for h, hn in zip(H, Hn):
+        d = h - P
+        dist = np.linalg.norm(d, axis=1)
+        ok = (np.einsum("ij,ij->i", d, Mn) > cos_max * dist) & ((P - h) @ hn > 0.05) \
+            & (dist > 0.2)
+        idx = np.flatnonzero(ok)
+        if not len(idx):
+            continue
+        aims = d[idx] / dist[idx, None]
+        costs, scales = [], []
+        for b in range(0, len(idx), BATCH):
+            sl = slice(b, b + BATCH)
+            c, sc = scorer.score(P[idx[sl]], aims[sl], Mn[idx[sl]], run.free_flux)
+            costs.append(c)
+            scales.append(sc)
+        costs, scales = np.concatenate(costs), np.concatenate(scales)
+        kept = []
+        for j in np.argsort(costs):
+            if costs[j] >= cost0 or len(kept) >= KEEP_PER_SPOT:
+                break
+            if any(np.linalg.norm(P[idx[j]] - P[idx[i]]) < APEX_APART_M for i in kept):
+                continue
+            kept.append(j)
+        for j in kept:
+            p, a, sc, c = _polish(scorer, canvas, K[idx[j]], P[idx[j]], h, hn,
+                                  Mn[idx[j]], run.free_flux, cos_max)
+            out.append(_aimed_light(canvas, K[idx[j]], p, a, s, scale=sc,
+                                    score=(cost0 - c) / cost0))
+    out.sort(key=lambda L: -L.peak_score)
+    # two grid apexes of one hot spot may polish to the same luminaire
+    uniq = []
+    for L in out:
+        if not any(np.linalg.norm(L.position - U.position) < 0.05
+                   and L.normal @ U.normal > np.cos(np.radians(2.0)) for U in uniq):
+            uniq.append(L)
+    return uniq
+
+
+#: pattern search of :func:`_polish`: first and last step (metres), most iterations
+POLISH_STEP_M = (0.1, 0.02)
+POLISH_ITERATIONS = 40
+
+
+def _polish(scorer, canvas, k, apex, h, hn, mount, free_flux, cos_max):
+    """A grid apex aimed at a hot spot, improved by a pattern search over the apex on its
+    surface and the point the axis meets near the hot spot (4 parameters, steps halved
+    from 0.1 to 0.02 m): the grid's 0.3 m and a footprint's peak beside its axis are too
+    coarse for a narrow beam. Returns (position, aim, flux scale, lone cost)."""
+    from invrad_wb.core.model.scene import plane_basis
+    m = canvas.maps[k]
+    hu, hv = plane_basis(hn)
+
+    def make(X):
+        P = apex + X[:, 0:1] * m.u + X[:, 1:2] * m.v
+        A = h + X[:, 2:3] * hu + X[:, 3:4] * hv - P
+        A = A / np.linalg.norm(A, axis=1, keepdims=True)
+        return P, A
+
+    x = np.zeros(4)
+    P, A = make(x[None])
+    c, sc = scorer.score(P, A, mount[None], free_flux)
+    best = (float(c[0]), float(sc[0]))
+    step, its = POLISH_STEP_M[0], 0
+    moves = np.vstack([np.eye(4), -np.eye(4)])
+    while step >= POLISH_STEP_M[1] - 1e-12 and its < POLISH_ITERATIONS:
+        its += 1
+        X = x + step * moves
+        P, A = make(X)
+        ok = (A @ mount >= cos_max) & np.array([canvas.map_contains(k, p) for p in P])
+        if not ok.any():
+            step /= 2
+            continue
+        c, sc = scorer.score(P[ok], A[ok], np.broadcast_to(mount, (int(ok.sum()), 3)),
+                             free_flux)
+        i = int(np.argmin(c))
+        if c[i] < best[0]:
+            x = X[ok][i]
+            best = (float(c[i]), float(sc[i]))
+        else:
+            step /= 2
+    P, A = make(x[None])
+    return P[0], A[0], best[1], best[0]
+
+
+def _aimed_light(canvas, k, position, aim, s, scale=1.0, score=0.0):
+    m = canvas.maps[k]
+    return Light(kind="surface", position=np.asarray(position, np.float64).copy(),
+                 normal=np.asarray(aim, np.float64).copy(), map_index=int(k), plane=m.plane,
+                 peak_score=float(score), origin=m.origin.copy(), u=m.u.copy(),
+                 v=m.v.copy(), flux_scale=float(scale),
+                 mount=np.asarray(m.normal, np.float64).copy(),
+                 max_tilt=float(s.max_tilt_deg))
+
+
+def aimed_candidates(run, s, cands):
+    """The candidates of ``locate --aim free``: the vote peaks' surface candidates made
+    aimable (mounted where they are, aim free) and the footprint candidates, all ranked
+    by their lone score; mid-air (pendant) candidates keep their fixed aim and rank."""
+    scorer = _Scorer(run.problem)
+    cost0 = scorer.cost0
+    ranked = []
+    for L in cands:
+        if L.kind != "surface":
+            ranked.append((L, None))
+            continue
+        A = L.copy()
+        A.mount = np.asarray(L.normal, np.float64).copy()
+        A.max_tilt = float(s.max_tilt_deg)
+        c, _ = scorer.score(A.position[None], A.normal[None], A.mount[None], run.free_flux)
+        ranked.append((A, float((cost0 - c[0]) / cost0)))
+    for L in footprint_candidates(run, s):
+        ranked.append((L, L.peak_score))
+    scored = sorted([t for t in ranked if t[1] is not None], key=lambda t: -t[1])
+    # pendant candidates keep their place in the vote order, after the scored ones
+    return [L for L, _ in scored] + [L for L, sc in ranked if sc is None]
+
+
+def aim_extra(light):
+    """Result extras of an aimed luminaire: its mount normal, tilt and pan (degrees),
+    and its photometry's C = 0 axis."""
+    from invrad_wb.core.model.aiming import tilt_pan
+    t, p = tilt_pan(light.normal, light.mount)
+    return {"mount_normal": [round(float(x), 6) for x in light.mount],
+            "tilt_deg": round(t, 3), "pan_deg": round(p, 3)}, aimed_c0(light.mount,
+                                                                        light.normal)
