@@ -169,7 +169,8 @@ def test_aim_settings():
 
 
 def test_cli_aim_options():
-    from invrad_wb.cli import _settings_from_args, build_parser
+    from invrad_wb.cli import build_parser
+    from invrad_wb.cli.locate import _settings_from_args
     args = build_parser().parse_args(["locate", "scene.ply", "--flux", "1000", "-o", "r.json",
                                       "--aim", "free", "--max-tilt", "55"])
     s = _settings_from_args(args)
