@@ -176,8 +176,8 @@ def _shade_points(scene, room):
 def _room_ugr(model, droom, luminaires):
     """Worst UGR over the CIE 117 standard observers (None without luminous areas)."""
     from invrad_wb.core.output.glare import observers, ugr
-    from invrad_wb.core.output.glare import _luminous_area
-    if not luminaires or any(_luminous_area(lum) is None for lum in luminaires):
+    from invrad_wb.core.model.luminaires import luminous_area
+    if not luminaires or any(luminous_area(lum) is None for lum in luminaires):
         return None
     obs = observers(droom)
     if not obs:

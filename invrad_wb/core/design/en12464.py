@@ -11,6 +11,8 @@ EN 12464-1; give their requirement explicitly.
 from dataclasses import dataclass
 import math
 
+from invrad_wb.core.output.metrics import grid_spacing  # noqa: F401 - the standard's grid
+
 
 @dataclass(frozen=True)
 class RoomTypeRequirement:
@@ -66,13 +68,6 @@ def lookup(name):
         return None
     key = name.strip().lower().replace(" ", "_").replace("-", "_")
     return _BY_NAME.get(key)
-
-
-def grid_spacing(d):
-    """EN 12464-1 maximum grid spacing ``p = 0.2 * 5^log10(d)`` (metres) for an area whose
-    longer dimension is ``d`` metres (``p`` at most 10 m)."""
-    d = max(float(d), 1e-3)
-    return min(10.0, 0.2 * 5.0 ** math.log10(d))
 
 
 def grid_counts(length, width):

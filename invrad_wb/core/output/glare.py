@@ -21,6 +21,7 @@ import math
 
 import numpy as np
 
+from invrad_wb.core.model.luminaires import luminous_area
 from invrad_wb.core.model.scene import plane_basis
 
 #: seated observer's eye height (metres), CIE 117 / EN 12464-1
@@ -34,13 +35,6 @@ def guth_index(tau_deg, sigma_deg):
     ln_p = ((35.2 - 0.31889 * t - 1.22 * np.exp(-2.0 * t / 9.0)) * 1e-3 * s
             + (21.0 + 0.26667 * t - 0.002963 * t * t) * 1e-5 * s * s)
     return np.exp(ln_p)
-
-
-def _luminous_area(lum):
-    if lum.radius_m > 0:
-        return math.pi * lum.radius_m ** 2
-    phot = getattr(lum, "photometry", None)
-    return getattr(phot, "luminous_area_m2", None) if phot is not None else None
 
 
 def ugr(luminaires, eye, view, background_lux):
@@ -61,7 +55,7 @@ def ugr(luminaires, eye, view, background_lux):
     v = v / np.linalg.norm(v)
     total = 0.0
     for lum in luminaires:
-        area = _luminous_area(lum)
+        area = luminous_area(lum)
         d = lum.position - eye
         r = float(np.linalg.norm(d))
         if area is None or r < 1e-6 or d[2] <= 0 or d @ v <= 0:

@@ -35,7 +35,7 @@ import math
 
 import numpy as np
 
-from invrad_wb.core.io.oiio import oiio_module, read_pixels
+from invrad_wb.core.model.oiio import oiio_module, read_pixels
 
 from invrad_wb.core.io.atomic import atomic_path
 from invrad_wb.core.geometry.raster import locate_points
