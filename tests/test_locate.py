@@ -130,11 +130,11 @@ def test_locate_direct_light_scenarios(name):
 def test_repeak_does_not_vote_again(monkeypatch):
     scene, true = known_scene("two_ceiling", reflectance=0.0, backend=BACKEND)
     r = locate(scene, 3000.0, backend=BACKEND)
-    import invrad_wb.core.inverse.locate as L
+    import invrad_wb.core.inverse.locate_problem as LP       # where votes are cast
 
     def boom(*a, **k):
         raise AssertionError("votes cast again")
-    monkeypatch.setattr(L, "cast_exact", boom)
+    monkeypatch.setattr(LP, "cast_exact", boom)
     votes_before = r.rooms[0].votes.copy()
     r.repeak(threshold=254, neighbourhood=0.5)
     assert np.array_equal(r.rooms[0].votes, votes_before)
