@@ -89,7 +89,8 @@ def row(*cells):
 def floor_files(n, tmp, cell=0.25, lums_per_room=1):
     """A floor of n box rooms with rendered targets (PLY) and its luminaires (JSON)."""
     from invrad_wb.core.forward.render import render
-    from invrad_wb.core.model.luminaires import Luminaire, write_luminaires_json
+    from invrad_wb.core.model.luminaires import Luminaire
+    from invrad_wb.core.io.jsonout import write_luminaires_json
     from invrad_wb.core.synthetic import generate as g
     sizes = ((4.0, 4.0), (5.0, 4.0), (4.0, 5.0), (6.0, 4.0))
     rooms = [sizes[i % len(sizes)] for i in range(n)]
@@ -105,7 +106,8 @@ def floor_files(n, tmp, cell=0.25, lums_per_room=1):
 
 def luminaire_file(n, tmp, scene):
     """n point luminaires 5 cm below the ceiling of ``scene``'s room 0, 30000/n lm each."""
-    from invrad_wb.core.model.luminaires import Luminaire, write_luminaires_json
+    from invrad_wb.core.model.luminaires import Luminaire
+    from invrad_wb.core.io.jsonout import write_luminaires_json
     rng = np.random.default_rng(n)
     lo, hi = scene.bounds
     pos = np.c_[rng.uniform(lo[0] + 0.1, hi[0] - 0.1, n), rng.uniform(lo[1] + 0.1,

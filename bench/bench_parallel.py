@@ -107,7 +107,7 @@ def floor_file(n, tmp):
     """The floor of n rooms written once as PLY (+ its true luminaires)."""
     if n not in _FLOORS:
         from invrad_wb.core.io.sceneio import write_scene
-        from invrad_wb.core.model.luminaires import write_luminaires_json
+        from invrad_wb.core.io.jsonout import write_luminaires_json
         scene, lums = floor(n)
         path = os.path.join(tmp, f"floor{n}.ply")
         write_scene(path, scene)

@@ -44,15 +44,18 @@ class _CpuClock:
 
 
 def _locate_timed(scene, flux, backend, clock):
-    from invrad_wb.core.inverse import locate as L
-    saved = L.time
-    L.time = _CpuClock() if clock == "cpu" else time
+    from invrad_wb.core.inverse import locate as L, locate_problem, locate_result
+    timed = (L, locate_problem, locate_result)       # the modules that take stage times
+    saved = [m.time for m in timed]
+    for m in timed:
+        m.time = _CpuClock() if clock == "cpu" else time
     try:
         t = (time.process_time if clock == "cpu" else time.perf_counter)()
         r = L.locate(scene, flux, backend=backend)
         r.timings["total"] = (time.process_time if clock == "cpu" else time.perf_counter)() - t
     finally:
-        L.time = saved
+        for m, s in zip(timed, saved):
+            m.time = s
     return r
 
 

@@ -11,7 +11,8 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from invrad_wb.core.synthetic import generate as g  # noqa: E402
-from invrad_wb.core.model.luminaires import Luminaire, write_luminaires_json  # noqa: E402
+from invrad_wb.core.model.luminaires import Luminaire  # noqa: E402
+from invrad_wb.core.io.jsonout import write_luminaires_json  # noqa: E402
 from invrad_wb.core.forward.render import render  # noqa: E402
 from invrad_wb.core.io.sceneio import write_scene  # noqa: E402
 

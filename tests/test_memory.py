@@ -90,7 +90,7 @@ def _png_header_only(path, w, h):
 
 def test_an_image_declaring_huge_dimensions_is_refused_unread(tmp_path, monkeypatch):
     pytest.importorskip("OpenImageIO")
-    from invrad_wb.core.io.oiio import read_lux_image
+    from invrad_wb.core.model.oiio import read_lux_image
     path = tmp_path / "bomb.png"
     _png_header_only(path, 20000, 20000)
     assert path.stat().st_size < 1000

@@ -37,116 +37,21 @@ removes the fixtures a previous invrad run put into the same rooms (``Generator`
 import numpy as np
 
 from invrad_wb.core.model.luminaires import Luminaire
-from invrad_wb.errors import LuminaireError, SceneError
+from invrad_wb.errors import SceneError
+from invrad_wb.app import nativeifc
 from invrad_wb.app import settings as S
 from invrad_wb.app.document import describe, object_type, transaction
 from invrad_wb.app.units import direction, m_to_mm, mm_to_m, vector_mm
+# the body and frame (both backends and the IFC export use them): fixtures.fixture_size etc.
+from invrad_wb.app.fixturebody import (  # noqa: F401
+    CANOPY_RADIUS_M, CANOPY_THICKNESS_M, MIN_RADIUS_M, PANEL_MIN_AREA_M2, ROD_RADIUS_M,
+    check_luminaire, fixture_axes, fixture_rotation, fixture_shape, fixture_size, new_guid)
 
 LIGHT_FIXTURE = "Light Fixture"
-#: A luminous opening this large (m2) or larger is drawn as a panel, not a disc.
-PANEL_MIN_AREA_M2 = 0.09
-#: Smallest disc radius drawn (metres), so that a small spot stays visible.
-MIN_RADIUS_M = 0.05
-#: A pendant's rod and the canopy where it meets the ceiling (metres).
-ROD_RADIUS_M = 0.006
-CANOPY_RADIUS_M = 0.04
-CANOPY_THICKNESS_M = 0.015
 #: Colours in the 3D view (RGB in [0, 1]): a warm white body that glows, dark outlines.
 FIXTURE_RGB = (1.0, 0.93, 0.55)
 FIXTURE_EMISSIVE_RGB = (0.75, 0.62, 0.15)
 FIXTURE_LINE_RGB = (0.25, 0.2, 0.05)
-
-
-def new_guid():
-    """A new IFC GlobalId (22 characters), or '' without ifcopenshell."""
-    try:
-        import ifcopenshell.guid
-    except ImportError:
-        return ""
-    return ifcopenshell.guid.new()
-
-
-def fixture_axes(normal, c0=None):
-    """The fixture's local x, y, z axes in the building (unit vectors): z = -``normal`` (the
-    light leaves along local -Z) and x the luminaire's C0 direction, the photometry frame
-    of :func:`invrad_wb.core.model.scene.plane_basis` (+X for a downlight, horizontal on a
-    wall), so that a rectangular body lies the way its intensity table does; an aimed
-    luminaire's own ``c0`` (its mounted C0 carried by the tilt) where it has one."""
-    from invrad_wb.core.model.aiming import photometric_frame
-    n = np.asarray(normal, dtype=np.float64)
-    n = n / np.linalg.norm(n)
-    u, v = photometric_frame(n, c0)
-    return u, -v, -n
-
-
-def fixture_rotation(normal, c0=None):
-    """FreeCAD Rotation taking local -Z to the unit ``normal`` (the light direction) and
-    local X to the luminaire's C0 axis (:func:`fixture_axes`)."""
-    import FreeCAD
-    x, y, z = fixture_axes(normal, c0)
-    m = FreeCAD.Matrix()
-    m.A11, m.A12, m.A13 = float(x[0]), float(y[0]), float(z[0])
-    m.A21, m.A22, m.A23 = float(x[1]), float(y[1]), float(z[1])
-    m.A31, m.A32, m.A33 = float(x[2]), float(y[2]), float(z[2])
-    return FreeCAD.Rotation(m)
-
-
-def fixture_size(lum):
-    """The body's plan size from the luminaire's luminous area.
-
-    Returns
-    -------
-    ("disc", radius_m) or ("panel", along local x (C0) m, along local y (C90) m)
-    """
-    if lum.radius_m > 0:
-        return ("disc", float(lum.radius_m))
-    phot = getattr(lum, "photometry", None)
-    area = getattr(phot, "luminous_area_m2", None)
-    if area and area > 0:
-        if area >= PANEL_MIN_AREA_M2:
-            ext = getattr(phot, "luminous_extent_m", None)
-            if ext:
-                return ("panel", float(ext[0]), float(ext[1]))
-            side = float(np.sqrt(area))
-            return ("panel", side, side)
-        return ("disc", max(float(np.sqrt(area / np.pi)), MIN_RADIUS_M))
-    return ("disc", S.FIXTURE_RADIUS_M)
-
-
-def fixture_shape(size, drop_m=0.0, thickness_m=S.FIXTURE_THICKNESS_M):
-    """The fixture body in local coordinates (mm); the light leaves along local -Z.
-
-    Parameters
-    ----------
-    size : tuple from :func:`fixture_size`, or a radius in metres (a disc)
-    drop_m : float, metres between the luminaire and the ceiling above it; > 0 adds a rod
-        from the body up to the ceiling and a canopy there (a pendant)
-    thickness_m : float, metres
-
-    Returns
-    -------
-    Part.Solid: the body from local z = -thickness to 0 (a disc or a panel), fused
-    with the rod and canopy of a pendant (local z = 0 .. drop).
-    """
-    import FreeCAD
-    import Part
-    if not isinstance(size, tuple):
-        size = ("disc", float(size) if size > 0 else S.FIXTURE_RADIUS_M)
-    t = m_to_mm(thickness_m)
-    V = FreeCAD.Vector
-    if size[0] == "panel":
-        a, b = m_to_mm(size[1]), m_to_mm(size[2])
-        body = Part.makeBox(a, b, t, V(-a / 2, -b / 2, -t))
-    else:
-        body = Part.makeCylinder(m_to_mm(size[1]), t, V(0, 0, -t), V(0, 0, 1))
-    if drop_m <= 0:
-        return body
-    d = m_to_mm(drop_m)
-    ct = min(m_to_mm(CANOPY_THICKNESS_M), 0.5 * d)
-    rod = Part.makeCylinder(m_to_mm(ROD_RADIUS_M), d, V(0, 0, 0), V(0, 0, 1))
-    canopy = Part.makeCylinder(m_to_mm(CANOPY_RADIUS_M), ct, V(0, 0, d - ct), V(0, 0, 1))
-    solid = body.fuse([rod, canopy]).removeSplitter()
-    return solid.Solids[0] if len(solid.Solids) == 1 else solid
 
 
 def ceiling_drop_m(space, lum):
@@ -203,26 +108,16 @@ def style_fixture(obj):
 
 
 def is_fixture(obj, generated_only=False):
-    if _native(obj):
-        from invrad_wb.app import nativeifc
+    if nativeifc.is_native(obj):
         return nativeifc.is_native_fixture(obj, generated_only)
     if object_type(obj) != "Equipment" or getattr(obj, "IfcType", "") != LIGHT_FIXTURE:
         return False
     return not generated_only or getattr(obj, "Generator", "") == S.GENERATOR_TAG
 
 
-def _native(obj):
-    """A NativeIFC object (FreeCAD 1.x): its fixtures are IFC entities (.nativeifc)."""
-    try:
-        return "StepId" in obj.PropertiesList and "IfcClass" in obj.PropertiesList
-    except Exception:
-        return False
-
-
 def room_fixtures(space, generated_only=True):
     """Light fixtures inside a Space (those made by invrad only, by default)."""
-    if _native(space):
-        from invrad_wb.app import nativeifc
+    if nativeifc.is_native(space):
         return nativeifc.room_fixtures(space, generated_only)
     return [o for o in space.Group if is_fixture(o, generated_only)]
 
@@ -233,8 +128,7 @@ def all_fixtures(doc, generated_only=True):
 
 def fixture_room(obj):
     """The Space of a fixture: its Room link, else the Space whose Group holds it."""
-    if _native(obj):
-        from invrad_wb.app import nativeifc
+    if nativeifc.is_native(obj):
         return nativeifc.fixture_room(obj)
     room = getattr(obj, "Room", None)
     if room is not None:
@@ -273,15 +167,6 @@ def _ifc_properties(lum):
     if lum.extra.get("type"):      # the catalogue entry a design chose
         p["LuminaireType;;" + S.IFC_LUMINAIRE_PSET] = f"IfcLabel;;{lum.extra['type']}"
     return p
-
-
-def check_luminaire(lum, where):
-    if not isinstance(lum, Luminaire):
-        raise LuminaireError(f"{where}: not a Luminaire: {lum!r}")
-    if not (np.all(np.isfinite(lum.position)) and np.all(np.isfinite(lum.normal))):
-        raise LuminaireError(f"{where}: position/normal are not finite")
-    if not (np.isfinite(lum.flux_lm) and lum.flux_lm > 0):
-        raise LuminaireError(f"{where}: flux {lum.flux_lm!r} lm must be > 0")
 
 
 def make_fixture(space, lum, label):
@@ -354,9 +239,10 @@ def insert_fixtures(doc, per_room, replace=True, name="Insert luminaires"):
     LuminaireError, SceneError
         Bad luminaire or room; the document is left unchanged.
     """
-    if per_room and all(_native(sp) for sp, _ in per_room):
-        from invrad_wb.app import nativeifc      # IfcLightFixture entities, one undo step
-        return nativeifc.insert_fixtures(doc, per_room, replace=replace, name=name)
+    if per_room and all(nativeifc.is_native(sp) for sp, _ in per_room):
+        # IfcLightFixture entities, one undo step
+        return nativeifc.insert_fixtures(doc, per_room, fixture_label, replace=replace,
+                                         name=name)
     for space, lums in per_room:
         if object_type(space) != "Space":
             raise SceneError(f"{describe(space)} is not a room (Arch Space)", doc.Label)
@@ -376,8 +262,7 @@ def insert_fixtures(doc, per_room, replace=True, name="Insert luminaires"):
 
 def fixture_luminaire(obj):
     """The Luminaire a fixture stands for (position, direction, flux, radius, score)."""
-    if _native(obj):
-        from invrad_wb.app import nativeifc
+    if nativeifc.is_native(obj):
         return nativeifc.fixture_luminaire(obj)
     pl = obj.getGlobalPlacement() if hasattr(obj, "getGlobalPlacement") else obj.Placement
     import FreeCAD

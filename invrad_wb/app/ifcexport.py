@@ -31,12 +31,13 @@ import math
 import os
 import tempfile
 
-import numpy as np
-
 from invrad_wb.errors import SceneError
 from invrad_wb.app import settings as S
 from invrad_wb.app.document import activate, describe
 from invrad_wb.app.fixtures import all_fixtures, fixture_luminaire, fixture_room
+from invrad_wb.app.ifcdata import (  # noqa: F401 - ifcexport.add_body etc. as before
+    PSET_REQ_IFC4, PSET_RESULT, RESULT_PROPERTIES, add_body, body_context, fixture_matrix,
+    is_invrad_fixture, luminaire_psets, write_requirement)
 from invrad_wb.app.rooms import find_spaces, space_uid
 
 
@@ -58,11 +59,10 @@ def _is_internal(obj):
     """invrad's own bookkeeping objects, never exported: targets, their group and the
     metrics spreadsheet of Verify and report (FreeCAD's exporter would write a sheet
     as an IfcBuildingElementProxy)."""
-    from invrad_wb.app.results import SHEET_NAME
     from invrad_wb.app.targets import is_target
     return is_target(obj) or (obj.TypeId == "App::DocumentObjectGroup"
                               and obj.Name.startswith("InvRadTargets")) \
-        or (obj.TypeId == "Spreadsheet::Sheet" and obj.Name.startswith(SHEET_NAME))
+        or (obj.TypeId == "Spreadsheet::Sheet" and obj.Name.startswith(S.SHEET_NAME))
 
 
 def export_ifc(doc, path, base_ifc=None):
@@ -127,7 +127,6 @@ def _set_requirements(ifc, doc, info):
     ``ArtificialLighting``: Pset_SpaceLightingRequirements in IFC2X3/IFC4,
     Pset_SpaceLightingDesign in IFC4.3) and the achieved values a run stored on the Space
     (``InvRad_LightingResult`` in its IfcProperties) -> the same set on the IfcSpace."""
-    from invrad_wb.app.nativeifc import write_requirement
     from invrad_wb.app.targets import work_plane_target
     for space in find_spaces(doc):
         wp = work_plane_target(space)
@@ -145,93 +144,15 @@ def _set_requirements(ifc, doc, info):
 def _stored_results(space):
     """The achieved values a run wrote into a Space's IfcProperties, as
     :func:`.nativeifc.write_requirement` takes them (None if there are none)."""
-    from invrad_wb.app.nativeifc import PSET_RESULT
     props = getattr(space, "IfcProperties", None) or {}
     out = {}
-    for key, (name, _) in _RESULT_TYPES.items():
+    for key, (name, _) in RESULT_PROPERTIES.items():
         raw = props.get(f"{name};;{PSET_RESULT}") if hasattr(props, "get") else None
         try:
             out[key] = float(str(raw).split(";;")[-1])
         except (TypeError, ValueError):
             continue
     return out or None
-
-
-def luminaire_psets(ifc, ent, lum, kind=None):
-    """invrad's property set (flux, emitter radius, vote score, catalogue type, photometry
-    file) and ``Pset_LightFixtureTypeCommon`` on the IfcLightFixture ``ent``, through
-    ``ifcopenshell.api`` (classic export and NativeIFC documents alike). ``kind``: the
-    catalogue type (default: the luminaire's ``extra['type']``)."""
-    import ifcopenshell.api.pset as PS
-    props = {"LuminousFlux": ifc.create_entity("IfcLuminousFluxMeasure", float(lum.flux_lm)),
-             "Generator": ifc.create_entity("IfcLabel", S.GENERATOR_TAG)}
-    if lum.radius_m > 0:
-        props["EmitterRadius"] = ifc.create_entity("IfcLengthMeasure", float(lum.radius_m))
-    if lum.score is not None and math.isfinite(lum.score) and lum.score > 0:
-        props["Score"] = ifc.create_entity("IfcReal", float(lum.score))
-    kind = kind or lum.extra.get("type")
-    if kind:       # the catalogue entry a design chose
-        props["LuminaireType"] = ifc.create_entity("IfcLabel", str(kind))
-    path = getattr(lum.photometry, "path", None)
-    if path:
-        props["PhotometryFile"] = ifc.create_entity("IfcText", os.fspath(path))
-    p = PS.add_pset(ifc, product=ent, name=S.IFC_LUMINAIRE_PSET)
-    PS.edit_pset(ifc, pset=p, properties=props)
-    common = {"NumberOfSources": 1}
-    if kind:
-        common["Reference"] = str(kind)
-    p = PS.add_pset(ifc, product=ent, name="Pset_LightFixtureTypeCommon")
-    PS.edit_pset(ifc, pset=p, properties=common)
-
-
-def body_context(ifc):
-    import ifcopenshell.api.context as CX
-    import ifcopenshell.util.representation as R
-    ctx = R.get_context(ifc, "Model", "Body", "MODEL_VIEW")
-    if ctx is None:
-        model = R.get_context(ifc, "Model") or CX.add_context(ifc, context_type="Model")
-        ctx = CX.add_context(ifc, context_type="Model", context_identifier="Body",
-                             target_view="MODEL_VIEW", parent=model)
-    return ctx
-
-
-def fixture_matrix(lum):
-    """4x4 placement (metres): origin at the luminaire, local -Z along its normal, local X
-    its C0 axis (:func:`invrad_wb.app.fixtures.fixture_axes`, as the FreeCAD fixture)."""
-    from invrad_wb.app.fixtures import fixture_axes
-    m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2] = fixture_axes(lum.normal)
-    m[:3, 3] = lum.position
-    return m
-
-
-def add_body(ifc, ent, lum, ctx, unit_scale):
-    """The fixture's ``Body``: its disc or panel (:func:`invrad_wb.app.fixtures.
-    fixture_size`, the FreeCAD fixture's plan) extruded along local -Z."""
-    from invrad_wb.app.fixtures import fixture_size
-    size = fixture_size(lum)
-    t = S.FIXTURE_THICKNESS_M / unit_scale
-    if size[0] == "panel":
-        prof = ifc.create_entity("IfcRectangleProfileDef", ProfileType="AREA",
-                                 XDim=size[1] / unit_scale, YDim=size[2] / unit_scale)
-    else:
-        prof = ifc.create_entity("IfcCircleProfileDef", ProfileType="AREA",
-                                 Radius=size[1] / unit_scale)
-    pos = ifc.create_entity("IfcAxis2Placement3D",
-                            Location=ifc.create_entity("IfcCartesianPoint", (0.0, 0.0, 0.0)))
-    solid = ifc.create_entity("IfcExtrudedAreaSolid", SweptArea=prof, Position=pos,
-                              ExtrudedDirection=ifc.create_entity("IfcDirection",
-                                                                  (0.0, 0.0, -1.0)),
-                              Depth=t)
-    rep = ifc.create_entity("IfcShapeRepresentation", ContextOfItems=ctx,
-                            RepresentationIdentifier="Body", RepresentationType="SweptSolid",
-                            Items=[solid])
-    ent.Representation = ifc.create_entity("IfcProductDefinitionShape", Representations=[rep])
-
-
-def is_invrad_fixture(entity):
-    import ifcopenshell.util.element as E
-    return S.IFC_LUMINAIRE_PSET in E.get_psets(entity)
 
 
 # --------------------------------------------------------------------------- merge
@@ -410,19 +331,12 @@ def write_requirements(doc, requirements):
     return n
 
 
-_RESULT_TYPES = {"Em": ("AchievedEm", "IfcIlluminanceMeasure"),
-                 "Emin": ("AchievedEmin", "IfcIlluminanceMeasure"),
-                 "U0": ("AchievedU0", "IfcRatioMeasure"),
-                 "Watts": ("InstalledPower", "IfcPowerMeasure")}
-
-
 def _set_space_properties(space, lux, achieved):
-    from invrad_wb.app.nativeifc import PSET_REQ_IFC4, PSET_RESULT
     props = dict(space.IfcProperties)
     props[f"Illuminance;;{PSET_REQ_IFC4}"] = f"IfcIlluminanceMeasure;;{float(lux)!r}"
     props[f"ArtificialLighting;;{PSET_REQ_IFC4}"] = "IfcBoolean;;True"
     for key, value in (achieved or {}).items():
-        if key in _RESULT_TYPES and value is not None and math.isfinite(float(value)):
-            name, kind = _RESULT_TYPES[key]
+        if key in RESULT_PROPERTIES and value is not None and math.isfinite(float(value)):
+            name, kind = RESULT_PROPERTIES[key]
             props[f"{name};;{PSET_RESULT}"] = f"{kind};;{float(value)!r}"
     space.IfcProperties = props

@@ -26,16 +26,13 @@ Units: the IFC file's length unit is converted to metres by ifcopenshell's geome
 (and :func:`ifcopenshell.util.unit.calculate_unit_scale` for placements), then to mm.
 """
 from dataclasses import dataclass, field
-import math
 import os
 import time
 
-import numpy as np
-
 from invrad_wb.errors import Cancelled, SceneError
-from invrad_wb.app import settings as S
 from invrad_wb.app.document import activate, transaction
-from invrad_wb.app.units import MM_PER_M
+from invrad_wb.app.ifcdata import (  # noqa: F401 - ifcrooms.geometry_settings etc. as before
+    brep_to_shape, closed_solid, geometry_settings, invrad_fixture_data, read_requirement)
 
 
 @dataclass
@@ -63,60 +60,6 @@ def _open(path):
         return ifcopenshell.open(path)
     except Exception as exc:
         raise SceneError(f"not a readable IFC file: {exc}", path)
-
-
-def geometry_settings():
-    """ifcopenshell geometry settings: world coordinates, BREP output (0.7 and 0.8+ APIs)."""
-    import ifcopenshell.geom
-    s = ifcopenshell.geom.settings()
-    try:
-        import ifcopenshell.ifcopenshell_wrapper as W
-        s.set("use-world-coords", True)
-        s.set("iterator-output", W.SERIALIZED)
-    except Exception:                       # ifcopenshell 0.7
-        s.set(s.USE_WORLD_COORDS, True)
-        s.set(s.USE_BREP_DATA, True)
-    return s
-
-
-def brep_to_shape(brep, scale=MM_PER_M):
-    """A BREP string (metres) -> Part shape in mm."""
-    import Part
-    shape = Part.Shape()
-    shape.importBrepFromString(brep)
-    if scale != 1.0:
-        shape.scale(scale)
-    return shape
-
-
-def closed_solid(shape):
-    """Faces -> one closed solid (sewn, outward, coplanar splits removed), or None.
-
-    Returns ``(solid or None, free_edge_count)``.
-    """
-    import Part
-    if shape.isNull() or not shape.Faces:
-        return None, 0
-    if shape.Solids and all(sh.isClosed() for so in shape.Solids for sh in so.Shells):
-        solid = shape.Solids[0] if len(shape.Solids) == 1 else shape
-    else:
-        shell = Part.Shell(shape.Faces)
-        if not shell.isClosed():
-            shell.sewShape()
-        if not shell.isClosed():
-            free = sum(1 for e in shell.Edges
-                       if len(shell.ancestorsOfType(e, Part.Face)) < 2)
-            return None, free
-        solid = Part.Solid(shell)
-        if solid.Volume < 0:
-            solid.reverse()
-    try:
-        cleaned = solid.removeSplitter()
-        if cleaned.isValid() and abs(cleaned.Volume - solid.Volume) <= 1e-6 * abs(solid.Volume):
-            solid = cleaned
-    except Exception:
-        pass
-    return solid, 0
 
 
 def _ifc_type_name(entity):
@@ -153,30 +96,7 @@ def required_illuminance(entity):
     """Required illuminance (lux) of an IfcSpace, or None: ``Illuminance`` of
     ``Pset_SpaceLightingRequirements`` (IFC2X3/IFC4) or ``Pset_SpaceLightingDesign``
     (its IFC4.3 name)."""
-    from invrad_wb.app.nativeifc import read_requirement
     return read_requirement(entity)
-
-
-def invrad_fixture_data(entity, unit_scale):
-    """A Luminaire from an IfcLightFixture written by invrad, or None if it is not one."""
-    import ifcopenshell.util.element as E
-    import ifcopenshell.util.placement as P
-    from invrad_wb.core.model.luminaires import Luminaire
-    pset = E.get_psets(entity).get(S.IFC_LUMINAIRE_PSET)
-    if not pset or entity.ObjectPlacement is None:
-        return None
-    try:
-        flux = float(pset.get("LuminousFlux"))
-    except (TypeError, ValueError):
-        return None
-    if not (math.isfinite(flux) and flux > 0):
-        return None
-    m = np.asarray(P.get_local_placement(entity.ObjectPlacement), dtype=np.float64)
-    pos = m[:3, 3] * unit_scale
-    normal = -m[:3, 2]
-    radius = float(pset.get("EmitterRadius") or 0.0)
-    score = pset.get("Score")
-    return Luminaire(pos, normal, flux, radius, score=float(score) if score else None)
 
 
 def import_ifc(path, doc=None, elements=False, progress=None):

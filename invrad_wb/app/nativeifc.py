@@ -1,4 +1,6 @@
-"""NativeIFC documents (FreeCAD 1.x BIM): rooms from IfcSpace, fixtures written to the IFC.
+"""The NativeIFC document backend (FreeCAD 1.x BIM): rooms from IfcSpace, fixtures written
+to the IFC. It imports nothing of app above it (rooms, fixtures and the IFC export call
+it; :func:`.ifcimport.open_ifc` opens a file with it).
 
 In a NativeIFC document (FreeCAD 1.0's BIM workbench, ``nativeifc``) the document's objects
 are views of the entities of an ifcopenshell file held in memory by the project object
@@ -6,12 +8,12 @@ are views of the entities of an ifcopenshell file held in memory by the project 
 
 * **Rooms** are the IfcSpace objects (``IfcClass == "IfcSpace"``). Their closed solid is
   made from the IfcSpace's own geometry with ifcopenshell (world coordinates, sewn and
-  cleaned as in :mod:`.ifcrooms`), whatever the object's ShapeMode (NativeIFC shows spaces
-  without a Part shape by default). Their name is the IfcSpace's LongName ("Wohnen"), else
-  its Name.
+  cleaned as in the classic import: :mod:`.ifcdata`), whatever the object's ShapeMode
+  (NativeIFC shows spaces without a Part shape by default). Their name is the IfcSpace's
+  LongName ("Wohnen"), else its Name.
 * **Requirements** are read from ``Pset_SpaceLightingRequirements`` (IFC4) or
   ``Pset_SpaceLightingDesign`` (IFC4.3) ``Illuminance`` into WorkPlane targets when the
-  document is opened by :func:`open_ifc`, and written back there after a run.
+  document is opened by :func:`.ifcimport.open_ifc`, and written back there after a run.
 * **Luminaires** become ``IfcLightFixture`` entities made with ``ifcopenshell.api``:
   ``root.create_entity``, ``spatial.assign_container`` (in their IfcSpace),
   ``geometry.edit_object_placement`` (local -Z along the light direction), a swept-disk
@@ -31,23 +33,21 @@ their entities on undo (``Proxy.nodelete``): the file's undo does that.
 **ifcopenshell version.** FreeCAD 1.0.0's nativeifc uses ``entity_instance.wrapped_data``,
 which ifcopenshell 0.9 removed; :func:`check_available` names the install command.
 """
-import math
 import os
 
 from invrad_wb.errors import InvradError, LuminaireError, SceneError
+from invrad_wb.app import ifcdata
 from invrad_wb.app import settings as S
-from invrad_wb.app.document import activate, describe, transaction
+from invrad_wb.app.document import describe, transaction
+from invrad_wb.app.fixturebody import check_luminaire
+# the requirement sets live in ifcdata (the classic export writes them too)
+from invrad_wb.app.ifcdata import (  # noqa: F401 - nativeifc.read_requirement etc. as before
+    PSET_REQ_IFC4, PSET_REQ_IFC4X3, PSET_RESULT, read_requirement, requirement_pset_name,
+    write_requirement)
 
 SYNC_TYPE = "InvRadIfcSync"
 IFC_CLASS_SPACE = "IfcSpace"
 IFC_CLASS_FIXTURE = "IfcLightFixture"
-#: the lighting requirement property set: IFC4 name, IFC4.3 name (same properties:
-#: ArtificialLighting IfcBoolean, Illuminance IfcIlluminanceMeasure; buildingSMART's
-#: templates as shipped with ifcopenshell.util.pset)
-PSET_REQ_IFC4 = "Pset_SpaceLightingRequirements"
-PSET_REQ_IFC4X3 = "Pset_SpaceLightingDesign"
-#: invrad's own results on an IfcSpace (the standard sets have no achieved values)
-PSET_RESULT = "InvRad_LightingResult"
 IFC08_REQUIREMENT = "ifcopenshell>=0.8.1,<0.9"
 
 
@@ -110,13 +110,7 @@ def is_native_fixture(obj, generated_only=False):
     if not generated_only:
         return True
     ent = entity(obj)
-    return ent is not None and _is_invrad_entity(ent)
-
-
-def _is_invrad_entity(ent):
-    import ifcopenshell.util.element as E
-    pset = E.get_psets(ent).get(S.IFC_LUMINAIRE_PSET) or {}
-    return pset.get("Generator") == S.GENERATOR_TAG
+    return ent is not None and ifcdata._is_invrad_entity(ent)
 
 
 def ifcfile(obj):
@@ -151,67 +145,6 @@ def document_is_native(doc):
     return any(is_native(o) for o in doc.Objects)
 
 
-# --------------------------------------------------------------------------- open
-def open_ifc(path, doc=None, shapemode=None, requirements=True, singledoc=False):
-    """Open an IFC file as a NativeIFC document, with its building structure and spaces.
-
-    FreeCAD 1.0's own importer (``nativeifc.ifc_import.insert``) is used, headless-safe
-    (no dialog): strategy "building structure" (site, building, storeys, spaces),
-    a project object in ``doc``. Rooms with a lighting requirement get a WorkPlane target
-    (one undo step).
-
-    Parameters
-    ----------
-    path : str
-    doc : FreeCAD document, optional (a new one named after the file)
-    shapemode : int, optional
-        NativeIFC shape mode: 0 full shape, 1 coin only, 2 none; None: the user's
-        preference (BIM > NativeIFC).
-    requirements : bool
-        Turn lighting requirements into WorkPlane targets.
-    singledoc : bool
-        NativeIFC's "locked" mode (what *File > Open* does): the document itself is the
-        project, no project object.
-
-    Returns
-    -------
-    (doc, project): the project object, or the document in locked mode
-    """
-    import FreeCAD
-    check_available()
-    path = os.path.abspath(path)
-    if not os.path.isfile(path):
-        raise SceneError("file does not exist", path)
-    from nativeifc import ifc_import
-    if doc is None:
-        doc = FreeCAD.newDocument()
-        doc.Label = os.path.splitext(os.path.basename(path))[0]
-    activate(doc)
-    before = set(o.Name for o in doc.Objects)
-    try:
-        ifc_import.insert(path, doc.Name, strategy=1, shapemode=shapemode, switchwb=False,
-                          silent=True, singledoc=singledoc)
-    except Exception as exc:
-        raise SceneError(f"NativeIFC could not open it: {exc}", path)
-    projs = [o for o in doc.Objects if o.Name not in before and hasattr(o, "IfcFilePath")]
-    if singledoc and hasattr(doc, "IfcFilePath"):
-        projs = [doc]
-    if not projs:
-        raise SceneError("NativeIFC made no project object", path)
-    proj = projs[0]
-    spaces = native_spaces(doc)
-    if not spaces:
-        raise SceneError("the file has no rooms (IfcSpace)", path)
-    if requirements:
-        with transaction(doc, "Lighting requirements from IFC"):
-            for sp in spaces:
-                lux = read_requirement(entity(sp))
-                if lux is not None:
-                    from invrad_wb.app.targets import set_work_plane
-                    set_work_plane(sp, lux)
-    return doc, proj
-
-
 def native_spaces(doc):
     return [o for o in doc.Objects if is_native_space(o)]
 
@@ -230,7 +163,6 @@ def space_solid(obj):
     SceneError
         No IFC entity, no geometry, or an open surface (naming the room).
     """
-    from invrad_wb.app import ifcrooms
     ent = entity(obj)
     who = f"room {describe(obj)}"
     if ent is None:
@@ -242,11 +174,11 @@ def space_solid(obj):
         return _SOLIDS[key].copy()
     import ifcopenshell.geom
     try:
-        shp = ifcopenshell.geom.create_shape(ifcrooms.geometry_settings(), ent)
-        raw = ifcrooms.brep_to_shape(shp.geometry.brep_data)
+        shp = ifcopenshell.geom.create_shape(ifcdata.geometry_settings(), ent)
+        raw = ifcdata.brep_to_shape(shp.geometry.brep_data)
     except Exception as exc:
         raise SceneError(f"{who} has no geometry in the IFC file ({exc})", obj.Label)
-    solid, free = ifcrooms.closed_solid(raw)
+    solid, free = ifcdata.closed_solid(raw)
     if solid is None:
         raise SceneError(f"{who} is not closed: its IfcSpace is an open surface ({free}"
                          " free edges)", obj.Label)
@@ -255,79 +187,17 @@ def space_solid(obj):
 
 
 # --------------------------------------------------------------------------- requirements
-def requirement_pset_name(ifc):
-    """The schema's lighting requirement set: Pset_SpaceLightingDesign in IFC4.3,
-    Pset_SpaceLightingRequirements before."""
-    schema = str(getattr(ifc, "schema", "") or "").upper()
-    return PSET_REQ_IFC4X3 if schema.startswith("IFC4X3") else PSET_REQ_IFC4
-
-
-def read_requirement(ent):
-    """Required illuminance (lux) of an IfcSpace from either lighting set, or None."""
-    if ent is None:
-        return None
-    import ifcopenshell.util.element as E
-    psets = E.get_psets(ent)
-    for name in (PSET_REQ_IFC4X3, PSET_REQ_IFC4):
-        value = (psets.get(name) or {}).get("Illuminance")
-        try:
-            value = float(value)
-        except (TypeError, ValueError):
-            continue
-        if math.isfinite(value) and value >= 0:
-            return value
-    return None
-
-
-def write_requirement(ifc, ent, lux, achieved=None):
-    """Write a space's required illuminance (and, in invrad's own set, what was achieved).
-
-    Parameters
-    ----------
-    ifc : ifcopenshell file
-    ent : IfcSpace
-    lux : float, required work-plane illuminance (lx)
-    achieved : dict, optional
-        ``{"Em": lx, "Emin": lx, "U0": ratio, "Watts": W}`` (any subset) ->
-        ``InvRad_LightingResult`` (the standard sets have no achieved values).
-    """
-    import ifcopenshell.api.pset as PS
-    import ifcopenshell.util.element as E
-    name = requirement_pset_name(ifc)
-    psets = E.get_psets(ent, psets_only=True)
-    if name in psets:
-        pset = ifc.by_id(psets[name]["id"])
-    else:
-        pset = PS.add_pset(ifc, product=ent, name=name)
-    PS.edit_pset(ifc, pset=pset, properties={
-        "Illuminance": ifc.create_entity("IfcIlluminanceMeasure", float(lux)),
-        "ArtificialLighting": True})
-    if achieved:
-        kinds = {"Em": "IfcIlluminanceMeasure", "Emin": "IfcIlluminanceMeasure",
-                 "U0": "IfcRatioMeasure", "Watts": "IfcPowerMeasure"}
-        props = {f"Achieved{k}" if k != "Watts" else "InstalledPower":
-                 ifc.create_entity(kinds[k], float(v))
-                 for k, v in achieved.items() if k in kinds and v is not None
-                 and math.isfinite(float(v))}
-        if props:
-            psets = E.get_psets(ent, psets_only=True)
-            if PSET_RESULT in psets:
-                rp = ifc.by_id(psets[PSET_RESULT]["id"])
-            else:
-                rp = PS.add_pset(ifc, product=ent, name=PSET_RESULT)
-            PS.edit_pset(ifc, pset=rp, properties=props)
 
 
 # --------------------------------------------------------------------------- fixtures
 def fixture_luminaire(obj):
     """The Luminaire of a NativeIFC light fixture, read from its IFC entity (placement
     and ``InvRad_Luminaire``); LuminaireError when it has no flux."""
-    from invrad_wb.app import ifcrooms
     import ifcopenshell.util.unit as U
     ent = entity(obj)
     lum = None
     if ent is not None:
-        lum = ifcrooms.invrad_fixture_data(ent, U.calculate_unit_scale(ifcfile(obj)))
+        lum = ifcdata.invrad_fixture_data(ent, U.calculate_unit_scale(ifcfile(obj)))
     if lum is None:
         raise LuminaireError(f"light fixture {describe(obj)} has no luminous flux"
                              f" ({S.IFC_LUMINAIRE_PSET}.LuminousFlux) in the IFC file")
@@ -350,20 +220,19 @@ def _new_fixture_entity(ifc, space_ent, lum, label, ctx, unit_scale):
     import ifcopenshell.api.geometry as G
     import ifcopenshell.api.root as RT
     import ifcopenshell.api.spatial as SP
-    from invrad_wb.app.ifcexport import add_body, fixture_matrix, luminaire_psets
     ent = RT.create_entity(ifc, ifc_class=IFC_CLASS_FIXTURE, name=label,
                            predefined_type="POINTSOURCE")
     kind = lum.extra.get("type")
     ent.Description = (f"invrad luminaire, {kind}, {lum.flux_lm:.0f} lm" if kind
                        else f"invrad luminaire, {lum.flux_lm:.0f} lm")
     SP.assign_container(ifc, products=[ent], relating_structure=space_ent)
-    G.edit_object_placement(ifc, product=ent, matrix=fixture_matrix(lum), is_si=True)
-    add_body(ifc, ent, lum, ctx, unit_scale)
-    luminaire_psets(ifc, ent, lum)
+    G.edit_object_placement(ifc, product=ent, matrix=ifcdata.fixture_matrix(lum), is_si=True)
+    ifcdata.add_body(ifc, ent, lum, ctx, unit_scale)
+    ifcdata.luminaire_psets(ifc, ent, lum)
     return ent
 
 
-def insert_fixtures(doc, per_room, replace=True, name="Insert luminaires",
+def insert_fixtures(doc, per_room, label, replace=True, name="Insert luminaires",
                     requirements=None):
     """Luminaires -> IfcLightFixture entities in their IfcSpace, as ONE undo step.
 
@@ -371,6 +240,7 @@ def insert_fixtures(doc, per_room, replace=True, name="Insert luminaires",
     ----------
     doc : FreeCAD document (NativeIFC)
     per_room : list of (NativeIFC space object, list of Luminaire)
+    label : callable ``(space, i, luminaire) -> str``, each fixture's name
     replace : bool
         First remove the fixtures invrad put into these rooms before.
     requirements : dict, optional
@@ -384,8 +254,6 @@ def insert_fixtures(doc, per_room, replace=True, name="Insert luminaires",
     from nativeifc import ifc_tools
     import ifcopenshell.api.root as RT
     import ifcopenshell.util.unit as U
-    from invrad_wb.app.fixtures import check_luminaire, fixture_label
-    from invrad_wb.app.ifcexport import body_context
     if not per_room:
         return []
     for space, lums in per_room:
@@ -407,7 +275,7 @@ def insert_fixtures(doc, per_room, replace=True, name="Insert luminaires",
         unit_scale = U.calculate_unit_scale(ifc)
         ifc.begin_transaction()
         try:
-            ctx = body_context(ifc)
+            ctx = ifcdata.body_context(ifc)
             for space, lums in per_room:
                 if replace:
                     for old in room_fixtures(space):
@@ -420,8 +288,8 @@ def insert_fixtures(doc, per_room, replace=True, name="Insert luminaires",
                     raise SceneError(f"room {describe(space)}: its IfcSpace is not in the"
                                      " IFC file", doc.Label)
                 for i, lum in enumerate(lums):
-                    label = fixture_label(space, i, lum)     # with its catalogue type
-                    ent = _new_fixture_entity(ifc, sp_ent, lum, label, ctx, unit_scale)
+                    ent = _new_fixture_entity(ifc, sp_ent, lum, label(space, i, lum), ctx,
+                                              unit_scale)
                     # a Part shape (a small disk), shown whatever the spaces' mode: a new
                     # object in NativeIFC's "Coin" mode was not drawn (FreeCAD 1.0)
                     obj = ifc_tools.create_object(ent, doc, ifc, "Shape")

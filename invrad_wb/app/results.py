@@ -23,6 +23,7 @@ import time
 import numpy as np
 
 from invrad_wb.errors import SceneError
+from invrad_wb.app import settings as S
 from invrad_wb.app.document import transaction
 from invrad_wb.app.fixtures import fixture_luminaire, insert_fixtures, room_fixtures
 from invrad_wb.app.pipeline import (_progress, assign_rooms, by_room, prepare, write_report,
@@ -30,7 +31,7 @@ from invrad_wb.app.pipeline import (_progress, assign_rooms, by_room, prepare, w
 from invrad_wb.app.rooms import room_name
 
 #: Name of the metrics spreadsheet (its Label is :data:`SHEET_LABEL`).
-SHEET_NAME = "InvRadReport"
+SHEET_NAME = S.SHEET_NAME
 SHEET_LABEL = "Lighting report"
 
 #: Columns of the metrics sheet: (key of a metrics row, header). The keys are those of

@@ -19,6 +19,7 @@ import time
 import numpy as np
 
 from invrad_wb.errors import SceneError, SettingsError
+from invrad_wb.app import nativeifc
 from invrad_wb.app import settings as S
 from invrad_wb.app.document import describe, object_type
 from invrad_wb.core.geometry.meshing import refine, signed_volume, triangle_normals
@@ -98,13 +99,11 @@ def is_space(obj):
     """An Arch/BIM Space, or an IfcSpace of a NativeIFC document (FreeCAD 1.x)."""
     if object_type(obj) == "Space":
         return True
-    from invrad_wb.app import nativeifc
     return nativeifc.is_native_space(obj)
 
 
 def is_native(space):
     """True for an IfcSpace object of a NativeIFC document."""
-    from invrad_wb.app import nativeifc
     return nativeifc.is_native_space(space)
 
 
@@ -112,8 +111,7 @@ def room_name(space):
     """The name of a room shown to the user: its Label, or a NativeIFC IfcSpace's
     LongName ("Wohnen"; NativeIFC labels it with the IFC Name, e.g. "1")."""
     if is_native(space):
-        from invrad_wb.app import nativeifc
-        return nativeifc.space_name(space)
+            return nativeifc.space_name(space)
     return space.Label
 
 
@@ -170,8 +168,7 @@ def room_shape(space):
         surface is not closed.
     """
     if is_native(space):
-        from invrad_wb.app import nativeifc
-        return nativeifc.space_solid(space)
+            return nativeifc.space_solid(space)
     who = f"room {describe(space)}"
     base = getattr(space, "Base", None)
     if base is not None and hasattr(base, "Shape") and not base.Shape.isNull():

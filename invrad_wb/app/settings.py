@@ -39,3 +39,7 @@ GENERATOR_TAG = "invrad"
 
 #: Label of the document group that holds the lighting targets.
 TARGETS_GROUP_LABEL = "Lighting targets"
+
+#: Name of invrad's metrics spreadsheet in a document (app/results.py writes it; the IFC
+#: export leaves it out).
+SHEET_NAME = "InvRadReport"

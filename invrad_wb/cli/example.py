@@ -22,7 +22,7 @@ def add_parser(sub):
 
 
 def run(args):
-    from invrad_wb.core.model.luminaires import write_luminaires_json
+    from invrad_wb.core.io.jsonout import write_luminaires_json
     from invrad_wb.core.synthetic.scenarios import known_scene, MIXED_SCENARIOS
     from invrad_wb.core.synthetic.scenarios import SCENARIOS as ONE_FLUX
     SCENARIOS = ONE_FLUX + MIXED_SCENARIOS

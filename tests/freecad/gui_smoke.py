@@ -992,7 +992,7 @@ class Smoke:
         import FreeCADGui
         from PySide import QtGui
         from fctest import FZK
-        from invrad_wb.app import fixtures, nativeifc, rooms, targets
+        from invrad_wb.app import fixtures, ifcimport, nativeifc, rooms, targets
         from invrad_wb.gui import messages
         if not self.check("NativeIFC available (FreeCAD 1.x)", nativeifc.available()):
             return
@@ -1000,7 +1000,7 @@ class Smoke:
         src = os.path.join(tmp, "AC20-FZK-Haus.ifc")
         shutil.copy(FZK, src)
         t0 = time.time()
-        doc, proj = nativeifc.open_ifc(src, shapemode=1)      # NativeIFC's coin display
+        doc, proj = ifcimport.open_ifc(src, shapemode=1)      # NativeIFC's coin display
         FreeCADGui.SendMsgToActiveView("ViewFit")
         yield None
         spaces = {rooms.room_name(s): s for s in rooms.find_spaces(doc)}

@@ -15,7 +15,7 @@ import numpy as np
 import FreeCAD
 
 from fctest import FZK, FZK_ROOMS, ROOT, FreeCADTestCase, needs_fzk
-from invrad_wb.app import fixtures, nativeifc, pipeline, rooms, targets
+from invrad_wb.app import fixtures, ifcimport, nativeifc, pipeline, rooms, targets
 from invrad_wb.app import design as app_design
 from invrad_wb.app.document import snapshot
 from invrad_wb.errors import InvradError
@@ -59,7 +59,7 @@ class TestNativeFZK(FreeCADTestCase):
         self.src = self.path("fzk.ifc")
         shutil.copy(FZK, self.src)
         # shape mode 2 (no Part shapes): rooms come from the IfcSpace geometry anyway
-        self.ndoc, self.proj = nativeifc.open_ifc(self.src, doc=self.doc, shapemode=2)
+        self.ndoc, self.proj = ifcimport.open_ifc(self.src, doc=self.doc, shapemode=2)
         self.ifc = self.proj.Proxy.ifcfile
 
     def spaces(self):
@@ -240,20 +240,20 @@ class TestNativeFZK(FreeCADTestCase):
         n = len(list(self.ifc))
         lum = Luminaire([4.0, 7.8, 2.4], [0, 0, -1], 1000.0)
         calls = []
-        from invrad_wb.app import ifcexport
-        real = ifcexport.luminaire_psets
+        from invrad_wb.app import ifcdata
+        real = ifcdata.luminaire_psets
 
         def fail_second(*args):           # the second fixture's property sets fail
             calls.append(1)
             if len(calls) == 2:
                 raise InvradError("injected failure")
             return real(*args)
-        ifcexport.luminaire_psets = fail_second        # nativeifc imports it per call
+        ifcdata.luminaire_psets = fail_second      # nativeifc looks it up per call
         try:
             with self.assertRaises(InvradError):
                 fixtures.insert_fixtures(self.doc, [(sp["Buero"], [lum]), (sp["Bad"], [lum])])
         finally:
-            ifcexport.luminaire_psets = real
+            ifcdata.luminaire_psets = real
         self.assertEqual(len(calls), 2)
         self.assertEqual(snapshot(self.doc), before)
         self.assertEqual(len(list(self.ifc)), n)
@@ -277,7 +277,7 @@ class TestNativeLockedDocument(FreeCADTestCase):
         from invrad_wb.core.model.luminaires import Luminaire
         src = self.path("fzk.ifc")
         shutil.copy(FZK, src)
-        doc, proj = nativeifc.open_ifc(src, doc=self.doc, shapemode=2, singledoc=True)
+        doc, proj = ifcimport.open_ifc(src, doc=self.doc, shapemode=2, singledoc=True)
         self.assertIs(proj, doc)
         ifc = doc.Proxy.ifcfile
         sp = {rooms.room_name(s): s for s in rooms.find_spaces(doc)}
@@ -316,7 +316,7 @@ class TestRequirementsRead(FreeCADTestCase):
             RelatingPropertyDefinition=p)
         path = self.path("req.ifc")
         ifc.write(path)
-        nativeifc.open_ifc(path, doc=self.doc, shapemode=2)
+        ifcimport.open_ifc(path, doc=self.doc, shapemode=2)
         wp = {rooms.room_name(s): targets.work_plane_target(s)
               for s in rooms.find_spaces(self.doc)}
         self.assertEqual(wp["Buero"].Lux, 500.0)

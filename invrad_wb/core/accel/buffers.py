@@ -1,7 +1,7 @@
 """Host <-> device data for the kernel wrappers: one way to make a buffer, one way to launch.
 
 Every OpenCL wrapper (``forward/direct.py``, ``forward/occlusion.py``,
-``forward/radiosity.py``, ``inverse/votes.py``, ``inverse/votes_ellipse.py``,
+``forward/form_factors.py``, ``inverse/votes.py``, ``inverse/votes_ellipse.py``,
 ``geometry/bvh.py``) builds its device buffers with :func:`device_buffer` and, for
 ``float4`` kernel arguments, packs (k, 3) arrays with :func:`float4`.
 """

@@ -9,14 +9,15 @@ site writes the if/else out. ``tests/test_accel.py`` runs a parity test for ever
 registered pair and fails for a pair that has no test case.
 """
 from dataclasses import dataclass
+import functools
+import os
+import re
 
 from invrad_wb.core.accel.device import check_backend
 
 _PAIRS = {}
-#: modules that register pairs when imported
-_MODULES = ("invrad_wb.core.forward.direct", "invrad_wb.core.forward.occlusion",
-            "invrad_wb.core.forward.radiosity", "invrad_wb.core.inverse.votes",
-            "invrad_wb.core.inverse.votes_ellipse")
+#: a module-level ``register(...)`` call: how a kernel family's module is found
+_REGISTERS = re.compile(r"^register\(", re.M)
 
 
 @dataclass(frozen=True)
@@ -35,10 +36,28 @@ def register(name, opencl, numpy, what=""):
     return _PAIRS[name]
 
 
+@functools.lru_cache(maxsize=None)
+def kernel_modules():
+    """The core's modules that register pairs (a module-level ``register(...)`` call),
+    found in their source: a new kernel family's module needs no list kept by hand."""
+    core = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    out = []
+    for folder, dirs, files in os.walk(core):
+        dirs[:] = sorted(d for d in dirs if not d.startswith(("_", ".")))
+        for f in sorted(files):
+            if f.endswith(".py"):
+                path = os.path.join(folder, f)
+                with open(path, "r", encoding="utf-8") as fh:
+                    if _REGISTERS.search(fh.read()):
+                        rel = os.path.relpath(path[:-3], os.path.dirname(core))
+                        out.append("invrad_wb." + rel.replace(os.sep, "."))
+    return tuple(out)
+
+
 def pairs():
-    """Every registered pair, by name."""
+    """Every registered pair, by name (importing the modules that register them)."""
     import importlib
-    for m in _MODULES:
+    for m in kernel_modules():
         importlib.import_module(m)
     return dict(_PAIRS)
 

@@ -22,9 +22,8 @@ import numpy as np
 
 from invrad_wb.core.design.evaluate import luminaires_of, unit_response
 from invrad_wb.core.design.layouts import mount
+from invrad_wb.constants import SPOT_TOLERANCE
 
-#: A spot is met when its maintained mean lux is within this fraction of its target mean.
-SPOT_TOLERANCE = 0.10
 #: A group of target points covering more than this fraction of the planes it lies on is a
 #: surface goal, not a spot.
 SPOT_MAX_AREA_FRACTION = 0.25

@@ -14,6 +14,8 @@ EN 12464-1; give their requirement explicitly.
 from dataclasses import dataclass
 import math
 
+from invrad_wb.core.output.metrics import grid_spacing  # noqa: F401 - the standard's grid
+
 
 @dataclass(frozen=True)
 class RoomTypeRequirement:
@@ -38,8 +40,7 @@ WALLS_MIN_OFFICE = (75.0, 0.10)
 CEILING_MIN_OFFICE = (50.0, 0.10)
 _OFFICE = dict(walls_lux=WALLS_MIN_OFFICE[0], ceiling_lux=CEILING_MIN_OFFICE[0],
                cylindrical_lux=150.0)
-#: where the surface minimums come from (said in the report)
-SURFACE_REFERENCE = "EN 12464-1:2021 5.2.3"
+from invrad_wb.constants import SURFACE_REFERENCE  # noqa: E402,F401 - said in the report
 
 
 _TABLE = (
@@ -104,13 +105,6 @@ def surface_minimums(room_type=None):
         return {"walls": WALLS_MIN, "ceiling": CEILING_MIN}
     return {"walls": (req.walls_lux, WALLS_MIN[1]), "ceiling": (req.ceiling_lux,
                                                                CEILING_MIN[1])}
-
-
-def grid_spacing(d):
-    """EN 12464-1 maximum grid spacing ``p = 0.2 * 5^log10(d)`` (metres) for an area whose
-    longer dimension is ``d`` metres (``p`` at most 10 m)."""
-    d = max(float(d), 1e-3)
-    return min(10.0, 0.2 * 5.0 ** math.log10(d))
 
 
 def grid_counts(length, width):

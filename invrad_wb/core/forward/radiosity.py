@@ -69,7 +69,6 @@ Backends: ``opencl`` computes the form factors with ``kernels/radiosity.cl`` (fl
 ``float16``/``float8`` vectors) and the visibility with ``kernels/occlusion.cl``; ``numpy``
 is the float64 twin (vectorised, chunked to bounded memory) and needs no OpenCL.
 """
-import math
 import time
 import warnings
 
@@ -78,325 +77,16 @@ import numpy as np
 from invrad_wb import constants as C
 from invrad_wb.errors import SettingsError
 from invrad_wb.core.geometry.bvh import BVH
-from invrad_wb.core.accel.buffers import device_buffer, float4, round_up
-from invrad_wb.core.accel.device import check_backend, get_env
-from invrad_wb.core.accel.registry import implementation, register
-
-#: Patches per OpenCL work-item (float16 lanes) and triangles per near-field vector.
-PATCH_LANES = 16
-TRI_LANES = 8
-
-
-# ---------------------------------------------------------------------------- exact formula
-def _edge_terms(a, b, m):
-    """``gamma (m . unit(a x b))`` per row for contour edges a -> b, (k, 3) each -> (k,)."""
-    cr = np.cross(a, b)
-    s2 = np.einsum("ij,ij->i", cr, cr)
-    la2 = np.einsum("ij,ij->i", a, a)
-    lb2 = np.einsum("ij,ij->i", b, b)
-    s = np.sqrt(s2)
-    g = np.arctan2(s, np.einsum("ij,ij->i", a, b))
-    ok = s2 > 1e-24 * la2 * lb2
-    return np.where(ok, np.einsum("ij,ij->i", m, cr) * g / np.where(ok, s, 1.0), 0.0)
+from invrad_wb.core.accel.device import check_backend, get_env  # noqa: F401 - R.get_env
+# the parts of the method, each in its module (their names stay importable from here)
+from invrad_wb.core.forward.patches import (  # noqa: F401
+    PatchSet, _cluster_stats, _grid_cells, default_patch_size)
+from invrad_wb.core.forward.form_factors import (  # noqa: F401
+    _form_factors_numpy, form_factor_matrix, patch_form_factors, point_triangle_form_factor)
+from invrad_wb.core.forward.visibility import patch_visibility  # noqa: F401
 
 
-def point_triangle_form_factor(points, normals, triangles):
-    """Exact form factor from differential areas to triangles, clipped at their horizon.
-
-    ``F = -1/(2 pi) sum_edges gamma_e m . unit(R_e x R_e+1)`` over the part of each triangle
-    in front of the receiver's tangent plane (the Lambert / Nusselt contour integral).
-
-    Parameters
-    ----------
-    points : (k, 3) float64, metres
-        Receiver points; none may lie on a triangle's contour.
-    normals : (k, 3) float64
-        Unit receiver normals.
-    triangles : (k, 3, 3) float64, metres
-        One triangle per receiver, counter-clockwise seen from the side it emits to. A
-        receiver behind a triangle gets a negative value: callers skip back-facing pairs.
-
-    Returns
-    -------
-    (k,) float64, dimensionless: the fraction of the receiver's hemisphere-projected view
-    covered by the triangle.
-    """
-    p = np.asarray(points, dtype=np.float64)
-    m = np.asarray(normals, dtype=np.float64)
-    tri = np.asarray(triangles, dtype=np.float64)
-    r = [tri[:, 0] - p, tri[:, 1] - p, tri[:, 2] - p]
-    h = [np.einsum("ij,ij->i", m, x) for x in r]
-    inside = [x > 0 for x in h]
-    total = np.zeros(len(p))
-    leave = np.zeros_like(p)
-    enter = np.zeros_like(p)
-    for e in range(3):
-        ra, rb = r[e], r[(e + 1) % 3]
-        ha, hb = h[e], h[(e + 1) % 3]
-        ia, ib = inside[e], inside[(e + 1) % 3]
-        cut = ia != ib
-        t = ha / np.where(cut, ha - hb, 1.0)
-        x = ra + t[:, None] * (rb - ra)
-        start = np.where(ia[:, None], ra, x)
-        end = np.where(ib[:, None], rb, x)
-        total += np.where(ia | ib, _edge_terms(start, end, m), 0.0)
-        leave = np.where((ia & ~ib)[:, None], x, leave)
-        enter = np.where((~ia & ib)[:, None], x, enter)
-    cut = (inside[0] | inside[1] | inside[2]) & ~(inside[0] & inside[1] & inside[2])
-    total += np.where(cut, _edge_terms(leave, enter, m), 0.0)
-    return -total / (2.0 * np.pi)
-
-
-# ---------------------------------------------------------------------------- patches
-def _cluster_stats(tri, tri_cluster, n):
-    """Area, area centroid, representative point and radius of clusters of triangles.
-
-    Parameters
-    ----------
-    tri : (T, 3, 3) float64
-    tri_cluster : (T,) int64 in [0, n)
-
-    Returns
-    -------
-    area (n,), centroid (n, 3), point (n, 3), radius (n,), rep (n,) int64 (the triangle
-    whose centroid is the representative point).
-    """
-    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    a = 0.5 * np.linalg.norm(cross, axis=1)
-    cen = tri.mean(axis=1)
-    area = np.bincount(tri_cluster, weights=a, minlength=n)
-    centroid = np.stack([np.bincount(tri_cluster, weights=a * cen[:, k], minlength=n)
-                         for k in range(3)], axis=1) / np.maximum(area, 1e-300)[:, None]
-    dist = np.linalg.norm(cen - centroid[tri_cluster], axis=1)
-    order = np.lexsort((dist, tri_cluster))
-    first = np.ones(len(order), dtype=bool)
-    first[1:] = tri_cluster[order[1:]] != tri_cluster[order[:-1]]
-    rep = np.zeros(n, dtype=np.int64)
-    rep[tri_cluster[order[first]]] = order[first]
-    corner = np.linalg.norm(tri - centroid[tri_cluster][:, None, :], axis=2).max(axis=1)
-    radius = np.zeros(n)
-    np.maximum.at(radius, tri_cluster, corner)
-    return area, centroid, cen[rep], radius, rep
-
-
-class PatchSet:
-    """Patches of one room: the emitter side of the point-to-patch form factors.
-
-    Parameters
-    ----------
-    triangles : (T, 3, 3) float64, metres
-        Counter-clockwise seen from the front (the side the patch emits to).
-    tri_patch : (T,) int
-        Patch of each triangle; every patch must have at least one triangle.
-    plane : (P,) int
-        Plane id of each patch (form factors between patches of one plane are 0).
-    normal : (P, 3) float64
-        Unit normal of each patch (its plane's).
-    reflectance : (P,) float64, optional
-        Diffuse reflectance (default 0.5).
-    emits : (P,) bool, optional
-        False for patches that never emit (virtual receivers): their form factors are 0.
-
-    Attributes
-    ----------
-    n : int
-        Number of patches P.
-    area : (P,) float64, m^2
-    centroid : (P, 3) float64, metres (area centroid; may lie off a non-convex patch)
-    point : (P, 3) float64, metres (representative point, on the surface)
-    radius : (P,) float64, metres
-    triangles : (T, 3, 3) float64 sorted by patch; ``tri_start (P + 1,)`` delimits them.
-    tri_index : (T,) int64, position of each sorted triangle in the input.
-    """
-
-    def __init__(self, triangles, tri_patch, plane, normal, reflectance=None, emits=None):
-        tri = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
-        tri_patch = np.asarray(tri_patch, dtype=np.int64).reshape(-1)
-        self.plane = np.asarray(plane, dtype=np.int64).reshape(-1)
-        n = len(self.plane)
-        self.n = n
-        self.normal = np.asarray(normal, dtype=np.float64).reshape(n, 3)
-        self.reflectance = (np.full(n, 0.5) if reflectance is None
-                            else np.asarray(reflectance, dtype=np.float64).reshape(n))
-        self.emits = (np.ones(n, dtype=bool) if emits is None
-                      else np.asarray(emits, dtype=bool).reshape(n))
-        order = np.argsort(tri_patch, kind="stable")
-        self.tri_index = order
-        self.triangles = tri[order]
-        counts = np.bincount(tri_patch, minlength=n)
-        if np.any(counts == 0):
-            raise ValueError("every patch needs at least one triangle")
-        self.tri_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-        (self.area, self.centroid, self.point, self.radius,
-         self.rep_triangle) = _cluster_stats(self.triangles, tri_patch[order], n)
-        self._cl = None
-
-    @property
-    def ray_point(self):
-        """(P, 3) visibility ray ends: inside the representative triangle, near its centroid.
-
-        The barycentric weights are perturbed by up to +-0.05 (a fixed low-discrepancy
-        sequence over the patch index), so that the rays of symmetric geometry (grid meshes
-        of rectangular rooms) do not pass exactly through occluder edges, where the float32
-        and float64 ray tests may disagree.
-        """
-        k = np.arange(self.n)
-        d1 = 0.1 * (np.mod(k * 0.6180339887498949 + 0.31, 1.0) - 0.5)
-        d2 = 0.1 * (np.mod(k * 0.7548776662466927 + 0.17, 1.0) - 0.5)
-        w = np.stack([1.0 / 3 + d1, 1.0 / 3 + d2, 1.0 / 3 - d1 - d2], axis=1)
-        return np.einsum("pk,pkj->pj", w, self.triangles[self.rep_triangle])
-
-    @property
-    def near_r2(self):
-        """(P,) squared distance (m^2) within which the exact form factor is used."""
-        r = C.RADIOSITY_NEAR_FACTOR * self.radius
-        return np.where(self.emits, r * r, 0.0)
-
-    @property
-    def blend_r2(self):
-        """(P,) squared distance (m^2) beyond which the far field is used alone.
-
-        Between ``near_r2`` and ``blend_r2`` the exact and the far-field values are blended
-        linearly in r^2. 0 for patches that do not emit.
-        """
-        r = (C.RADIOSITY_NEAR_FACTOR + C.RADIOSITY_NEAR_BLEND) * self.radius
-        return np.where(self.emits, r * r, 0.0)
-
-    # ------------------------------------------------------------------ OpenCL upload
-    def cl_buffers(self, env, centre):
-        """Device buffers (pblk, pplane, tstart, tris), coordinates relative to ``centre``."""
-        key = (env.ctx, tuple(np.round(centre, 12)))
-        if self._cl is not None and self._cl[0] == key:
-            return self._cl[1]
-        n = self.n
-        nblk = max(1, -(-n // PATCH_LANES))
-        ppad = nblk * PATCH_LANES
-        rows = np.zeros((8, ppad), np.float64)
-        rows[0:3] = 1e4  # padding patches far away, area 0
-        rows[0:3, :n] = (self.centroid - centre).T
-        rows[3:6, :n] = self.normal.T
-        rows[6, :n] = np.where(self.emits, self.area, 0.0)
-        rows[7, :n] = self.blend_r2
-        pblk = np.ascontiguousarray(
-            rows.reshape(8, nblk, PATCH_LANES).transpose(1, 0, 2).astype(np.float32))
-        pplane = np.full(ppad, -2, np.int32)
-        pplane[:n] = self.plane
-        # triangles of each emitting patch, padded to blocks of TRI_LANES
-        counts = np.diff(self.tri_start)
-        nb = np.where(self.emits, -(-counts // TRI_LANES), 0)
-        tstart = np.concatenate([[0], np.cumsum(nb)]).astype(np.int32)
-        total = max(1, int(tstart[-1]))
-        slot_patch = np.repeat(np.arange(n), nb * TRI_LANES)
-        slot_rank = np.arange(len(slot_patch)) - np.repeat(tstart[:-1] * TRI_LANES,
-                                                            nb * TRI_LANES)
-        real = slot_rank < counts[slot_patch]
-        src = np.where(real, self.tri_start[slot_patch] + slot_rank,
-                       self.tri_start[slot_patch])
-        t = self.triangles[src] - centre
-        t[~real] = t[~real][:, :1, :]  # degenerate padding: three equal corners
-        tris = np.zeros((total, 9, TRI_LANES), np.float32)
-        if len(slot_patch):
-            tris[:len(slot_patch) // TRI_LANES] = (
-                t.reshape(-1, TRI_LANES, 9).transpose(0, 2, 1))
-        bufs = tuple(device_buffer(env, a) for a in (pblk, pplane, tstart, tris))
-        self._cl = (key, bufs)
-        return bufs
-
-
-def _grid_cells(plane, centroids, cell, subdiv):
-    """Grid cell of triangle centroids on a plane: (patch key, sub-cell key)."""
-    uv = plane.to_plane_coords(centroids)
-    keys, subkeys = [], []
-    counts = []
-    for axis in range(2):
-        size = float(plane.size[axis])
-        k = max(1, int(round(size / cell)))
-        step = size / k if size > 0 else 1.0
-        i_sub = np.clip(np.floor(uv[:, axis] / (step / subdiv)).astype(np.int64), 0,
-                        k * subdiv - 1)
-        keys.append(i_sub // subdiv)
-        subkeys.append(i_sub)
-        counts.append(k)
-    key = keys[0] * counts[1] + keys[1]
-    subkey = subkeys[0] * (counts[1] * subdiv) + subkeys[1]
-    return key, subkey
-
-
-def default_patch_size(scene, faces):
-    """Patch edge (metres) for a room: about RADIOSITY_TARGET_PATCHES patches.
-
-    Never smaller than ``RADIOSITY_MIN_PATCH_M`` nor than the typical triangle
-    (``sqrt(2 * median face area)``).
-    """
-    a = scene.face_areas[faces]
-    real = ~scene.face_virtual[faces]
-    total = float(a[real].sum()) if real.any() else float(a.sum())
-    size = math.sqrt(total / C.RADIOSITY_TARGET_PATCHES)
-    return max(size, C.RADIOSITY_MIN_PATCH_M, math.sqrt(2.0 * float(np.median(a))))
-
-
-# ---------------------------------------------------------------------------- form factors
-def form_factor_matrix(points, normals, point_plane, patches, point_patch=None,
-                       visibility=None, backend="numpy", centre=None):
-    """Point-to-patch form factors ``F(p_i -> j) * V(point_patch_i, j)``.
-
-    Parameters
-    ----------
-    points : (k, 3) float64, metres
-    normals : (k, 3) float64, unit receiver normals
-    point_plane : (k,) int
-        Plane id of each receiver (patches of the same plane give 0).
-    patches : PatchSet
-    point_patch : (k,) int, optional
-        Row of ``visibility`` for each receiver (required with ``visibility``).
-    visibility : (P, P) uint8, optional
-        Patch-to-patch visibility (1 visible, 0 occluded); None = all visible.
-    backend : {'numpy', 'opencl'}
-    centre : (3,) float64, optional
-        Origin for the float32 coordinates on the device (default: mean patch centroid).
-
-    Returns
-    -------
-    (k, P) float64 (numpy) or float32 (opencl), dimensionless.
-    """
-    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
-    point_plane = np.asarray(point_plane, dtype=np.int64).reshape(-1)
-    if visibility is not None:
-        if point_patch is None:
-            raise ValueError("visibility needs point_patch")
-        point_patch = np.asarray(point_patch, dtype=np.int64).reshape(-1)
-    fn = implementation("form_factors", backend)
-    return fn(points, normals, point_plane, patches, point_patch, visibility, centre)
-
-
-def _near_field_numpy(p, m, ps, pj):
-    """Exact form factors for (receiver, patch) pairs: p, m (k, 3), pj (k,) -> (k,)."""
-    eps = C.RAY_EPS_M
-    c, nrm = ps.centroid[pj], ps.normal[pj]
-    h = np.einsum("ij,ij->i", p - c, nrm)
-    front = h > -eps
-    p = p + np.maximum(eps - h, 0.0)[:, None] * nrm
-    counts = np.where(front, np.diff(ps.tri_start)[pj], 0)
-    out = np.zeros(len(pj))
-    ends = np.cumsum(counts)
-    budget = C.RADIOSITY_NUMPY_CHUNK
-    s = 0
-    while s < len(pj):
-        # pairs s..e-1 with at most `budget` triangles in all (at least one pair)
-        base = ends[s - 1] if s else 0
-        e = max(s + 1, int(np.searchsorted(ends, base + budget, side="right")))
-        cnt = counts[s:e]
-        pair = np.repeat(np.arange(s, e), cnt)
-        if len(pair):
-            rank = np.arange(len(pair)) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-            tri = ps.triangles[ps.tri_start[pj[pair]] + rank]
-            val = point_triangle_form_factor(p[pair], m[pair], tri)
-            out[s:e] = np.bincount(pair - s, weights=val, minlength=e - s)
-        s = e
-    return out
-
-
+# ---------------------------------------------------------------------------- direct light
 #: luminaires whose near-field pairs are found together (a (block, P) distance array)
 NEAR_FIELD_BLOCK = 256
 
@@ -456,247 +146,9 @@ def _near_field_correction(ps, p, n, lums, bvh, occlusion):
     return out
 
 
-def _inner_ratio():
-    """(near radius / blend radius)^2."""
-    return (C.RADIOSITY_NEAR_FACTOR / (C.RADIOSITY_NEAR_FACTOR + C.RADIOSITY_NEAR_BLEND)) ** 2
-
-
-def _form_factors_numpy(points, normals, point_plane, ps, point_patch, vis, centre=None):
-    """Numpy twin of ``kernels/radiosity.cl`` (float64); see :func:`form_factor_matrix`."""
-    k, n = len(points), ps.n
-    out = np.zeros((k, n))
-    if k == 0 or n == 0:
-        return out
-    area = np.where(ps.emits, ps.area, 0.0)
-    blend_r2 = ps.blend_r2
-    inner = _inner_ratio()
-    rows = max(1, C.RADIOSITY_NUMPY_CHUNK // max(1, 4 * n))
-    for s in range(0, k, rows):
-        p, m = points[s:s + rows], normals[s:s + rows]
-        d = ps.centroid[None, :, :] - p[:, None, :]
-        d2 = np.maximum(np.einsum("kpi,kpi->kp", d, d), 1e-24)
-        ci = np.einsum("kpi,ki->kp", d, m)
-        cj = -np.einsum("kpi,pi->kp", d, ps.normal)
-        f = area * np.maximum(ci, 0.0) * np.maximum(cj, 0.0) / (np.pi * d2 * d2)
-        same = ps.plane[None, :] == point_plane[s:s + rows, None]
-        near = (d2 < blend_r2) & ~same
-        ri, pj = np.nonzero(near)
-        if len(ri):
-            exact = _near_field_numpy(p[ri], m[ri], ps, pj)
-            b2 = blend_r2[pj]
-            t = np.clip((d2[ri, pj] - inner * b2) / ((1.0 - inner) * b2), 0.0, 1.0)
-            f[ri, pj] = exact + t * (f[ri, pj] - exact)
-        f[same] = 0.0
-        if vis is not None:
-            f *= vis[point_patch[s:s + rows]]
-        out[s:s + rows] = f
-    return out
-
-
-
-def _patch_launch(env, ps, vis, centre, kernel):
-    """What both radiosity.cl form-factor kernels take: the centre (float32 coordinates are
-    relative to it), patch blocks of ``PATCH_LANES`` (count and padded length), the patch
-    set's device buffers, the kernel built with ``-D VIS`` and the padded visibility buffer
-    (a dummy when ``vis`` is None)."""
-    n = ps.n
-    if centre is None:
-        centre = ps.centroid.mean(axis=0)
-    centre = np.asarray(centre, dtype=np.float64)
-    nblk = -(-n // PATCH_LANES)
-    ppad = nblk * PATCH_LANES
-    bufs = ps.cl_buffers(env, centre)
-    knl = env.kernel("radiosity", kernel, [f"-D VIS={0 if vis is None else 1}"])
-    if vis is None:
-        d_vis = device_buffer(env, np.zeros(16, np.uint8))     # not read with VIS=0
-    else:
-        vpad = np.zeros((n, ppad), np.uint8)
-        vpad[:, :n] = vis
-        d_vis = device_buffer(env, vpad)
-    return centre, nblk, ppad, bufs, knl, d_vis
-
-
-def _form_factors_opencl(points, normals, point_plane, ps, point_patch, vis, centre=None):
-    """Form factors with ``kernels/radiosity.cl`` (float32); see :func:`form_factor_matrix`."""
-    env = get_env()
-    k, n = len(points), ps.n
-    out = np.zeros((k, n), np.float32)
-    if k == 0 or n == 0:
-        return out
-    centre, nblk, ppad, (pblk, pplane, tstart, tris), knl, d_vis = _patch_launch(
-        env, ps, vis, centre, "form_factors")
-    info = np.zeros((k, 2), np.int32)
-    info[:, 0] = point_plane
-    if point_patch is not None:
-        info[:, 1] = point_patch
-    rows = max(1, min(k, (C.RADIOSITY_CL_CHUNK_MB << 20) // (4 * ppad)))
-    host = np.empty((rows, ppad), np.float32)
-    d_out = device_buffer(env, host, "write")
-    for s in range(0, k, rows):
-        e = min(k, s + rows)
-        c = e - s
-        d_pts = device_buffer(env, float4(points[s:e] - centre))
-        d_nrm = device_buffer(env, float4(normals[s:e]))
-        d_inf = device_buffer(env, info[s:e])
-        knl(env.queue, (round_up(c, 8), nblk), None, np.int32(c), np.int32(ppad),
-            d_pts, d_nrm, d_inf, pblk, pplane, tstart, tris, d_vis,
-            np.float32(C.RAY_EPS_M), np.float32(_inner_ratio()), d_out)
-        env.cl.enqueue_copy(env.queue, host[:c], d_out)
-        out[s:e] = host[:c, :n]
-    return out
-
-
-register("form_factors", _form_factors_opencl, _form_factors_numpy,
-         "point-to-patch form factors, exact near and point far (kernels/radiosity.cl)")
-
-
-def patch_form_factors(points, normals, ps, parent, weight, vis, backend="numpy",
-                       centre=None):
-    """Patch-to-patch form factors: each row the weighted sum over its samples.
-
-    ``F[i, j] = sum_{s: parent_s = i} weight_s F(s -> j) V(i, j)``, with the point-to-patch
-    form factor of :func:`form_factor_matrix` (receivers on their parent's plane).
-
-    Parameters
-    ----------
-    points : (S, 3) float64, metres
-        Sub-patch sample points, sorted by ``parent``.
-    normals : (S, 3) float64, unit
-    ps : PatchSet
-    parent : (S,) int, non-decreasing
-        The patch each sample belongs to (its row).
-    weight : (S,) float64
-        Sample area / parent patch area.
-    vis : (P, P) uint8 or None
-    backend : {'numpy', 'opencl', 'auto'}
-    centre : (3,) float64, optional
-        Origin of the device's float32 coordinates.
-
-    Returns
-    -------
-    (P, P) float64, dimensionless (rows without samples are 0).
-    """
-    parent = np.asarray(parent, dtype=np.int64).reshape(-1)
-    if len(parent) > 1 and np.any(np.diff(parent) < 0):
-        raise ValueError("patch_form_factors: samples must be sorted by parent")
-    fn = implementation("patch_form_factors", backend)
-    return fn(np.asarray(points, dtype=np.float64).reshape(-1, 3),
-              np.asarray(normals, dtype=np.float64).reshape(-1, 3), ps, parent,
-              np.asarray(weight, dtype=np.float64).reshape(-1), vis, centre)
-
-
-def _patch_form_factors_numpy(points, normals, ps, parent, weight, vis, centre=None):
-    """Numpy twin of ``patch_form_factors`` in ``kernels/radiosity.cl`` (float64): the
-    samples' rows of :func:`_form_factors_numpy`, weighted and summed per parent."""
-    n = ps.n
-    F = np.zeros((n, n))
-    if n == 0 or len(parent) == 0:
-        return F
-    step = max(1, (C.RADIOSITY_CL_CHUNK_MB << 20) // (8 * n))
-    for s in range(0, len(parent), step):
-        p = parent[s:s + step]
-        fs = _form_factors_numpy(points[s:s + step], normals[s:s + step], ps.plane[p], ps,
-                                 p, vis, centre)
-        fs *= weight[s:s + step, None]
-        # samples are sorted by parent: one segment per parent in this chunk
-        starts = np.flatnonzero(np.r_[True, p[1:] != p[:-1]])
-        F[p[starts]] += np.add.reduceat(fs, starts, axis=0)
-    return F
-
-
-def _patch_form_factors_opencl(points, normals, ps, parent, weight, vis, centre=None):
-    """``patch_form_factors`` of ``kernels/radiosity.cl`` (float32 on the device, the sum
-    over a row's samples included); see :func:`patch_form_factors`."""
-    n = ps.n
-    F = np.zeros((n, n))
-    if n == 0 or len(parent) == 0:
-        return F
-    env = get_env()
-    centre, nblk, ppad, (pblk, pplane, tstart, tris), knl, d_vis = _patch_launch(
-        env, ps, vis, centre, "patch_form_factors")
-    info = np.stack([ps.plane[parent], parent], axis=1).astype(np.int32)
-    # sstart[r] = first sample of row r (rows without samples: empty ranges)
-    sstart = np.searchsorted(parent, np.arange(n + 1)).astype(np.int32)
-    d_pts = device_buffer(env, float4(points - centre))
-    d_nrm = device_buffer(env, float4(normals))
-    d_inf = device_buffer(env, info)
-    d_w = device_buffer(env, weight.astype(np.float32))
-    rows = max(1, min(n, (C.RADIOSITY_CL_CHUNK_MB << 20) // (4 * ppad)))
-    host = np.empty((rows, ppad), np.float32)
-    d_out = device_buffer(env, host, "write")
-    for r0 in range(0, n, rows):
-        r1 = min(n, r0 + rows)
-        c = r1 - r0
-        d_st = device_buffer(env, sstart[r0:r1 + 1])
-        knl(env.queue, (round_up(c, 8), nblk), None, np.int32(c), np.int32(ppad),
-            d_pts, d_nrm, d_inf, d_w, d_st, pblk, pplane, tstart, tris, d_vis,
-            np.float32(C.RAY_EPS_M), np.float32(_inner_ratio()), d_out)
-        env.cl.enqueue_copy(env.queue, host[:c], d_out)
-        F[r0:r1] = host[:c, :n]
-    return F
-
-
-register("patch_form_factors", _patch_form_factors_opencl, _patch_form_factors_numpy,
-         "patch-to-patch form factors summed over sub-patch samples (kernels/radiosity.cl)")
 
 
 # ---------------------------------------------------------------------------- visibility
-def _segments_occluded(bvh, p, q, backend):
-    """(k,) bool: is the segment p -> q blocked by the scene (see :mod:`.bvh`)?"""
-    from invrad_wb.core.forward.occlusion import segments_occluded
-    return segments_occluded(bvh, p, q, backend)
-
-
-def patch_visibility(patches, bvh, backend="numpy"):
-    """Patch-to-patch visibility by one segment between representative points.
-
-    Each unordered pair of patches facing each other (both cosines > 0, at least one of
-    them emitting) is tested once, between points next to the representative points
-    (:attr:`PatchSet.ray_point`) moved ``RAY_EPS_M`` along their normals. Pairs not tested
-    count as visible.
-
-    Returns
-    -------
-    vis : (P, P) uint8, symmetric (1 visible, 0 occluded)
-    n_rays : int
-    """
-    n = patches.n
-    vis = np.ones((n, n), np.uint8)
-    pts, nrm = patches.ray_point, patches.normal
-    q = pts + C.RAY_EPS_M * nrm
-    rows = max(1, C.RADIOSITY_NUMPY_CHUNK // max(1, n))
-    pend_i, pend_j, pending = [], [], 0
-    n_rays = 0
-
-    def flush():
-        nonlocal pend_i, pend_j, pending, n_rays
-        if pending:
-            i = np.concatenate(pend_i)
-            j = np.concatenate(pend_j)
-            occ = _segments_occluded(bvh, q[i], q[j], backend)
-            vis[i[occ], j[occ]] = 0
-            vis[j[occ], i[occ]] = 0
-            n_rays += len(i)
-        pend_i, pend_j, pending = [], [], 0
-
-    for s in range(0, n, rows):
-        i = np.arange(s, min(n, s + rows))
-        d = pts[None, :, :] - pts[i, None, :]                      # (r, P, 3) i -> j
-        dist = np.linalg.norm(d, axis=2)
-        ci = np.einsum("rpk,rk->rp", d, nrm[i])
-        cj = -np.einsum("rpk,pk->rp", d, nrm)
-        tol = 1e-9 * np.maximum(dist, 1e-12)
-        sel = ((np.arange(n)[None, :] > i[:, None]) & (ci > tol) & (cj > tol)
-               & (patches.emits[i][:, None] | patches.emits[None, :]))
-        a, b = np.nonzero(sel)
-        if len(a):
-            pend_i.append(i[a])
-            pend_j.append(b)
-            pending += len(a)
-        if pending >= C.RADIOSITY_NUMPY_CHUNK:
-            flush()
-    flush()
-    return vis, n_rays
 
 
 # ---------------------------------------------------------------------------- the model
@@ -845,21 +297,38 @@ class RadiosityModel:
         self.timings["form_factors"] = time.perf_counter() - t2
         self._vertex_op = None
 
-    @classmethod
-    def for_scene(cls, scene, backend="opencl", patch_size=None, occlusion=True):
-        """The model of ``scene`` for these settings, built once and cached on the scene."""
-        backend = check_backend(backend)
-        cache = scene.__dict__.setdefault("_radiosity", {})
+    #: the scene attribute that holds its models (a per-process cache: a pickled scene
+    #: leaves it out, :attr:`invrad_wb.core.model.scene.Scene._PROCESS_CACHES`)
+    CACHE = "_radiosity"
+
+    @staticmethod
+    def _key(backend, patch_size, occlusion):
         try:
             size_key = None if patch_size is None else float(patch_size)
         except (TypeError, ValueError):
-            size_key = repr(patch_size)  # refused by the constructor below
-        key = (backend, size_key, bool(occlusion))
+            size_key = repr(patch_size)  # refused by the constructor
+        return (check_backend(backend), size_key, bool(occlusion))
+
+    @classmethod
+    def for_scene(cls, scene, backend="opencl", patch_size=None, occlusion=True):
+        """The model of ``scene`` for these settings, built once and cached on the scene."""
+        cache = scene.__dict__.setdefault(cls.CACHE, {})
+        key = cls._key(backend, patch_size, occlusion)
         model = cache.get(key)
         if model is None:
             model = cls(scene, backend=backend, patch_size=patch_size, occlusion=occlusion)
             cache[key] = model
         return model
+
+    @classmethod
+    def cached(cls, scene, backend="opencl", patch_size=None, occlusion=True):
+        """The model :meth:`for_scene` built for these settings, or None (nothing built)."""
+        return getattr(scene, cls.CACHE, {}).get(cls._key(backend, patch_size, occlusion))
+
+    @classmethod
+    def forget(cls, scene):
+        """Drop the scene's models (their memory; the next :meth:`for_scene` rebuilds)."""
+        scene.__dict__.pop(cls.CACHE, None)
 
     # ------------------------------------------------------------------ construction
     def _build_patches(self, patch_size):

@@ -173,10 +173,8 @@ def indirect_light(scene, vertex_direct, backend="auto", patch_size=None, occlus
     """
     from invrad_wb.core.forward.radiosity import RadiosityModel
     from invrad_wb.core.model.memory import limit_bytes, require
-    cached = getattr(scene, "_radiosity", {})
     if by_room is None:
-        if cached.get((check_backend(backend), None if patch_size is None
-                       else float(patch_size), bool(occlusion))) is not None:
+        if RadiosityModel.cached(scene, backend, patch_size, occlusion) is not None:
             by_room = False                       # built already: use it
         else:
             total, rooms = radiosity_memory(scene, patch_size)

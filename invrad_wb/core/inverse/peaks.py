@@ -18,6 +18,7 @@ Running this again with a new threshold or neighbourhood needs only the stored v
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 
 from invrad_wb.errors import SettingsError
 
@@ -50,28 +51,18 @@ class Peak:
     room: int
 
 
-def _gauss_kernel(sigma):
-    r = max(1, int(np.ceil(3 * sigma)))
-    x = np.arange(-r, r + 1)
-    k = np.exp(-0.5 * (x / sigma) ** 2)
-    return k / k.sum()
-
-
 def _masked_blur(a, mask, sigma):
-    """Normalised convolution: Gaussian blur using only masked pixels."""
+    """Normalised convolution: Gaussian blur using only masked pixels (kernel radius
+    ``ceil(3 sigma)``, at least 1 pixel; outside the map counts as unmasked)."""
     if sigma <= 0:
         return np.where(mask, a, 0.0)
-    k = _gauss_kernel(sigma)
-    r = len(k) // 2
+    r = max(1, int(np.ceil(3 * sigma)))
 
-    def sep(img):
-        p = np.pad(img, ((r, r), (0, 0)))
-        t = sum(k[i] * p[i:i + img.shape[0]] for i in range(len(k)))
-        p = np.pad(t, ((0, 0), (r, r)))
-        return sum(k[i] * p[:, i:i + img.shape[1]] for i in range(len(k)))
+    def blur(img):
+        return ndimage.gaussian_filter(img, sigma, mode="constant", cval=0.0, radius=r)
 
-    w = sep(mask.astype(np.float64))
-    num = sep(np.where(mask, a, 0.0))
+    w = blur(mask.astype(np.float64))
+    num = blur(np.where(mask, a, 0.0))
     with np.errstate(invalid="ignore", divide="ignore"):
         out = np.where(w > 1e-6, num / w, 0.0)
     return np.where(mask, out, 0.0)
@@ -94,17 +85,16 @@ def laplace_response(a, mask):
     return np.where(mask & (cnt > 0), np.maximum(acc, 0.0), 0.0)
 
 
+def _disk(r):
+    """Footprint of a disk of radius r pixels: (2r+1, 2r+1) bool."""
+    d = np.arange(-r, r + 1)
+    return d[:, None] ** 2 + d[None, :] ** 2 <= r * r + 1e-9
+
+
 def _max_filter(a, r):
-    """Maximum over a disk of radius r pixels (r >= 1)."""
-    r = int(r)
-    out = a.copy()
-    p = np.pad(a, r, constant_values=-np.inf)
-    for di in range(-r, r + 1):
-        for dj in range(-r, r + 1):
-            if di * di + dj * dj > r * r + 1e-9 or (di == 0 and dj == 0):
-                continue
-            out = np.maximum(out, p[r + di:r + di + a.shape[0], r + dj:r + dj + a.shape[1]])
-    return out
+    """Maximum over a disk of radius r pixels (r >= 1); outside the map counts as -inf."""
+    return ndimage.maximum_filter(a, footprint=_disk(int(r)), mode="constant",
+                                  cval=-np.inf)
 
 
 #: no mid-air candidate closer than this to the room's outline (metres)
@@ -112,12 +102,9 @@ DUMMY_WALL_GAP_M = 0.2
 
 
 def _erode(mask, r):
-    out = mask.copy()
-    p = np.pad(mask, r, constant_values=False)
-    for di in range(-r, r + 1):
-        for dj in range(-r, r + 1):
-            out &= p[r + di:r + di + mask.shape[0], r + dj:r + dj + mask.shape[1]]
-    return out
+    """Pixels of ``mask`` whose (2r+1)^2 square lies wholly in it (outside counts as off)."""
+    return ndimage.binary_erosion(mask, structure=np.ones((2 * r + 1, 2 * r + 1), bool),
+                                  border_value=0)
 
 
 def _subpixel(s, i, j):

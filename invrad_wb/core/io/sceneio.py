@@ -19,7 +19,7 @@ Three input forms, chosen by :func:`read_scene` from the file name:
    by OpenImageIO. Float images (EXR, HDR, float TIFF) hold lux; 8/16-bit images (PNG,
    JPEG, TIFF) hold fractions of ``texture_max_lux`` (white = that many lux, linear in the
    stored code value, no sRGB decoding). RGB is reduced to Rec.709 luminance; pixels whose
-   alpha is below 0.5 are no target (:mod:`invrad_wb.core.io.oiio`, the one image reader).
+   alpha is below 0.5 are no target (:mod:`invrad_wb.core.model.oiio`, the one image reader).
 
 Coordinates are converted to metres at this boundary (``unit``). Every error is a
 :class:`SceneError` naming the file and the offending face/vertex/pixel and value. Writes

@@ -24,7 +24,7 @@ def read_lux_texture(path, max_lux=None):
     (h, w) float64, lux
         Row 0 is the image's top row (v = 1). RGB is reduced to Rec.709 luminance, other
         images use their first channel; alpha below 0.5 and NaN pixels are no target
-        (:mod:`invrad_wb.core.io.oiio`).
+        (:mod:`invrad_wb.core.model.oiio`).
     """
     path = os.fspath(path)
     _check_readable(path)
@@ -35,7 +35,7 @@ def read_lux_texture(path, max_lux=None):
             ok = False
         if not ok:
             raise SettingsError(f"texture_max_lux must be a positive number, not {max_lux!r}")
-    from invrad_wb.core.io.oiio import read_lux_image
+    from invrad_wb.core.model.oiio import read_lux_image
     try:
         image = read_lux_image(path)
     except OSError as exc:

@@ -17,6 +17,7 @@ intensity distribution replaces the lambertian one (the flux still scales it).
 from dataclasses import dataclass, field
 import functools
 import json
+import math
 import os
 
 import numpy as np
@@ -314,17 +315,10 @@ def emitter_samples(luminaires):
             np.concatenate(owner).astype(np.int64))
 
 
-def write_luminaires_json(path, luminaires, **extra):
-    """Write ``{"luminaires": [...], **extra}`` atomically."""
-    from invrad_wb.core.io.atomic import atomic_write_text
-    data = {"luminaires": [l.to_dict() for l in luminaires]}
-    data.update(extra)
-    atomic_write_text(path, json.dumps(data, indent=2, default=_json_default) + "\n")
-
-
-def _json_default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    raise TypeError(f"cannot serialise {type(o).__name__}")
+def luminous_area(lum):
+    """The luminous area (m^2) of a luminaire: its disk's, else its photometry file's
+    luminous opening; None when it has neither (a point source: no glare figure)."""
+    if lum.radius_m > 0:
+        return math.pi * lum.radius_m ** 2
+    phot = getattr(lum, "photometry", None)
+    return getattr(phot, "luminous_area_m2", None) if phot is not None else None

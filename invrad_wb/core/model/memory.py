@@ -6,7 +6,7 @@ What grows with a user's number, and where it is estimated:
   (:func:`invrad_wb.core.inverse.votemaps.canvas_memory`);
 * voting points with the votes per m^2 (:mod:`invrad_wb.core.inverse.sampling`);
 * a texture with its declared pixel count, before its pixels are read
-  (:mod:`invrad_wb.core.io.oiio`); a PLY's element counts against its bytes
+  (:mod:`invrad_wb.core.model.oiio`); a PLY's element counts against its bytes
   (:mod:`invrad_wb.core.io.ply`);
 * emitter samples with the luminaire count
   (:func:`invrad_wb.core.forward.direct.emitter_memory`; direct light never makes a

@@ -247,7 +247,7 @@ def load_lux_image(path, source=None):
     (h, w) float64: the first channel of a grey image or the Rec. 709 luminance of a colour
     one (as floats: 8-bit images give 0..1); NaN where alpha < 0.5. Row 0 is the top row.
     """
-    from invrad_wb.core.io.oiio import read_lux_image
+    from invrad_wb.core.model.oiio import read_lux_image
     try:
         return read_lux_image(path).values
     except OSError as exc:

@@ -21,8 +21,7 @@ import os
 import numpy as np
 
 from invrad_wb.core.io.atomic import atomic_dir
-from invrad_wb.core.design.accent import SPOT_TOLERANCE
-from invrad_wb.core.design.en12464 import SURFACE_REFERENCE
+from invrad_wb.constants import SPOT_TOLERANCE, SURFACE_REFERENCE
 from invrad_wb.core.output import document
 from invrad_wb.core.output.figures import figure as _fig, iso_levels, png as _png
 

@@ -21,6 +21,7 @@ import math
 
 import numpy as np
 
+from invrad_wb.core.model.luminaires import luminous_area
 from invrad_wb.core.model.scene import plane_basis
 
 #: seated observer's eye height (metres), CIE 117 / EN 12464-1
@@ -41,15 +42,8 @@ def guth_index(tau_deg, sigma_deg):
 def is_small_source(lum):
     """True where UGR rates the luminaire by the CIE 147 small-source rule (no luminous
     area, or one below ``SMALL_SOURCE_M2``)."""
-    area = _luminous_area(lum)
+    area = luminous_area(lum)
     return area is None or area < SMALL_SOURCE_M2
-
-
-def _luminous_area(lum):
-    if lum.radius_m > 0:
-        return math.pi * lum.radius_m ** 2
-    phot = getattr(lum, "photometry", None)
-    return getattr(phot, "luminous_area_m2", None) if phot is not None else None
 
 
 def ugr(luminaires, eye, view, background_lux):
@@ -71,7 +65,7 @@ def ugr(luminaires, eye, view, background_lux):
     v = v / np.linalg.norm(v)
     total = 0.0
     for lum in luminaires:
-        area = _luminous_area(lum)
+        area = luminous_area(lum)
         d = lum.position - eye
         r = float(np.linalg.norm(d))
         if r < 1e-6 or d[2] <= 0 or d @ v <= 0:

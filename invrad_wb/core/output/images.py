@@ -35,17 +35,24 @@ import math
 
 import numpy as np
 
-from invrad_wb.core.io.oiio import oiio_module, read_pixels
+from invrad_wb.core.model.oiio import oiio_module, read_pixels
 
 from invrad_wb.core.io.atomic import atomic_path, write_error
 from invrad_wb.core.geometry.raster import locate_points
 
 # ---------------------------------------------------------------------------- colours
-#: viridis, matplotlib's values at 9 evenly spaced points, interpolated linearly
-#: (the workbench overlay, :mod:`invrad_wb.gui.display`, uses it too)
-VIRIDIS = np.array([[68, 1, 84], [71, 44, 122], [59, 81, 139], [44, 113, 142],
-                    [33, 144, 141], [39, 173, 129], [92, 200, 99], [170, 220, 50],
-                    [253, 231, 37]], dtype=np.float64)
+
+
+def _matplotlib_stops(name, n):
+    """(n, 3) float64 0-255: matplotlib's colour map ``name`` at n evenly spaced points."""
+    import matplotlib
+    return matplotlib.colormaps[name](np.linspace(0.0, 1.0, n))[:, :3] * 255.0
+
+
+#: viridis, matplotlib's (the report's figures use it, :func:`invrad_wb.core.output.figures.
+#: lux_cmap`) at 9 evenly spaced points, interpolated linearly (the workbench overlay,
+#: :mod:`invrad_wb.gui.display`, uses the same points: its colours match these images)
+VIRIDIS = _matplotlib_stops("viridis", 9)
 #: ColorBrewer RdBu (7 classes), blue (too dark) -> white (on target) -> red (too bright)
 DIVERGING_STOPS = np.array([[33, 102, 172], [103, 169, 207], [209, 229, 240],
                             [247, 247, 247], [253, 219, 199], [239, 138, 98],

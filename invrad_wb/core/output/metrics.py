@@ -23,6 +23,8 @@ integrate that field over the faces exactly (EN 12464-1 vocabulary):
 
 :func:`room_metrics` computes them over any set of faces (a room, a work plane, one plane).
 """
+import math
+
 import numpy as np
 
 from invrad_wb.errors import SceneError
@@ -91,6 +93,13 @@ def _abs_integral(d, area):
         i_all = (p + q + r) / 3.0
         out[mixed] = np.sign(p) * (2.0 * i_sub - i_all) * area[mixed]
     return out
+
+
+def grid_spacing(d):
+    """EN 12464-1 maximum grid spacing ``p = 0.2 * 5^log10(d)`` (metres) for an area whose
+    longer dimension is ``d`` metres (``p`` at most 10 m)."""
+    d = max(float(d), 1e-3)
+    return min(10.0, 0.2 * 5.0 ** math.log10(d))
 
 
 def _sub_barycentric(k=4):

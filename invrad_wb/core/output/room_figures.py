@@ -301,7 +301,7 @@ def value_grid(scene, plane, values, max_side=MAX_GRID_SIDE):
     values : (k,) float64, lux, linear over the faces
     cell : (2,) float64, the cell size (metres)
     """
-    from invrad_wb.core.design.en12464 import grid_spacing
+    from invrad_wb.core.output.metrics import grid_spacing
     tri = scene.vertices[scene.faces[plane.faces]][:, :, :2]
     lo, hi = tri.reshape(-1, 2).min(axis=0), tri.reshape(-1, 2).max(axis=0)
     size = np.maximum(hi - lo, 1e-6)

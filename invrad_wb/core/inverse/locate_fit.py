@@ -1,0 +1,399 @@
+"""The search of one room's luminaires from its peaks (:class:`_RoomFit`: greedy selection,
+swaps, residual and grid seeds, spreading crowded pairs) and the post-processing that
+runs it (:func:`_postprocess`)."""
+import numpy as np
+
+from invrad_wb.core.inverse.peaks import find_peaks
+from invrad_wb.core.inverse.refine import LOG_SCALE_LIMIT, Light, greedy_select, swap_search
+from invrad_wb.core.inverse.locate_placement import (_light_from_peak, _prefer_mounted,
+                                                     _snap_to_surfaces)
+from invrad_wb.core.inverse.locate_problem import FREE_FLUX_MIN_GAIN_TOTAL, _ladder_peaks
+
+
+def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
+    """Peaks of one room's votes, then (``s.refine``) the joint refinement.
+
+    Sets ``run.peaks``, ``run.lights``, ``run.cost`` and ``run.trace``. ``allow_votes``:
+    whether the overlap step may vote again (False when post-processing is redone).
+    """
+    if run.free_flux:
+        peaks = _ladder_peaks(run, s)
+    else:
+        peaks, _ = find_peaks(run.canvas, run.votes, threshold=s.threshold,
+                              neighbourhood=s.neighbourhood_m, max_peaks=s.max_candidates)
+    run.peaks = peaks
+    if not s.refine:
+        run.lights = [_light_from_peak(p, run.canvas) for p in peaks]
+        for L in run.lights:
+            L.score = L.peak_score / 255.0
+        return
+    fit = _RoomFit(run, s)
+    cands = [_light_from_peak(p, run.canvas, flux) for p in peaks]
+    if s.aim == "free":
+        from invrad_wb.core.inverse.aim import aimed_candidates
+        cands = aimed_candidates(run, s, cands)
+    lights, cost = fit.select(cands, progress, deadline)
+    # light that several luminaires share: vote again with a fraction of each point's
+    # light (thesis 5.2) and offer those peaks too
+    if (run.vote_fn is not None and s.overlap_levels > 1 and not run.free_flux
+            and fit_quality(fit.prob, lights) > s.poor_fit):
+        lights, cost = fit.overlap(lights, cost, cands, allow_votes)
+    # fluxes free: a weak luminaire beside a strong one may have no clear peak on any
+    # rung while the strong one's light is in the votes; vote again with what the
+    # accepted luminaires leave unexplained
+    if run.free_flux and run.vote_fn is not None and allow_votes and lights:
+        lights, cost = fit.residual(lights, cost, cands)
+    # still poor: light spread evenly by many luminaires (a uniform work plane) has no
+    # accumulation points at all; seed the refinement with regular arrangements of n
+    # luminaires on the ceiling and keep the best refined answer
+    if s.overlap_levels > 1 and fit_quality(fit.prob, lights) > s.poor_fit:
+        lights, cost = fit.grid(lights, cost, cands, flux)
+    if run.seeds:
+        lights, cost = fit.seeded(lights, cost, cands, run.seeds)
+    lights, cost = fit.spread(lights, cost)
+    # final scores: how much worse the fit is without each luminaire
+    prob = fit.prob
+    cost = prob.cost(lights) if lights else cost
+    for i, L in enumerate(lights):
+        c_rest = prob.cost(lights[:i] + lights[i + 1:])
+        L.score = float((c_rest - cost) / max(c_rest, 1e-12))
+    run.lights, run.cost, run.trace = lights, cost, fit.trace
+    from invrad_wb.core.inverse.fitcheck import room_fit
+    run.fit = room_fit(prob, lights)          # relative RMS, share within 20 % (no render)
+
+
+class _RoomFit:
+    """The refinement steps of one room; they share its problem, optimiser and trace.
+
+    Each step takes and returns ``(lights, cost)``: a list of :class:`Light` and the
+    refinement cost (:meth:`RefineProblem.cost`, dimensionless).
+    """
+
+    def __init__(self, run, s):
+        self.run, self.s, self.prob = run, s, run.problem
+        self.opt = (self.prob.levenberg_marquardt if s.optimiser == "lm"
+                    else self.prob.evolution_strategy)
+        self.trace = []
+
+    def _greedy(self, cands, **kwargs):
+        if self.prob.free_flux:
+            # one luminaire of two's summed flux between them explains all but a small
+            # part of their light: the gain that tells two apart is small in absolute
+            # terms, so only the relative gain (min_gain) and a lower floor apply
+            kwargs.setdefault("min_gain_total", FREE_FLUX_MIN_GAIN_TOTAL)
+        return greedy_select(self.prob, cands, min_gain=self.s.min_gain,
+                             optimiser=self.s.optimiser, **kwargs)
+
+    def select(self, cands, progress=None, deadline=None):
+        """Greedy selection from the peak candidates, swaps when the fit is not near-exact,
+        then each luminaire's own interreflection (:meth:`settle`)."""
+        prob, s = self.prob, self.s
+        lights, cost, self.trace = self._greedy(cands, progress=progress, deadline=deadline)
+        cost0 = prob.cost([])
+        if lights and cost > 1e-3 * cost0:
+            # not the near-exact fit a set of the right luminaires gives: try swaps
+            lights, cost, nswap = swap_search(prob, lights, cands, min_gain=s.min_gain,
+                                              optimiser=s.optimiser)
+            self.trace.append({"swaps": nswap, "cost_after": cost})
+            if nswap:
+                # swapped luminaires may have made others redundant (or two may coincide)
+                lights, cost, t2 = self._greedy([], initial=lights)
+                self.trace += t2
+        lights, cost = self.tidy(lights, cost)
+        # each luminaire's own interreflected light from the radiosity model replaces its
+        # estimate; refit, look for missing/surplus luminaires, until nothing moves
+        return self.settle(lights, cost, cands)
+
+    def tidy(self, lights, cost):
+        """Snap mid-air luminaires to surfaces, prefer mounted ones, refit if any moved."""
+        lights = _snap_to_surfaces(lights, self.run.canvas, self.run.scene)
+        if any(L.kind == "free" for L in lights):
+            lights = _prefer_mounted(self.prob, lights, self.run.canvas, self.s.optimiser)
+            lights, cost = self.opt(lights)
+        return lights, cost
+
+    def converge(self, lights, cost, rounds=8):
+        """Refit until every luminaire's interreflection was computed where it now is."""
+        prob = self.prob
+        for _round in range(rounds):
+            lights, changed = prob.refresh_indirect(lights, moved=0.005)
+            if not changed:
+                return lights, cost
+            lights, cost = self.opt(lights)
+        # out of rounds: make the indirect light exact for the final positions anyway
+        lights, _ = prob.refresh_indirect(lights, moved=0.0)
+        return lights, prob.cost(lights)
+
+    def settle(self, lights, cost, cands):
+        """Exact interreflection for the luminaires, with re-selection from ``cands``."""
+        for _round in range(2):
+            lights, changed = self.prob.refresh_indirect(lights, moved=0.005)
+            if not changed:
+                break
+            lights, cost = self.opt(lights)
+            lights, cost, t2 = self._greedy(cands, initial=lights)
+            self.trace += t2
+            lights, cost = self.tidy(lights, cost)
+        return self.converge(lights, cost)
+
+    def overlap(self, lights, cost, cands, allow_votes):
+        """Candidates from votes as if 2, 3 ... luminaires shared each point's light; a
+        fresh selection over all candidates, kept if better."""
+        run, s = self.run, self.s
+        extra = []
+        for share in range(2, s.overlap_levels + 1):
+            if share not in run.extra_votes:
+                if not allow_votes:
+                    continue   # post-processing again never votes again
+                run.extra_votes[share] = run.vote_fn(share)
+            pk, _ = find_peaks(run.canvas, run.extra_votes[share], threshold=s.threshold,
+                               neighbourhood=s.neighbourhood_m, max_peaks=s.max_candidates)
+            extra += pk
+        extra.sort(key=lambda p: -p.score)
+        more = [_light_from_peak(p, run.canvas) for p in extra]
+        # a fresh selection over all candidates (the first may be a local optimum that
+        # adding luminaires cannot leave)
+        return self._reselect(lights, cost, more, cands, "overlap_votes",
+                              patience=2 * s.overlap_levels + 10)
+
+    def _reselect(self, lights, cost, more, cands, what, **greedy):
+        """A selection over ``more + cands`` (``greedy``: its options), tidied and settled;
+        the better of it and (``lights``, ``cost``), traced under ``what``."""
+        alt, c_alt, t2 = self._greedy(more + cands, **greedy)
+        alt, c_alt = self.tidy(alt, c_alt)
+        alt, c_alt = self.settle(alt, c_alt, more + cands)
+        self.trace += [{what: len(more), "cost_before": cost, "cost_after": c_alt}] + t2
+        if c_alt < cost:
+            return alt, c_alt
+        return lights, cost
+
+    def residual(self, lights, cost, cands, significant=0.2):
+        """Free-flux ladder votes with each point's light that ``lights`` do not explain
+        (where that is more than ``significant`` of its target); their peaks join the
+        candidates of a selection that starts from ``lights``; kept if better."""
+        run, s, prob = self.run, self.s, self.prob
+        pts = run.points
+        rest = pts.lux - prob.fixed_light(lights)
+        lux = np.where((pts.lux > 0) & (rest > significant * pts.lux), rest, 0.0)
+        if not np.any(lux > 0):
+            return lights, cost
+        ladder = {f: run.vote_fn(f / run.flux, lux=lux) for f in run.ladder_votes}
+        more = [_light_from_peak(p, run.canvas, run.flux)
+                for p in _ladder_peaks(run, s, ladder)]
+        return self._reselect(lights, cost, more, cands, "residual_votes", initial=lights)
+
+    def grid(self, lights, cost, cands, flux):
+        """Regular ceiling arrangements of n luminaires of ``flux`` lm as seeds; the best
+        refined arrangement (with vote candidates added) is kept if better."""
+        prob = self.prob
+        scanned = []
+        for n in _seed_counts(self.run, flux):
+            seeds = _grid_seeds(self.run.canvas, n)
+            if not seeds:
+                continue
+            if self.run.free_flux:
+                # start from the lumen-method share of one of n luminaires
+                for L in seeds:
+                    L.flux_scale = float(np.clip(_flux_need(self.run) / (n * flux),
+                                                 np.exp(-LOG_SCALE_LIMIT),
+                                                 np.exp(LOG_SCALE_LIMIT)))
+            seeds = [prob.with_indirect(L) for L in seeds]
+            got, c = self.opt(seeds)
+            self.trace.append({"grid_seed": n, "cost_after": c})
+            scanned.append((c, n, got))
+            if c > 1.5 * min(x[0] for x in scanned):
+                break   # past the best count
+        best = None
+        # the scan used estimated interreflection: settle the three best counts exactly
+        for c, n, got in sorted(scanned, key=lambda x: x[0])[:3]:
+            got, c = self.converge(got, c)
+            self.trace.append({"grid_seed_exact": n, "cost_after": c})
+            if best is None or c < best[1]:
+                best = (got, c)
+        if best is None:
+            return lights, cost
+        # no pruning of the best arrangement: for evenly spread light every luminaire of
+        # it does its share; the same with vote candidates added / surplus ones pruned
+        alt, c_alt = best
+        alt2, c_alt2 = self.settle(alt, c_alt, cands)
+        if c_alt2 < c_alt:
+            alt, c_alt = alt2, c_alt2
+        if c_alt < cost:
+            return alt, c_alt
+        return lights, cost
+
+    def seeded(self, lights, cost, cands, seeds):
+        """Start from given luminaires (:class:`Luminaire`, in the room's frame) as well:
+        snapped to the room's surfaces (pendants stay in mid-air; others off every
+        surface are dropped), refined, pruned or added to from ``cands``, settled; kept
+        if better than (``lights``, ``cost``)."""
+        start = []
+        for lum in seeds:
+            n = np.asarray(lum.normal, dtype=np.float64)
+            L = Light(kind="free", position=np.asarray(lum.position, np.float64).copy(),
+                      normal=n / np.linalg.norm(n), map_index=-1,
+                      flux_scale=float(lum.flux_lm) / self.run.flux if self.run.flux else 1.0)
+            L = _snap_to_surfaces([L], self.run.canvas, self.run.scene)[0]
+            if L.kind == "surface" or (getattr(lum, "extra", None) or {}).get("mount") == "pendant":
+                start.append(self.prob.with_indirect(L))
+        if not start:
+            return lights, cost
+        got, c = self.opt(start)
+        alt, c_alt, t2 = self._greedy(cands, initial=got)
+        alt, c_alt = self.tidy(alt, c_alt)
+        alt, c_alt = self.settle(alt, c_alt, cands)
+        self.trace += [{"seeded": len(start), "of": len(seeds), "cost_before": cost,
+                        "cost_after": c_alt}] + t2
+        if c_alt < cost:
+            return alt, c_alt
+        return lights, cost
+
+    def spread(self, lights, cost):
+        """Luminaires crowded in pairs moved apart where that costs the fit (almost)
+        nothing: requirements (500 lx here, 300 lx beyond an open border) leave a flat
+        cost on which the refinement can end with pairs half a metre apart, which read
+        as doubled fixtures. Where two luminaires facing the same way are closer than
+        :data:`SPREAD_TRIGGER` of the lumen-method spacing (:func:`_lumen_spacing`), the
+        arrangement is refitted with the separation term reaching 1, 0.75 and 0.5
+        spacings in turn; the first refit whose data cost (without the separation term)
+        is within :data:`SPREAD_TOLERANCE` of the current one is kept. Not for a fit
+        within :data:`NEAR_EXACT_FIT` (mean absolute log deviation): targets that a set of
+        luminaires meets (nearly) exactly keep their answer.
+
+        Measured on FZK-Haus' Kueche + Wohnen zone (1500 lm, 500 / 300 lx): pairs
+        0.50 and 0.57 m apart; apart to 0.70 m for +0.5 % data cost, to 1.00 m for +2 %.
+        """
+        run, prob = self.run, self.prob
+        if run.free_flux or len(lights) < 2 or fit_quality(prob, lights) <= NEAR_EXACT_FIT:
+            return lights, cost       # a near-exact fit: its pairs are real
+        gap = _closest_pair(lights)
+        spacing = _lumen_spacing(run)
+        if not (gap < SPREAD_TRIGGER * spacing):
+            return lights, cost
+        base = cost - prob.separation_cost(lights)
+        keep = prob.separation_m
+        for frac in (1.0, 0.75, 0.5):
+            d0 = frac * spacing
+            if d0 <= gap:
+                break
+            prob.separation_m = d0
+            try:
+                got, c = self.opt(lights)
+                got, c = self.converge(got, c)
+                data = c - prob.separation_cost(got)
+            finally:
+                prob.separation_m = keep
+            self.trace.append({"spread_m": round(d0, 3), "closest_before": round(gap, 3),
+                               "closest_after": round(_closest_pair(got), 3),
+                               "data_cost_before": base, "data_cost_after": data})
+            if data <= (1.0 + SPREAD_TOLERANCE) * base:
+                return got, prob.cost(got)
+        return lights, cost
+
+
+#: :meth:`_RoomFit.spread`: pairs closer than this fraction of the lumen-method spacing
+#: are looked at; a spread arrangement may cost this much more (relative data cost)
+SPREAD_TRIGGER = 0.5
+
+
+SPREAD_TOLERANCE = 0.03
+
+
+#: a fit closer than this (mean absolute log deviation, :func:`fit_quality`) to its
+#: targets is taken as exact: rendered targets of real luminaires (bench_random: at most
+#: 0.013 in direct light; with interreflection 14 of 20 scenes below 0.003 and 6 above
+#: 0.02, as many as it gets wrong), not requirements (FZK-Haus' Kueche + Wohnen zone: 0.060)
+NEAR_EXACT_FIT = 0.02
+
+
+def _closest_pair(lights):
+    """Smallest distance (m) between two luminaires facing the same way (inf if none)."""
+    best = np.inf
+    for i in range(len(lights)):
+        for j in range(i + 1, len(lights)):
+            if lights[i].normal @ lights[j].normal >= 0.5:
+                best = min(best, float(np.linalg.norm(lights[i].position
+                                                      - lights[j].position)))
+    return best
+
+
+def _lumen_spacing(run):
+    """The spacing (m) of a regular grid of luminaires of the room's flux that gives its
+    mean positive target by the lumen method: sqrt(flux x 0.5 / E)."""
+    pts = run.points
+    lit = np.isfinite(pts.lux) & (pts.lux > 0)
+    if not lit.any():
+        return 0.0
+    e = float(np.sum(pts.lux[lit] * pts.area[lit]) / np.sum(pts.area[lit]))
+    return float(np.sqrt(0.5 * run.flux / e))
+
+
+def _seed_counts(run, flux, most=24):
+    """Luminaire counts to try as regular arrangements, around the lumen-method estimate.
+
+    The flux the targets need, sum(E * A) over the targeted points, divided by the flux of
+    one luminaire and a utilisation factor of 0.5, gives an estimate n0; counts from 1 to
+    2 n0 + 2 are tried (at most ``most``).
+    """
+    n0 = _flux_need(run) / flux
+    if run.free_flux:
+        n0 = 12        # any count may do: the fit sets each luminaire's flux
+    top = int(min(most, max(2, np.ceil(2 * n0 + 2))))
+    return list(range(1, top + 1))
+
+
+def _grid_seeds(canvas, n):
+    """n luminaires in a regular grid over the room's footprint, on the ceiling above.
+
+    The grid covers the bounding box of the footprint (cells of the room's aspect ratio);
+    each grid point gets the lowest ceiling-like surface (normal pointing down) above it,
+    so sloped and stepped ceilings work. Grid points outside the footprint are dropped.
+    """
+    g = canvas.grid
+    ceil = [k for k, m in enumerate(canvas.maps) if m.kind == "surface" and m.normal[2] < -0.3]
+    if g is None or not ceil:
+        return []
+    ii, jj = np.nonzero(g.footprint & np.isfinite(g.ceiling_z))
+    if len(ii) == 0:
+        return []
+    x0, x1 = g.origin[0] + ii.min() * g.pixel, g.origin[0] + (ii.max() + 1) * g.pixel
+    y0, y1 = g.origin[1] + jj.min() * g.pixel, g.origin[1] + (jj.max() + 1) * g.pixel
+    aspect = (x1 - x0) / max(y1 - y0, 1e-9)
+    nx = max(1, int(round(np.sqrt(n * aspect))))
+    ny = int(np.ceil(n / nx))
+    out = []
+    for a in range(nx):
+        for b in range(ny):
+            if len(out) >= n:
+                break
+            x = x0 + (a + 0.5) * (x1 - x0) / nx
+            y = y0 + (b + 0.5) * (y1 - y0) / ny
+            best = None
+            for k in ceil:
+                m = canvas.maps[k]
+                z = -(m.normal[0] * x + m.normal[1] * y + m.offset) / m.normal[2]
+                p = np.array([x, y, z])
+                if canvas.map_contains(k, p) and (best is None or z < best[1][2]):
+                    best = (k, p)
+            if best is None:
+                continue
+            k, p = best
+            m = canvas.maps[k]
+            out.append(Light(kind="surface", position=p, normal=m.normal.copy(), map_index=k,
+                             plane=m.plane, origin=m.origin.copy(), u=m.u.copy(),
+                             v=m.v.copy()))
+    return out
+
+
+def fit_quality(prob, lights):
+    """Area-weighted mean absolute log deviation of the prediction from the targets."""
+    vis = [prob.visibility(L) for L in lights]
+    r, _ = prob.residuals(lights, vis)
+    return float(np.sum(prob.w_area * np.abs(r)))
+
+
+def _flux_need(run):
+    """Lamp lumens the room's targets need by the lumen method: sum(E * A) over the targeted
+    points over a utilisation factor of 0.5."""
+    pts = run.points
+    return float(np.sum(np.nan_to_num(pts.lux) * pts.area)) / 0.5

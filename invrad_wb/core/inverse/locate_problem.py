@@ -1,0 +1,181 @@
+"""One room's problem: the ambient estimate, the vote function (votes as if each luminaire
+had a share of the light), the refinement problem with its interreflection model, and the
+flux ladder of a run without a given flux."""
+import time
+
+import numpy as np
+
+from invrad_wb.core.model.luminaires import Luminaire
+from invrad_wb.core.inverse.peaks import find_peaks
+from invrad_wb.core.inverse.refine import RefineProblem
+from invrad_wb.core.inverse.votes import vote_weights, cast_exact, vote_profile
+from invrad_wb.core.inverse.locate_placement import _make_inside
+
+
+def _ambient_estimate(scene, points):
+    """Mean interreflected illuminance of a closed diffuse room: rho_mean * E_mean.
+
+    From flux balance: with mean incident illuminance E and mean reflectance rho, the
+    reflected flux rho E S comes back as interreflected light, so indirect ~ rho * E.
+    Only meaningful when the targets cover most of the room (complete illumination).
+    """
+    real = ~scene.face_virtual
+    area = scene.face_areas[real]
+    covered = float(np.sum(points.area))
+    if covered < 0.5 * area.sum() or len(points) == 0:
+        return 0.0
+    rho = float(np.average(scene.face_reflectance[real], weights=area))
+    return rho * float(np.average(points.lux, weights=points.area))
+
+
+def _uniform_indirect_per_lumen(scene):
+    """Mean interreflected illuminance per lumen in a closed room: rho / (S (1 - rho)).
+
+    (CIE 171 / the integrating-sphere balance: a flux F reflected with mean reflectance rho
+    comes back as rho F / (1 - rho) spread over the surface area S.)
+    """
+    real = ~scene.face_virtual
+    area = scene.face_areas[real]
+    rho = float(np.average(scene.face_reflectance[real], weights=area))
+    return rho / (area.sum() * max(1.0 - rho, 1e-3))
+
+
+class _Indirect:
+    """Interreflected light at the voting points for a set of luminaires (radiosity)."""
+
+    def __init__(self, scene, points, backend, photometry=None, bvh=None):
+        from invrad_wb.core.forward.radiosity import RadiosityModel
+        self.photometry = photometry
+        self.scene = scene
+        self.backend = backend
+        # the room's own occluders (the refinement's: none in a convex room), not a second
+        # BVH of every face (it cost 15 % of a room's CPU time with interreflection)
+        self.bvh = bvh
+        self.model = RadiosityModel.for_scene(scene, backend=backend)
+        patch = self.model.face_patch[points.face]
+        self.gather = self.model.gather(points.positions, points.normals, patch)
+
+    def __call__(self, lights, flux):
+        from invrad_wb.core.model.aiming import aimed_c0
+        lums = [Luminaire(L.position, L.normal, flux, photometry=self.photometry,
+                          c0=None if L.mount is None else aimed_c0(L.mount, L.normal))
+                for L in lights]
+        # each patch's mean direct light, exact near a luminaire (as the verification's)
+        pdir = self.model.patch_direct(lums, bvh=self.bvh, occlusion=self.bvh is not None,
+                                       backend=self.backend)
+        B = self.model.solve(pdir)
+        g = self.gather
+        return g(B) if callable(g) else g @ B
+
+
+def _vote_function(canvas, pts, ambient, occ, s, flux, backend, timings, photometry=None):
+    """``vote_fn(share=1, lux=None)``: the votes (canvas.size,) float32 of the voting points
+    as if ``1/share`` of each point's light came from one luminaire of ``flux`` lm (of the
+    ``photometry`` distribution, averaged over its C planes, with the exact model; the
+    thesis' ellipses are lambertian).
+
+    The ambient (interreflected) estimate, lux, is taken off the targets first; points
+    with 0 lx are shade (no luminaire may light them above the shade limit).
+    """
+    lit = pts.lux > 0
+    shade = pts.subset(pts.lux == 0)
+    vote_lux = np.where(lit, np.maximum(pts.lux - ambient, 0.0), 0.0)
+    # a point barely above the ambient level carries no position information
+    vote_lux[vote_lux < 0.05 * pts.lux] = 0.0
+    profile = vote_profile(photometry)
+    shade_limit = s.shade_limit_lux
+    if shade_limit is None and len(shade):
+        shade_limit = max(1.0, 0.1 * float(np.median(pts.lux[lit])))
+
+    def vote_fn(share=1, lux=None):
+        """``lux``: (k,) illuminance to vote with instead of the targets less the ambient
+        estimate (e.g. what accepted luminaires leave unexplained)."""
+        t0 = time.time()
+        vl = (vote_lux if lux is None else np.asarray(lux, dtype=np.float64)) / share
+        W = vote_weights(canvas, pts, vl, s.weighting, s.vote_strength)
+        if s.vote_model == "exact":
+            out = cast_exact(canvas, pts, W, vl, flux, backend=backend, bvh=occ,
+                             shade=shade, shade_limit_lux=shade_limit, profile=profile)
+        else:
+            from invrad_wb.core.inverse.votes_ellipse import cast_ellipse
+            out = cast_ellipse(canvas, pts, W, vl, flux, bvh=occ, shade=shade,
+                               shade_limit_lux=shade_limit, backend=backend)
+        timings["votes"] += time.time() - t0
+        return out
+    return vote_fn
+
+
+def _refine_problem(scene, pts, canvas, occ, s, flux, backend, has_rho, timings,
+                    photometry=None):
+    """The joint refinement problem of a room's voting points and its radiosity model.
+
+    Returns ``(RefineProblem, _Indirect or None)``.
+    """
+    from invrad_wb.core.forward.occlusion import segments_occluded
+    occluded_fn = None if occ is None else (
+        lambda p, q, _b=occ: segments_occluded(_b, p, q, backend))
+    prob = RefineProblem(positions=pts.positions, normals=pts.normals, target=pts.lux,
+                         flux=flux, area=pts.area, bvh=occ, inside=_make_inside(canvas),
+                         occluded_fn=occluded_fn, photometry=photometry,
+                         free_aim=s.aim == "free")
+    indirect_model = None
+    if s.indirect != "none" and has_rho:
+        per_lumen = _uniform_indirect_per_lumen(scene)
+        prob.indirect_estimate = lambda L, _k=len(pts), _a=per_lumen * flux: np.full(_k, _a)
+    if s.indirect == "radiosity" and has_rho:
+        t = time.time()
+        indirect_model = _Indirect(scene, pts, backend, photometry, bvh=occ)
+        prob.indirect_exact = lambda L, _m=indirect_model: _m([L], flux)
+        timings["radiosity"] += time.time() - t
+    return prob, indirect_model
+
+
+#: a luminaire is kept when the fluxes are free if it lowers the cost by this fraction of
+#: the cost without any luminaire (and by ``min_gain`` of the current cost); greedy
+#: selection's default is 0.005
+FREE_FLUX_MIN_GAIN_TOTAL = 0.002
+
+
+#: successive fluxes of the free-flux vote ladder differ by this factor
+FLUX_LADDER_STEP = 2.0
+
+
+#: the ladder spans need / 2**FLUX_LADDER_OCTAVES .. need (the room's lumen-method need)
+FLUX_LADDER_OCTAVES = 6
+
+
+def _flux_ladder(pts):
+    """Fluxes (lm) to vote with when the flux is not given, largest first.
+
+    The top is the lamp flux the room's targets need by the lumen method (sum(E A) / 0.5,
+    one luminaire doing it all); each next one is :data:`FLUX_LADDER_STEP` smaller, down
+    to 1/2**:data:`FLUX_LADDER_OCTAVES` of it. A luminaire of flux F gets sharp votes
+    from the rung nearest F; the refinement then fits F itself.
+    """
+    need = float(np.sum(np.nan_to_num(pts.lux) * pts.area)) / 0.5
+    n = int(round(FLUX_LADDER_OCTAVES * np.log(2.0) / np.log(FLUX_LADDER_STEP)))
+    return [need / FLUX_LADDER_STEP ** k for k in range(n + 1)]
+
+
+def _ladder_peaks(run, s, ladder=None):
+    """Peaks of every rung of the free-flux ladder as refinement candidates.
+
+    All rungs share the voting points and weights, so raw votes compare across rungs: the
+    rung nearest a luminaire's flux gives it the sharpest, highest accumulation. But a weak
+    luminaire beside a strong one has lower raw votes than the strong one's blurred peaks
+    on every other rung, so the order is by rank within the rung first. Each peak carries
+    its rung's flux (``peak.flux``); peaks of the same place on several rungs are all kept
+    (the refinement skips those near an accepted luminaire).
+    """
+    out = []
+    for f, votes in (run.ladder_votes if ladder is None else ladder).items():
+        pk, _ = find_peaks(run.canvas, votes, threshold=s.threshold,
+                           neighbourhood=s.neighbourhood_m, max_peaks=s.max_candidates)
+        pk.sort(key=lambda p: -p.score)
+        for rank, p in enumerate(pk):
+            p.flux, p.rank = f, rank
+        out += pk
+    # each rung's best first (a weak luminaire is the best peak of its own rung only),
+    # strongest raw votes first among equal ranks
+    out.sort(key=lambda p: (p.rank, -p.votes))
+    return out[:2 * s.max_candidates]
