@@ -345,3 +345,36 @@ def test_a_device_or_pipe_is_refused_as_an_output_and_left_as_it_is(tmp_path):
     assert p.returncode == 2 and "/dev/null: -o is a device" in _one_line(p.stderr)
     import stat
     assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
+
+
+def _sig_bits(status, field):
+    line = next(l for l in status.splitlines() if l.startswith(field + ":"))
+    return int(line.split()[1], 16)
+
+
+def test_workers_start_with_ctrl_c_held_and_then_ignore_it():
+    """A worker spawned while the parent starts its pool inherits SIGINT and SIGHUP blocked
+    (a Ctrl-C to the process group while it still imported ``site`` killed it with "Fatal
+    Python error: init_import_site"), and its set-up ignores them, then unblocks them;
+    SIGTERM is never blocked in it (the pool's terminate must stop it)."""
+    import signal
+    from invrad_wb.core.accel import workers
+    show = "print(open('/proc/self/status').read())"
+    with workers._stop_signals_deferred():
+        child = subprocess.run([sys.executable, "-c", show], capture_output=True, text=True,
+                               check=True).stdout
+    blocked = _sig_bits(child, "SigBlk")
+    for sig in (signal.SIGINT, signal.SIGHUP):
+        assert blocked & (1 << (sig - 1)), hex(blocked)
+    assert not blocked & (1 << (signal.SIGTERM - 1)), hex(blocked)
+    # the parent's own mask is back as it was
+    assert not signal.pthread_sigmask(signal.SIG_BLOCK, set()) & {signal.SIGINT, signal.SIGHUP}
+    init = ("import signal; from invrad_wb.core.accel.workers import worker_init;"
+            " signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGHUP});"
+            " worker_init(); " + show)
+    after = subprocess.run([sys.executable, "-c", init], capture_output=True, text=True,
+                           check=True, cwd=ROOT).stdout
+    assert not _sig_bits(after, "SigBlk") & ((1 << (signal.SIGINT - 1))
+                                            | (1 << (signal.SIGHUP - 1)))
+    ignored = _sig_bits(after, "SigIgn")
+    assert ignored & (1 << (signal.SIGINT - 1)) and ignored & (1 << (signal.SIGHUP - 1))

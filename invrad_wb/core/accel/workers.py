@@ -322,9 +322,14 @@ def _stop_signals():
 @contextlib.contextmanager
 def _stop_signals_deferred():
     """SIGINT, SIGTERM and SIGHUP held back while the block runs, then delivered again
-    (to whatever handler was there). Workers started meanwhile do not inherit this (a
-    blocked signal mask would be inherited, and would keep ``pool.terminate`` from
-    stopping a worker that is still starting). Main thread only (elsewhere: no-op)."""
+    (to whatever handler was there). Main thread only (elsewhere: no-op).
+
+    SIGINT and SIGHUP are blocked in the signal mask, which the workers started meanwhile
+    inherit through fork and exec: Ctrl-C or a hang-up reaches the whole process group, and
+    a worker still importing ``site`` died of it with "Fatal Python error:
+    init_import_site"; :func:`worker_init` ignores them, then unblocks them (a pending one
+    is dropped). SIGTERM is held by a handler instead: a blocked SIGTERM inherited by a
+    worker that is still starting would keep ``pool.terminate`` from stopping it."""
     import signal
     import threading
     if threading.current_thread() is not threading.main_thread():
@@ -334,8 +339,14 @@ def _stop_signals_deferred():
 
     def hold(signum, frame):
         caught.append(signum)
+    masked = {sig for sig in _stop_signals() if sig != signal.SIGTERM
+              and signal.getsignal(sig) not in (signal.SIG_IGN, None)}
+    can_mask = hasattr(signal, "pthread_sigmask")
+    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, masked) if can_mask else None
     try:
         for sig in _stop_signals():
+            if can_mask and sig in masked:
+                continue
             saved[sig] = signal.getsignal(sig)
             if saved[sig] is signal.SIG_IGN or saved[sig] is None:
                 del saved[sig]
@@ -345,6 +356,8 @@ def _stop_signals_deferred():
     finally:
         for sig, old in saved.items():
             signal.signal(sig, old)
+        if old_mask is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)   # pending ones arrive
         for sig in dict.fromkeys(caught):
             os.kill(os.getpid(), sig)           # now to the real handler
 
@@ -360,6 +373,12 @@ def worker_init(parent=None):
     import signal
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if hasattr(signal, "SIGHUP"):
+        signal.signal(signal.SIGHUP, signal.SIG_IGN)     # the parent stops it, as for SIGINT
+    if hasattr(signal, "pthread_sigmask"):
+        # blocked by the parent while it started this worker (_stop_signals_deferred):
+        # ignored now, a pending one is dropped
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _stop_signals() - {signal.SIGTERM})
     if sys.platform.startswith("linux"):
         try:
             import ctypes
