@@ -428,4 +428,9 @@ def frame_rooms(doc, view=None, aspect=None, slack=1.15):
     cam.position.setValue(coin.SbVec3f(*map(float, eye)))
     cam.height.setValue(float(height))
     cam.focalDistance.setValue(float(depth + 1000.0 + 0.5 * depth))
+    # the clipping planes around the building: an image saved before the viewer has
+    # redrawn (its auto-clipping sets them then) used the previous camera's, and a view
+    # just turned orthographic saved blank
+    cam.nearDistance.setValue(1.0)
+    cam.farDistance.setValue(float(3.0 * depth + 1000.0 + 10.0 * max(depth, 1000.0)))
     return True

@@ -52,6 +52,7 @@ CHOICES = {
     "indirect": [("radiosity", "Radiosity"), ("ambient", "Ambient term"),
                  ("none", "None")],
     "backend": [("auto", "Auto"), ("opencl", "OpenCL"), ("numpy", "numpy")],
+    "aim": [("fixed", "Fixed"), ("free", "Adjustable")],
 }
 
 TARGET = {
