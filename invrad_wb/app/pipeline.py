@@ -370,7 +370,7 @@ def run(doc, settings, progress=None, locate=None, building=None):
     rooms_done = [room_name(p.space) for p in building.rooms]
     where = (f"{rooms_done[0]}: " if len(rooms_done) == 1
              else f"{len(rooms_done)} rooms: ")
-    step(0.0, f"{where}checking the light of {len(lums)} luminaire(s)")
+    step(0.0, f"{where}verify {len(lums)} luminaire(s)")
     t = time.perf_counter()
     from invrad_wb.core.forward.render import render
     achieved = render(building.locate_scene, building.to_zones(lums),
