@@ -12,7 +12,12 @@ import sys
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+# The checkout first (invrad_wb), then tests/ (repo_paths: where the checkout is, for tests at
+# any depth). The folders mirror invrad_wb's subpackages: tests/core/<subpackage>, tests/cli,
+# tests/app; tests/core/io/scene_file_helpers.py is what the scene-file tests share.
+_TESTS = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, _TESTS)
+sys.path.insert(0, os.path.dirname(_TESTS))
 
 
 def pytest_configure(config):

@@ -31,8 +31,8 @@ import os
 import textwrap
 
 import pytest
+from repo_paths import ROOT
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PACKAGE = "invrad_wb"
 
 #: the core's layers, lowest first; subpackages in one layer must not import each other

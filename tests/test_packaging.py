@@ -17,8 +17,8 @@ import pytest
 
 import invrad_wb
 from invrad_wb.app import dependencies
+from repo_paths import ROOT
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: What a wheel is built from (the rest of the checkout is not needed for it).
 SOURCES = ("pyproject.toml", "README.md", "invrad_wb", "kernels", "tables", "resources")
 

@@ -5,7 +5,7 @@ one signature for both. Callers ask for ``implementation(name, backend)`` once; 
 backend is resolved by :func:`~invrad_wb.core.accel.device.check_backend` (``'auto'``:
 OpenCL when a device is usable and ``INVRAD_OPENCL`` is not ``0``, else numpy, with one
 warning saying why; ``'opencl'`` without a device raises :class:`DeviceError`), so no call
-site writes the if/else out. ``tests/test_accel.py`` runs a parity test for every
+site writes the if/else out. ``tests/core/accel/test_accel.py`` runs a parity test for every
 registered pair and fails for a pair that has no test case.
 """
 from dataclasses import dataclass

@@ -16,6 +16,7 @@ from invrad_wb.core.accel.registry import pairs
 from invrad_wb.core.geometry.bvh import BVH
 from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.core.synthetic import generate as g
+from repo_paths import ROOT
 
 
 def _direct():
@@ -112,7 +113,7 @@ def test_every_pair_has_a_case():
 @pytest.mark.opencl
 @pytest.mark.parametrize("name", sorted(pairs()))
 def test_opencl_matches_its_numpy_twin(name):
-    assert name in CASES, f"the pair {name!r} has no parity case in tests/test_accel.py"
+    assert name in CASES, f"the pair {name!r} has no parity case in tests/core/accel/test_accel.py"
     pair = pairs()[name]
     args, kw, same = CASES[name]()
     same(pair.numpy(*args, **kw), pair.opencl(*args, **kw))
@@ -127,8 +128,7 @@ def test_the_switch_turns_opencl_off():
             "['direct_illuminance'].numpy)")
     env = dict(os.environ, INVRAD_OPENCL="0")
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                         text=True, timeout=120, cwd=os.path.dirname(os.path.dirname(
-                             os.path.abspath(__file__))))
+                         text=True, timeout=120, cwd=ROOT)
     assert out.stdout.split() == ["False", "numpy", "True"], out.stderr
 
 
@@ -145,8 +145,7 @@ def test_compiler_messages_stay_off_the_terminal_and_in_the_build_log(tmp_path):
             "env.program('noisy', (f'-D RUN=0',));"
             "print(n, len(device.builds), repr(device.builds[0]['log']))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         timeout=300, cwd=os.path.dirname(os.path.dirname(
-                             os.path.abspath(__file__))))
+                         timeout=300, cwd=ROOT)
     assert out.returncode == 0, out.stderr
     assert out.stderr == ""                                  # nothing on the terminal
     built, after, log = out.stdout.split(" ", 2)

@@ -11,9 +11,9 @@ from invrad_wb.core.io.sceneio import read_scene, write_scene
 from invrad_wb.core.model.targets import no_luminaire_reason, require_targets
 from invrad_wb.core.synthetic import generate
 from invrad_wb.errors import SceneError
+from repo_paths import ROOT, SCENE_FILE_HELPERS
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(ROOT, "tests", "scene_files"))
+sys.path.insert(0, SCENE_FILE_HELPERS)
 
 
 def _cli(*args):

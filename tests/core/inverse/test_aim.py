@@ -13,8 +13,9 @@ from invrad_wb.core.model.luminaires import Luminaire, luminaire_from_dict
 from invrad_wb.core.model.photometry import read_photometry
 from invrad_wb.core.synthetic import generate
 from invrad_wb.errors import LuminaireError
+from repo_paths import PHOTOMETRY
 
-PHOT = os.path.join(os.path.dirname(__file__), "data", "photometry")
+PHOT = PHOTOMETRY
 DOWN = np.array([0.0, 0.0, -1.0])
 
 

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from invrad_wb.core.model import memory
+from repo_paths import ROOT
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def test_sizes_parse():

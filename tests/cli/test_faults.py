@@ -1,7 +1,7 @@
 """Fault injection (SQLite's way): signals at several points of a run, a full file system, a
 read-only one, an I/O error while writing. Each asserts the exit status, a one-line
 message, no traceback, no process left, no output the run created left behind, and the
-user's earlier files byte-identical. (The address-space limit: tests/test_memory_limits.py.)
+user's earlier files byte-identical. (The address-space limit: tests/core/model/test_memory_limits.py.)
 """
 import contextlib
 import errno
@@ -13,8 +13,8 @@ import sys
 import time
 
 import pytest
+from repo_paths import ROOT
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PY = [sys.executable, "-m", "invrad_wb"]
 
 

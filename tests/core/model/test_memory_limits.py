@@ -8,8 +8,8 @@ import sys
 import pytest
 
 from invrad_wb.core.model import memory
+from repo_paths import ROOT
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 GB = 1 << 30
 
 

@@ -8,8 +8,8 @@ import subprocess
 import sys
 
 import pytest
+from repo_paths import ROOT
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 OFFICE = os.path.join(ROOT, "examples", "office.ply")
 
 

@@ -13,9 +13,9 @@ from invrad_wb.core.forward.direct import direct_illuminance
 from invrad_wb.core.model.luminaires import Luminaire, load_luminaires
 from invrad_wb.core.model.photometry import Photometry, integrate, read_photometry
 from invrad_wb.core.model.scene import plane_basis
+from repo_paths import PHOTOMETRY, ROOT, TESTS
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-DATA = os.path.join(ROOT, "tests", "data", "photometry")
+DATA = PHOTOMETRY
 PTS = np.array([[0, 0, 0], [1, 0, 0], [2, 1, 0], [0.5, -1.5, 0], [3, 3, 0.5]], float)
 UP = np.tile([0.0, 0.0, 1.0], (len(PTS), 1))
 
@@ -171,7 +171,7 @@ def test_locate_refines_with_the_distribution(name, rho):
 
 def _vote_case():
     import sys
-    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    sys.path.insert(0, os.path.join(TESTS, "core", "inverse"))      # test_locate's cases
     import test_locate as T
     s = T._small_case()
     pts = T.voting_points(s, density=30)
@@ -239,7 +239,7 @@ def test_rectangular_luminous_opening_is_read_along_its_axes(tmp_path):
     """The luminous opening's length and width, along the luminaire's C0 and C90 axes:
     IES LM-63 gives length along 0-180 degrees; EULUMDAT length along the longitudinal
     C90-C270 axis; a round opening (IES negative dimensions, EULUMDAT width 0) has none."""
-    src = os.path.join(os.path.dirname(__file__), "data", "photometry")
+    src = PHOTOMETRY
     with open(os.path.join(src, "lambertian.ies")) as fh:
         ies = fh.read()
     assert " 2 0.1 0.1 0.05" in ies

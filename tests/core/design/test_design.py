@@ -18,8 +18,8 @@ from invrad_wb.core.design.search import RoomSearch, best_regular_grid
 from invrad_wb.core.design.spec import spec_from_dict
 from invrad_wb.core.model.scene import Scene
 from invrad_wb.core.synthetic import generate as g
+from repo_paths import ROOT
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CAT = [{"name": "DL-1000", "flux_lm": 1000, "watts": 8.5},
        {"name": "DL-2000", "flux_lm": 2000, "watts": 15.5},
        {"name": "DL-3500", "flux_lm": 3500, "watts": 26.0}]

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from invrad_wb.core.synthetic import generate as g
+from repo_paths import ROOT
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def _cli(args, cwd):

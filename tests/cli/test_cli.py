@@ -6,8 +6,8 @@ import sys
 
 import numpy as np
 import pytest
+from repo_paths import ROOT
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def run(*args, env=None, check=False):
