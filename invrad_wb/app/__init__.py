@@ -10,8 +10,13 @@ those below it (``tests/test_architecture.py``), lowest first:
 * :mod:`.fixturebody` a light fixture's body and frame (both backends and the export)
 * :mod:`.ifcdata`   invrad's data in IFC files through ifcopenshell: requirement sets,
   fixture entities' psets, placement and body, IfcSpace shapes
-* :mod:`.nativeifc` the NativeIFC backend (FreeCAD 1.x): IfcSpace rooms, IfcLightFixture
-  entities, requirements, one undo step per run
+* the two document backends: :mod:`.classic` (Arch Spaces, Arch Equipment fixtures,
+  requirements in IfcProperties, a FreeCAD transaction per edit) and :mod:`.nativeifc`
+  (FreeCAD 1.x: IfcSpace rooms, IfcLightFixture entities, requirements, one undo step per
+  run holding one ifcopenshell transaction)
+* :mod:`.backend`   one interface over them, chosen once per document (``backend.of``):
+  rooms, their solids and requirements, fixtures in and out; nothing above branches on
+  an object's kind
 * :mod:`.rooms`     Arch Spaces (or IfcSpaces) -> room solids -> sampling meshes (metres,
   inward normals); :mod:`.dependencies` the venv on sys.path (appended) and what is
   missing, with the command that installs it (called by the workbench's Initialize)

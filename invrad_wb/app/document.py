@@ -145,3 +145,14 @@ def _comparable(val):
     if isinstance(val, (str, int, bool)) or val is None:
         return val
     return repr(val)
+
+
+def global_shape(obj, shape=None):
+    """A copy of ``obj.Shape`` (or ``shape``) in global coordinates (mm): FreeCAD keeps an
+    object's shape in the frame of the BuildingPart/storey it is in."""
+    shape = (obj.Shape if shape is None else shape).copy()
+    gp = obj.getGlobalPlacement()
+    own = obj.Placement
+    if not gp.toMatrix() == own.toMatrix():
+        shape.Placement = gp.multiply(own.inverse()).multiply(shape.Placement)
+    return shape

@@ -307,36 +307,3 @@ def requirements_of_run(building, summary):
                         "U0": (emin / em) if em and emin is not None else None}
         out[p.space.Name] = (float(p.work_plane.lux), achieved)
     return out
-
-
-def write_requirements(doc, requirements):
-    """Write ``{space Name: (lux, achieved)}`` into the rooms' IFC data: in a NativeIFC
-    document into the IfcSpace entities (:func:`.nativeifc.write_requirements`), else
-    into each Arch Space's ``IfcProperties`` (``Pset_SpaceLightingRequirements``:
-    Illuminance, ArtificialLighting; ``InvRad_LightingResult``: AchievedEm, AchievedEmin,
-    AchievedU0, InstalledPower), which FreeCAD's IFC exporter writes as property sets.
-    Call inside the run's transaction (one undo step). Returns the rooms written."""
-    from invrad_wb.app import nativeifc
-    from invrad_wb.app.document import transaction
-    native = {k: v for k, v in requirements.items()
-              if nativeifc.is_native_space(doc.getObject(k))}
-    n = nativeifc.write_requirements(doc, native) if native else 0
-    with transaction(doc, "Lighting requirements"):
-        for key, (lux, achieved) in requirements.items():
-            space = doc.getObject(key)
-            if key in native or space is None or not hasattr(space, "IfcProperties"):
-                continue
-            _set_space_properties(space, lux, achieved)
-            n += 1
-    return n
-
-
-def _set_space_properties(space, lux, achieved):
-    props = dict(space.IfcProperties)
-    props[f"Illuminance;;{PSET_REQ_IFC4}"] = f"IfcIlluminanceMeasure;;{float(lux)!r}"
-    props[f"ArtificialLighting;;{PSET_REQ_IFC4}"] = "IfcBoolean;;True"
-    for key, value in (achieved or {}).items():
-        if key in RESULT_PROPERTIES and value is not None and math.isfinite(float(value)):
-            name, kind = RESULT_PROPERTIES[key]
-            props[f"{name};;{PSET_RESULT}"] = f"{kind};;{float(value)!r}"
-    space.IfcProperties = props

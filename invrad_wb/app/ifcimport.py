@@ -9,6 +9,7 @@ spaces' lighting requirements into WorkPlane targets.
 import os
 
 from invrad_wb.errors import SceneError
+from invrad_wb.app import backend
 from invrad_wb.app.document import activate, transaction
 from invrad_wb.app.ifcdata import read_requirement
 
@@ -79,6 +80,7 @@ def open_ifc(path, doc=None, shapemode=None, requirements=True, singledoc=False)
     if not projs:
         raise SceneError("NativeIFC made no project object", path)
     proj = projs[0]
+    backend.forget(doc)                    # the document is a NativeIFC one now
     spaces = native_spaces(doc)
     if not spaces:
         raise SceneError("the file has no rooms (IfcSpace)", path)

@@ -33,6 +33,7 @@ their entities on undo (``Proxy.nodelete``): the file's undo does that.
 **ifcopenshell version.** FreeCAD 1.0.0's nativeifc uses ``entity_instance.wrapped_data``,
 which ifcopenshell 0.9 removed; :func:`check_available` names the install command.
 """
+import contextlib
 import os
 
 from invrad_wb.errors import InvradError, LuminaireError, SceneError
@@ -141,8 +142,17 @@ def space_name(obj):
     return long_name if long_name and long_name != "None" else obj.Label
 
 
+def space_uid(obj):
+    """A NativeIFC space's IFC GlobalId (or '')."""
+    return str(getattr(obj, "GlobalId", "") or "")
+
+
 def document_is_native(doc):
-    return any(is_native(o) for o in doc.Objects)
+    """True when the document holds a NativeIFC project: a project object (with its
+    ``IfcFilePath``), or the document itself in locked mode."""
+    if "IfcFilePath" in getattr(doc, "PropertiesList", ()):
+        return True
+    return any(is_native(o) or "IfcFilePath" in o.PropertiesList for o in doc.Objects)
 
 
 def native_spaces(doc):
@@ -186,7 +196,35 @@ def space_solid(obj):
     return solid.copy()
 
 
-# --------------------------------------------------------------------------- requirements
+def face_count(obj):
+    """Number of faces of a NativeIFC space's solid (0 without geometry)."""
+    try:
+        return len(space_solid(obj).Faces)
+    except SceneError:
+        return 0
+
+
+# --------------------------------------------------------------------------- the undo step
+@contextlib.contextmanager
+def ifc_step(doc, obj, name):
+    """ONE undo step that changes the IFC file of ``obj``'s project: a FreeCAD transaction
+    (joining the caller's) holding one ifcopenshell transaction, counted by the project's
+    sync object (:class:`IfcSyncProxy`) so that FreeCAD's undo/redo replays the file's.
+    Yields the ifcopenshell file; on an exception the file's transaction is discarded and
+    the document's aborted."""
+    ifc = ifcfile(obj)
+    proj = project(obj)
+    install_observer()
+    with transaction(doc, name):
+        sync = sync_object(doc, proj)
+        ifc.begin_transaction()
+        try:
+            yield ifc
+        except BaseException:
+            ifc.discard_transaction()
+            raise
+        ifc.end_transaction()
+        sync.Proxy.commit(sync)
 
 
 # --------------------------------------------------------------------------- fixtures
@@ -266,50 +304,44 @@ def insert_fixtures(doc, per_room, label, replace=True, name="Insert luminaires"
     if len(files) != 1:
         raise SceneError("the rooms belong to more than one IFC project; run them one"
                          " project at a time", doc.Label)
-    ifc = ifcfile(per_room[0][0])
     proj = project(per_room[0][0])
-    install_observer()
     out = []
-    with transaction(doc, name):
-        sync = sync_object(doc, proj)
+    with ifc_step(doc, per_room[0][0], name) as ifc:
         unit_scale = U.calculate_unit_scale(ifc)
-        ifc.begin_transaction()
-        try:
-            ctx = ifcdata.body_context(ifc)
-            for space, lums in per_room:
-                if replace:
-                    for old in room_fixtures(space):
-                        ent = entity(old)
-                        if ent is not None:
-                            RT.remove_product(ifc, product=ent)
-                        doc.removeObject(old.Name)
-                sp_ent = entity(space)
-                if sp_ent is None:
-                    raise SceneError(f"room {describe(space)}: its IfcSpace is not in the"
-                                     " IFC file", doc.Label)
-                for i, lum in enumerate(lums):
-                    ent = _new_fixture_entity(ifc, sp_ent, lum, label(space, i, lum), ctx,
-                                              unit_scale)
-                    # a Part shape (a small disk), shown whatever the spaces' mode: a new
-                    # object in NativeIFC's "Coin" mode was not drawn (FreeCAD 1.0)
-                    obj = ifc_tools.create_object(ent, doc, ifc, "Shape")
-                    obj.Proxy.nodelete = True      # the file's undo removes the entity
-                    obj.Proxy.cached = False       # a new entity: not in the file's cache
-                    obj.touch()
-                    space.Proxy.addObject(space, obj)
-                    out.append(obj)
-            for space in [sp for sp, _ in per_room]:
-                req = (requirements or {}).get(space.Name)
-                if req is not None:
-                    write_requirement(ifc, entity(space), req[0], req[1])
-        except BaseException:
-            ifc.discard_transaction()
-            raise
-        ifc.end_transaction()
-        sync.Proxy.commit(sync)
+        ctx = ifcdata.body_context(ifc)
+        for space, lums in per_room:
+            if replace:
+                for old in room_fixtures(space):
+                    ent = entity(old)
+                    if ent is not None:
+                        RT.remove_product(ifc, product=ent)
+                    doc.removeObject(old.Name)
+            sp_ent = entity(space)
+            if sp_ent is None:
+                raise SceneError(f"room {describe(space)}: its IfcSpace is not in the"
+                                 " IFC file", doc.Label)
+            for i, lum in enumerate(lums):
+                ent = _new_fixture_entity(ifc, sp_ent, lum, label(space, i, lum), ctx,
+                                          unit_scale)
+                # a Part shape (a small disk), shown whatever the spaces' mode: a new
+                # object in NativeIFC's "Coin" mode was not drawn (FreeCAD 1.0)
+                obj = ifc_tools.create_object(ent, doc, ifc, "Shape")
+                obj.Proxy.nodelete = True      # the file's undo removes the entity
+                obj.Proxy.cached = False       # a new entity: not in the file's cache
+                obj.touch()
+                space.Proxy.addObject(space, obj)
+                out.append(obj)
+        _write_requirements(ifc, [sp for sp, _ in per_room], requirements)
         if hasattr(proj, "Modified"):
             proj.Modified = True
     return out
+
+
+def _write_requirements(ifc, spaces, requirements):
+    for sp in spaces:
+        req = (requirements or {}).get(sp.Name)
+        if req is not None:
+            write_requirement(ifc, entity(sp), req[0], req[1])
 
 
 def write_requirements(doc, requirements, name="Lighting requirements to IFC"):
@@ -319,21 +351,8 @@ def write_requirements(doc, requirements, name="Lighting requirements to IFC"):
     spaces = [s for s in spaces if s is not None and is_native_space(s)]
     if not spaces:
         return 0
-    ifc = ifcfile(spaces[0])
-    proj = project(spaces[0])
-    install_observer()
-    with transaction(doc, name):
-        sync = sync_object(doc, proj)
-        ifc.begin_transaction()
-        try:
-            for sp in spaces:
-                lux, achieved = requirements[sp.Name]
-                write_requirement(ifc, entity(sp), lux, achieved)
-        except BaseException:
-            ifc.discard_transaction()
-            raise
-        ifc.end_transaction()
-        sync.Proxy.commit(sync)
+    with ifc_step(doc, spaces[0], name) as ifc:
+        _write_requirements(ifc, spaces, requirements)
     return len(spaces)
 
 

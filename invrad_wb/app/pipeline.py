@@ -406,14 +406,13 @@ def run(doc, settings, progress=None, locate=None, building=None):
     if settings.insert:
         from invrad_wb.app.fixtures import insert_fixtures
         t = time.perf_counter()
-        from invrad_wb.app.document import transaction
-        from invrad_wb.app.ifcexport import requirements_of_run, write_requirements
+        from invrad_wb.app.ifcexport import requirements_of_run
         name = f"invrad: {len(lums)} luminaire(s)"
-        with transaction(doc, name):       # fixtures and IFC requirements: one undo step
-            fixtures = insert_fixtures(doc, [(p.space, per_room[p.room_id])
-                                             for p in building.rooms],
-                                       replace=settings.replace, name=name)
-            write_requirements(doc, requirements_of_run(building, summary))
+        # fixtures and IFC requirements: one undo step of the document's backend
+        fixtures = insert_fixtures(doc, [(p.space, per_room[p.room_id])
+                                         for p in building.rooms],
+                                   replace=settings.replace, name=name,
+                                   requirements=requirements_of_run(building, summary))
         timings["insert"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
     summary["timings"] = timings

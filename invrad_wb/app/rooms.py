@@ -19,9 +19,10 @@ import time
 import numpy as np
 
 from invrad_wb.errors import SceneError, SettingsError
-from invrad_wb.app import nativeifc
+from invrad_wb.app import backend
 from invrad_wb.app import settings as S
-from invrad_wb.app.document import describe, object_type
+# global_shape lived here: rooms.global_shape as before
+from invrad_wb.app.document import describe, global_shape  # noqa: F401
 from invrad_wb.core.geometry.meshing import refine, signed_volume, triangle_normals
 from invrad_wb.app.units import points_mm_to_m
 
@@ -96,37 +97,32 @@ class RoomMesh:
 
 # --------------------------------------------------------------------------- spaces
 def is_space(obj):
-    """An Arch/BIM Space, or an IfcSpace of a NativeIFC document (FreeCAD 1.x)."""
-    if object_type(obj) == "Space":
-        return True
-    return nativeifc.is_native_space(obj)
+    """A room of its document's backend (:mod:`.backend`): an Arch/BIM Space, or an
+    IfcSpace of a NativeIFC document (FreeCAD 1.x)."""
+    return backend.of(obj).is_room(obj)
 
 
 def is_native(space):
-    """True for an IfcSpace object of a NativeIFC document."""
-    return nativeifc.is_native_space(space)
+    """True for a room of a NativeIFC document."""
+    return backend.of(space).native
 
 
 def room_name(space):
     """The name of a room shown to the user: its Label, or a NativeIFC IfcSpace's
     LongName ("Wohnen"; NativeIFC labels it with the IFC Name, e.g. "1")."""
-    if is_native(space):
-            return nativeifc.space_name(space)
-    return space.Label
+    return backend.of(space).room_name(space)
 
 
 def find_spaces(doc):
-    """All Arch Spaces of a document, in document order."""
-    return [o for o in doc.Objects if is_space(o)]
+    """All rooms of a document (Arch Spaces, or a NativeIFC document's IfcSpaces), in
+    document order."""
+    return backend.of(doc).rooms(doc)
 
 
 def space_uid(space):
     """The IFC GlobalId stored on a Space (``IfcData['IfcUID']``, or a NativeIFC
     space's ``GlobalId``) or ''."""
-    if is_native(space):
-        return str(getattr(space, "GlobalId", "") or "")
-    data = getattr(space, "IfcData", None) or {}
-    return str(data.get("IfcUID", "")) if hasattr(data, "get") else ""
+    return backend.of(space).room_uid(space)
 
 
 def get_space(doc, key):
@@ -149,64 +145,17 @@ def get_space(doc, key):
                      + ", ".join(describe(s) for s in spaces), doc.Label)
 
 
-def _free_edges(shape):
-    import Part
-    n = 0
-    for e in shape.Edges:
-        if len(shape.ancestorsOfType(e, Part.Face)) < 2:
-            n += 1
-    return n
-
-
 def room_shape(space):
-    """The Space's closed solid, in global coordinates (mm), checked.
+    """The room's closed solid, in global coordinates (mm), checked by its document's
+    backend (:meth:`.backend.DocumentBackend.room_solid`).
 
     Raises
     ------
     SceneError
-        Naming the Space when it has no geometry, its boundaries enclose no volume or its
+        Naming the room when it has no geometry, its boundaries enclose no volume or its
         surface is not closed.
     """
-    if is_native(space):
-            return nativeifc.space_solid(space)
-    who = f"room {describe(space)}"
-    base = getattr(space, "Base", None)
-    if base is not None and hasattr(base, "Shape") and not base.Shape.isNull():
-        # Arch keeps a Space's previous shape when its base stops being a solid: check it
-        bs = base.Shape
-        if not bs.Solids or not all(sh.isClosed() for so in bs.Solids for sh in so.Shells):
-            raise SceneError(f"{who} is not closed: its base {describe(base)} is an open"
-                             f" surface ({len(bs.Faces)} faces, {_free_edges(bs)} free"
-                             " edges), not a closed solid; close it (e.g. Part > Shape"
-                             " builder > solid from shell)", space.Label)
-    shape = getattr(space, "Shape", None)
-    if shape is None or shape.isNull() or not shape.Faces:
-        if getattr(space, "Boundaries", None):
-            raise SceneError(f"{who} has no geometry: its {len(space.Boundaries)} boundary"
-                             " objects do not enclose a volume (check that the walls, floor"
-                             " and ceiling faces close the room)", space.Label)
-        raise SceneError(f"{who} has no geometry (no base solid and no boundaries)",
-                         space.Label)
-    if not shape.Solids:
-        raise SceneError(f"{who} is not closed: its shape has no solid ({len(shape.Faces)}"
-                         f" faces, {_free_edges(shape)} free edges)", space.Label)
-    for solid in shape.Solids:
-        for shell in solid.Shells:
-            if not shell.isClosed():
-                raise SceneError(f"{who} is not closed: its solid has"
-                                 f" {_free_edges(shell)} free edges", space.Label)
-    return global_shape(space, shape)
-
-
-def global_shape(obj, shape=None):
-    """A copy of ``obj.Shape`` (or ``shape``) in global coordinates (mm): FreeCAD keeps an
-    object's shape in the frame of the BuildingPart/storey it is in."""
-    shape = (obj.Shape if shape is None else shape).copy()
-    gp = obj.getGlobalPlacement()
-    own = obj.Placement
-    if not gp.toMatrix() == own.toMatrix():
-        shape.Placement = gp.multiply(own.inverse()).multiply(shape.Placement)
-    return shape
+    return backend.of(space).room_solid(space)
 
 
 def check_resolution(resolution_m):
@@ -411,15 +360,7 @@ def _face_reflectances(kinds, reflectance, label):
 
 def face_count(space):
     """Number of faces of a Space's shape (0 without geometry)."""
-    if is_native(space):
-        try:
-            return len(room_shape(space).Faces)
-        except SceneError:
-            return 0
-    shape = getattr(space, "Shape", None)
-    if shape is None or shape.isNull():
-        return 0
-    return len(shape.Faces)
+    return backend.of(space).face_count(space)
 
 
 def faces_by_kind(space, kind):

@@ -4,7 +4,7 @@ import numpy as np
 import FreeCAD
 
 from fctest import FZK, FreeCADTestCase, make_walled_room, needs_fzk, needs_locate
-from invrad_wb.app import document, fixtures
+from invrad_wb.app import classic, document, fixtures
 from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.errors import LuminaireError, SceneError
 
@@ -179,7 +179,7 @@ class TestFixtures(FreeCADTestCase):
 
     def test_failure_half_way_is_aborted(self):
         before = document.snapshot(self.doc)
-        original = fixtures.make_fixture
+        original = classic.make_fixture             # the classic backend makes them
         calls = []
 
         def failing(space, lum, label):
@@ -187,14 +187,14 @@ class TestFixtures(FreeCADTestCase):
             if len(calls) == 2:
                 raise RuntimeError("disk full")
             return original(space, lum, label)
-        fixtures.make_fixture = failing
+        classic.make_fixture = failing
         try:
             fixtures.insert_fixtures(self.doc, [(self.space, [down(1, 1)])])   # an old run
             before = document.snapshot(self.doc)
             with self.assertRaises(RuntimeError):
                 fixtures.insert_fixtures(self.doc, [(self.space, [down(1, 1), down(2, 2)])])
         finally:
-            fixtures.make_fixture = original
+            classic.make_fixture = original
         self.assertUnchanged(before)
         self.assertEqual(len(fixtures.room_fixtures(self.space)), 1)
 

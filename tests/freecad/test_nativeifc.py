@@ -51,6 +51,33 @@ class TestWithoutNativeIFC(unittest.TestCase):
 
 @needs_native
 @needs_fzk
+class TestBackendChoice(FreeCADTestCase):
+    """One backend per document: a document chosen classic becomes NativeIFC when a
+    NativeIFC project comes into it, by NativeIFC's own import (File > Insert) too, and its
+    rooms are then its IfcSpaces only."""
+
+    def test_a_nativeifc_project_makes_the_document_nativeifc(self):
+        from fctest import make_box_space
+        from nativeifc import ifc_import
+        from invrad_wb.app import backend
+        arch = make_box_space(self.doc)
+        self.assertIs(backend.of(self.doc), backend.CLASSIC)
+        self.assertEqual(rooms.find_spaces(self.doc), [arch])
+        src = self.path("fzk.ifc")
+        shutil.copy(FZK, src)
+        ifc_import.insert(src, self.doc.Name, strategy=1, shapemode=2, switchwb=False,
+                          silent=True)                  # no invrad call: the observer
+        be = backend.of(self.doc)
+        self.assertIs(be, backend.NATIVE_IFC)
+        self.assertTrue(be.native)
+        found = rooms.find_spaces(self.doc)
+        self.assertEqual({rooms.room_name(s) for s in found}, FZK_ROOMS)
+        self.assertNotIn(arch, found)
+        self.assertTrue(all(rooms.is_native(s) for s in found))
+
+
+@needs_native
+@needs_fzk
 class TestNativeFZK(FreeCADTestCase):
     """One NativeIFC FZK-Haus per test (a copy: saving writes the project's file)."""
 

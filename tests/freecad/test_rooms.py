@@ -187,3 +187,22 @@ class TestBadRooms(FreeCADTestCase):
     def test_no_spaces(self):
         with self.assertRaisesMessage(SceneError, "no rooms"):
             rooms.get_space(self.doc, "Office")
+
+
+class TestBackendChoice(FreeCADTestCase):
+    """A document's backend is chosen once (classic here: Arch Spaces) and forgotten when
+    the document closes. (NativeIFC documents: test_nativeifc.TestBackendChoice.)"""
+
+    def test_a_classic_document_has_the_classic_backend_once(self):
+        from invrad_wb.app import backend
+        space = make_box_space(self.doc)
+        be = backend.of(self.doc)
+        self.assertIs(be, backend.CLASSIC)
+        self.assertFalse(be.native)
+        self.assertIs(backend.of(space), be)                  # an object: its document's
+        self.assertIs(backend._CHOSEN[self.doc.Name][1], be)  # chosen once, kept
+        self.assertEqual(rooms.find_spaces(self.doc), [space])
+        self.assertFalse(rooms.is_native(space))
+        name = self.doc.Name
+        FreeCAD.closeDocument(name)
+        self.assertNotIn(name, backend._CHOSEN)
