@@ -1,9 +1,9 @@
 """Host <-> device data for the kernel wrappers: one way to make a buffer, one way to launch.
 
-Every OpenCL wrapper (``forward/direct.py``, ``forward/occlusion.py``,
-``forward/form_factors.py``, ``inverse/votes.py``, ``inverse/votes_ellipse.py``,
-``geometry/bvh.py``) builds its device buffers with :func:`device_buffer` and, for
-``float4`` kernel arguments, packs (k, 3) arrays with :func:`float4`.
+Every OpenCL wrapper (``forward/direct.py``, ``forward/occlusion.py`` with the BVH's
+buffers, ``forward/form_factors.py``, ``inverse/votes.py``, ``inverse/votes_ellipse.py``)
+builds its device buffers with :func:`device_buffer` and, for ``float4`` kernel arguments,
+packs (k, 3) arrays with :func:`float4`.
 """
 import numpy as np
 

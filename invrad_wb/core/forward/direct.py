@@ -8,10 +8,11 @@ and :func:`direct_illuminance_opencl` (``kernels/direct.cl``).
 import numpy as np
 
 from invrad_wb import constants as C
-from invrad_wb.core.geometry.bvh import BVH, segments_occluded_numpy
+from invrad_wb.core.geometry.bvh import segments_occluded_numpy
 from invrad_wb.core.accel.buffers import device_buffer, float4, launch_chunked
 from invrad_wb.core.accel.device import get_env
 from invrad_wb.core.accel.registry import implementation, register
+from invrad_wb.core.forward.occlusion import bvh_buffers
 from invrad_wb.core.model.luminaires import emitter_samples
 
 
@@ -110,10 +111,9 @@ def direct_illuminance_opencl(points, normals, luminaires, bvh=None, occlusion=T
     if n == 0 or len(pos) == 0:
         return np.zeros(n)
     if bvh is None:
-        bvh = BVH(np.zeros((0, 3, 3)))
         occlusion = False
     knl = env.kernel("direct", "direct_illuminance", [f"-D OCCLUSION={1 if occlusion else 0}"])
-    bufs = bvh.cl_buffers(env)
+    bufs = bvh_buffers(env, bvh)
     out = np.empty(n, np.float32)
     d_pts, d_nrm = device_buffer(env, float4(points)), device_buffer(env, float4(normals))
     d_epos, d_enrm = device_buffer(env, float4(pos)), device_buffer(env, float4(nrm, flux))

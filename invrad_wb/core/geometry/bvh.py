@@ -11,7 +11,9 @@ surfaces the ends lie on never count.
 
 Functions here are the numpy side: :func:`segments_occluded_bruteforce` is the obviously
 correct reference, :func:`segments_occluded_numpy` the fast numpy twin of the kernel in
-``kernels/bvh.h`` (a vectorised breadth-first traversal over (segment, node) pairs).
+``kernels/bvh.h`` (a vectorised breadth-first traversal over (segment, node) pairs). The
+BVH on the device (its buffers, as bvh.h reads them) belongs to the kernel family that owns
+the traversal: :func:`invrad_wb.core.forward.occlusion.bvh_buffers`.
 """
 import numpy as np
 
@@ -86,7 +88,6 @@ class BVH:
             self.tris[b, 3:6, :k] = (t[:, 1] - t[:, 0]).T
             self.tris[b, 6:9, :k] = (t[:, 2] - t[:, 0]).T
             self.tri_index[b, :k] = idx
-        self._cl_buffers = None
 
     @staticmethod
     def _new(lo, hi, left, right, leaf):
@@ -100,35 +101,6 @@ class BVH:
     @property
     def n_nodes(self):
         return len(self.lo)
-
-    # ------------------------------------------------------------------ OpenCL upload
-    def __getstate__(self):
-        # device buffers belong to this process's OpenCL context (a worker builds its own)
-        return {**self.__dict__, "_cl_buffers": None}
-
-    def cl_buffers(self, env):
-        """Device buffers (node lo, node hi, node info, leaf triangles), uploaded once."""
-        if self._cl_buffers is not None and self._cl_buffers[0] is env.ctx:
-            return self._cl_buffers[1]
-        from invrad_wb.core.accel.buffers import device_buffer
-        n = self.n_nodes
-        lo4 = np.zeros((n, 4), np.float32)
-        hi4 = np.zeros((n, 4), np.float32)
-        # widen the bounds by a float32 ulp-scale margin so float rounding never culls a hit
-        pad = 1e-5 * max(1.0, float(np.abs(np.concatenate([self.lo, self.hi])).max()))
-        lo4[:, :3] = self.lo - pad
-        hi4[:, :3] = self.hi + pad
-        info = np.zeros((n, 2), np.int32)
-        internal = self.leaf < 0
-        info[internal, 0] = self.left[internal]
-        info[internal, 1] = self.right[internal]
-        info[~internal, 0] = -1 - self.leaf[~internal]
-        tris = np.ascontiguousarray(self.tris.astype(np.float32))
-        if tris.size == 0:
-            tris = np.zeros((1, 9, LEAF), np.float32)
-        bufs = tuple(device_buffer(env, a) for a in (lo4, hi4, info, tris))
-        self._cl_buffers = (env.ctx, bufs)
-        return bufs
 
 
 def _segment_params(p, q, eps):

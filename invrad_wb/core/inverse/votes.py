@@ -23,6 +23,7 @@ from invrad_wb.core.geometry.bvh import segments_occluded_numpy
 from invrad_wb.core.accel.buffers import device_buffer, float4, launch_chunked
 from invrad_wb.core.accel.device import get_env
 from invrad_wb.core.accel.registry import implementation, register
+from invrad_wb.core.forward.occlusion import bvh_buffers
 from invrad_wb.core.inverse.formfactor import _g1, _x_max_unit
 
 WEIGHTINGS = ("illumination", "distance", "both", "none")
@@ -285,11 +286,7 @@ def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
     def buf(a):
         return device_buffer(env, a)
 
-    if occlusion:
-        bvh_bufs = bvh.cl_buffers(env)
-    else:
-        from invrad_wb.core.geometry.bvh import BVH
-        bvh_bufs = BVH(np.zeros((0, 3, 3))).cl_buffers(env)
+    bvh_bufs = bvh_buffers(env, bvh if occlusion else None)
     if use_shade:
         sp, sn = float4(shade.positions), float4(shade.normals)
         ln_lim = float(np.log(shade_limit_lux / flux))

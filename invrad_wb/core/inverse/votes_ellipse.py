@@ -21,10 +21,11 @@ Shade points forbid pixels as in the exact model (:func:`shade_forbidden`).
 import numpy as np
 
 from invrad_wb import constants as C
-from invrad_wb.core.geometry.bvh import BVH, segments_occluded_numpy
+from invrad_wb.core.geometry.bvh import segments_occluded_numpy
 from invrad_wb.core.accel.buffers import device_buffer, float4, launch_chunked
 from invrad_wb.core.accel.device import get_env
 from invrad_wb.core.accel.registry import implementation, register
+from invrad_wb.core.forward.occlusion import bvh_buffers
 from invrad_wb.core.inverse.table import load_voting_table
 
 FIXED_POINT = 65536.0
@@ -193,7 +194,7 @@ def cast_ellipse_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
     ell_v = f4(P["v"], P["b"])
     ell_i = np.stack([P["map"], P["point"], P["K"], np.zeros(n, np.int64)], 1).astype(np.int32)
     ell_d = P["d"].astype(np.float32)
-    bvh_bufs = (bvh if occlusion else BVH(np.zeros((0, 3, 3)))).cl_buffers(env)
+    bvh_bufs = bvh_buffers(env, bvh if occlusion else None)
     d_out = device_buffer(env, out, "readwrite")          # the kernel adds to zeros
     launch_chunked(env, knl, n,
                    (buf(ell_c), buf(ell_w), buf(ell_v), buf(ell_i), buf(ell_d), buf(m_origin),

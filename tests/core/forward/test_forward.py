@@ -77,6 +77,20 @@ def test_bvh_opencl_matches_bruteforce(rng):
     assert ref.sum() > 50
 
 
+@pytest.mark.opencl
+def test_a_bvh_is_uploaded_once_per_context_and_pickles_without_its_buffers():
+    import pickle
+    from invrad_wb.core.accel.device import get_env
+    from invrad_wb.core.forward.occlusion import bvh_buffers
+    env = get_env()
+    bvh = BVH(g.pillar_room(cell=0.6).triangles)
+    bufs = bvh_buffers(env, bvh)
+    assert len(bufs) == 4 and bvh_buffers(env, bvh) is bufs
+    assert bvh_buffers(env) is bvh_buffers(env, None)            # the empty BVH's, once
+    clone = pickle.loads(pickle.dumps(bvh))                        # as a worker gets it
+    assert bvh_buffers(env, clone) is not bufs
+
+
 def test_pillar_casts_a_shadow():
     s = g.pillar_room((6, 4, 3), pillar=((2.8, 1.8), (3.2, 2.2)), cell=0.2)
     lum = [Luminaire([1.0, 2.0, 3.0], [0, 0, -1], 3000.0)]
