@@ -61,7 +61,8 @@ def lux_cmap():
 def deviation_cmap():
     """Blue - white - red (RdBu reversed), end colours beyond the limit."""
     import matplotlib
-    cmap = matplotlib.colormaps["RdBu_r"].copy()
+    from invrad_wb.core.output.images import DIVERGING_CMAP
+    cmap = matplotlib.colormaps[DIVERGING_CMAP].copy()
     cmap.set_bad(NO_TARGET)
     return cmap
 

@@ -53,10 +53,10 @@ def _matplotlib_stops(name, n):
 #: lux_cmap`) at 9 evenly spaced points, interpolated linearly (the workbench overlay,
 #: :mod:`invrad_wb.gui.display`, uses the same points: its colours match these images)
 VIRIDIS = _matplotlib_stops("viridis", 9)
-#: ColorBrewer RdBu (7 classes), blue (too dark) -> white (on target) -> red (too bright)
-DIVERGING_STOPS = np.array([[33, 102, 172], [103, 169, 207], [209, 229, 240],
-                            [247, 247, 247], [253, 219, 199], [239, 138, 98],
-                            [178, 24, 43]], dtype=np.float64)
+#: the deviation scale: matplotlib's RdBu_r (ColorBrewer RdBu reversed), blue (too dark) ->
+#: white (on target) -> red (too bright), the map of the report's deviation figures
+#: (:func:`invrad_wb.core.output.figures.deviation_cmap`)
+DIVERGING_CMAP = "RdBu_r"
 NAN_GREY = (150, 150, 150)          # no target
 SHADE_BLACK = (5, 5, 5)             # target 0 lx (display.SHADE_RGB)
 
@@ -106,9 +106,10 @@ def diverging(values, limit=DEVIATION_LIMIT):
     -------
     (..., 3) uint8 RGB; NaN -> :data:`NAN_GREY`.
     """
+    import matplotlib
     v = np.asarray(values, dtype=np.float64)
-    t = 0.5 + 0.5 * v / max(float(limit), 1e-12)
-    rgb = _lut(DIVERGING_STOPS, np.nan_to_num(t, nan=0.5)).round().astype(np.uint8)
+    t = np.clip(np.nan_to_num(0.5 + 0.5 * v / max(float(limit), 1e-12), nan=0.5), 0.0, 1.0)
+    rgb = (matplotlib.colormaps[DIVERGING_CMAP](t)[..., :3] * 255.0).round().astype(np.uint8)
     rgb[~np.isfinite(v)] = NAN_GREY
     return rgb
 

@@ -232,6 +232,9 @@ def test_colour_scales():
     assert np.allclose(np.array(cmap(0.0)[:3]) * 255, (68, 1, 84), atol=1)
     assert np.allclose(np.array(cmap(1.0)[:3]) * 255, (253, 231, 37), atol=1)
     assert cmap(1.5) == cmap(1.0)                             # above the scale: top colour
+    # and the deviation colours are the report's deviation figures' (matplotlib's RdBu_r)
+    t = np.clip(0.5 + np.array([-1.0, -0.25, 0.0, 0.25, 1.0]), 0.0, 1.0)
+    assert np.allclose(d[:5] / 255.0, FG.deviation_cmap()(t)[:, :3], atol=0.5 / 255)
 
 
 def test_unfolded_box_net_geometry_and_hot_spot():
