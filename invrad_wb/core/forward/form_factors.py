@@ -7,6 +7,9 @@ differential-area-to-triangle formula (:func:`point_triangle_form_factor`) is th
 field; beyond the blend radius the point approximation is used, blended linearly in r^2
 (:mod:`invrad_wb.core.forward.radiosity` describes the method).
 """
+import threading
+import weakref
+
 import numpy as np
 
 from invrad_wb import constants as C
@@ -318,12 +321,20 @@ def _patch_form_factors_opencl(points, normals, ps, parent, weight, vis, centre=
     return F
 
 
+#: PatchSet -> ((OpenCL context, centre), its device buffers): this family's, kept here (a
+#: patch set that goes away takes them with it; the patch set itself holds no device state)
+_PATCH_BUFFERS = weakref.WeakKeyDictionary()
+_LOCK = threading.Lock()
+
+
 def patch_buffers(env, ps, centre):
     """The patch set's device buffers (pblk, pplane, tstart, tris), coordinates relative to
-    ``centre``; kept on the patch set for its next launch with the same context and centre."""
+    ``centre``; kept for the patch set's next launch with the same context and centre."""
     key = (env.ctx, tuple(np.round(centre, 12)))
-    if ps._cl is not None and ps._cl[0] == key:
-        return ps._cl[1]
+    with _LOCK:
+        hit = _PATCH_BUFFERS.get(ps)
+    if hit is not None and hit[0] == key:
+        return hit[1]
     n = ps.n
     nblk = max(1, -(-n // PATCH_LANES))
     ppad = nblk * PATCH_LANES
@@ -355,7 +366,8 @@ def patch_buffers(env, ps, centre):
         tris[:len(slot_patch) // TRI_LANES] = (
             t.reshape(-1, TRI_LANES, 9).transpose(0, 2, 1))
     bufs = tuple(device_buffer(env, a) for a in (pblk, pplane, tstart, tris))
-    ps._cl = (key, bufs)
+    with _LOCK:
+        _PATCH_BUFFERS[ps] = (key, bufs)
     return bufs
 
 

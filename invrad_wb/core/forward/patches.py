@@ -92,7 +92,6 @@ class PatchSet:
         self.tri_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
         (self.area, self.centroid, self.point, self.radius,
          self.rep_triangle) = _cluster_stats(self.triangles, tri_patch[order], n)
-        self._cl = None        # device buffers of the form-factor kernels (form_factors.py)
 
     @property
     def ray_point(self):
