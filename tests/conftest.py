@@ -22,6 +22,9 @@ sys.path.insert(0, os.path.dirname(_TESTS))
 
 def pytest_configure(config):
     config.addinivalue_line("markers", "opencl: needs an OpenCL device")
+    config.addinivalue_line(
+        "markers", "slow: a long end-to-end run; the host's suite runs it, the FreeCAD 1.0"
+        " root's Python 3.13 / numpy 2 pass leaves it out (make test-freecad1)")
 
 
 def pytest_collection_modifyitems(config, items):

@@ -207,6 +207,7 @@ def test_a_killed_runs_temporary_files_are_removed_by_the_next(tmp_path):
     assert sorted(os.listdir(tmp_path)) == sorted([mine.name, "r.json"])
 
 
+@pytest.mark.slow
 def test_interrupted_vote_maps_leave_the_previous_ones_and_the_result(tmp_path, monkeypatch):
     from invrad_wb import cli
     from invrad_wb.core.output import votemap_images

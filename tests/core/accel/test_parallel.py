@@ -33,6 +33,7 @@ def _lums(result):
              int(l.room), float(l.score)) for l in result.luminaires]
 
 
+@pytest.mark.slow
 def test_locate_on_two_workers_is_identical_to_one_room_after_another(four_rooms):
     scene, true = four_rooms
     serial = locate(scene, true[0].flux_lm)
@@ -69,6 +70,7 @@ def test_seeds_reach_the_workers(four_rooms):
         assert len(step) == 1 and step[0]["seeded"] == 1, run.trace
 
 
+@pytest.mark.slow
 def test_design_on_two_workers_is_identical_to_one_room_after_another():
     sc, _ = g.floor_of_rooms(rooms=((4.0, 3.0), (5.0, 4.0), (3.0, 3.0)), cell=0.4)
     sp = spec_from_dict({"catalogue": CAT, "rooms": {"*": {"room_type": "office"}}})
@@ -180,6 +182,7 @@ def test_bad_worker_counts_are_refused(value):
         W.check_workers(value)
 
 
+@pytest.mark.slow
 def test_cli_workers_same_json_and_cancel_writes_nothing(tmp_path, four_rooms):
     from invrad_wb.core.io.sceneio import write_scene
     scene, true = four_rooms
@@ -272,11 +275,12 @@ def test_rooms_run_blas_on_one_thread_in_process_and_on_workers():
     assert _blas_threads() == before                              # restored afterwards
 
 
+@pytest.mark.slow
 def test_cli_design_batch_same_as_one_by_one(tmp_path):
     from invrad_wb.core.io.sceneio import write_scene
     proj = tmp_path / "project"
     proj.mkdir()
-    for name, size in (("small", (4.0, 3.0, 2.8)), ("big", (8.0, 6.0, 3.0))):
+    for name, size in (("small", (4.0, 3.0, 2.8)), ("big", (6.0, 4.0, 2.8))):
         sc = g.box_room(size=size, cell=0.5)
         write_scene(proj / f"{name}.ply", sc, lux=np.full(len(sc.vertices), np.nan))
     (proj / "broken.ply").write_text("ply\n")

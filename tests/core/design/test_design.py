@@ -192,9 +192,10 @@ def _shaded(scene, mask_fn):
                  face_reflectance=scene.face_reflectance, check_winding=False)
 
 
+@pytest.mark.slow
 def test_shade_veto_keeps_a_screen_wall_dark_but_not_the_ceiling():
     # a projection wall (x = 0, above 1.5 m) that must not get more than 60 lx direct light
-    base = g.box_room(size=(8.0, 4.0, 3.0), cell=0.25, reflectance=0.5)
+    base = g.box_room(size=(8.0, 4.0, 3.0), cell=0.4, reflectance=0.5)
     screen = _shaded(base, lambda v, n: (np.abs(v[:, 0]) < 1e-9) & (n[:, 0] > 0.5)
                      & (v[:, 2] > 1.5))
     free = design_room(base, spec(lux=300, u0=0.4), 0)

@@ -71,6 +71,7 @@ def room():
 
 @pytest.mark.parametrize("where, position", [("middle", [2.5, 2.0, 2.5]),
                                              ("0.1 m from two walls", [0.1, 0.1, 2.5])])
+@pytest.mark.slow
 def test_direct_and_interreflected_light_agree_with_radiance(room, tmp_path, where, position):
     scene, pick = room
     lum = Luminaire(position, [0, 0, -1], FLUX)
@@ -84,6 +85,7 @@ def test_direct_and_interreflected_light_agree_with_radiance(room, tmp_path, whe
     assert ratio == pytest.approx(1.0, abs=0.07), (where, ratio)
 
 
+@pytest.mark.slow
 def test_tilted_luminaire_agrees_with_radiance(room, tmp_path):
     """An aimed luminaire (axis 40 degrees off vertical, pan 30 degrees): its direct and
     interreflected light against Radiance's tilted disc."""

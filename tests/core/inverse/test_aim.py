@@ -203,6 +203,7 @@ def _check_found(found, true, flux_tol=None):
         assert f.extra["tilt_deg"] == pytest.approx(tilt, abs=2.0)
 
 
+@pytest.mark.slow
 def test_locate_aim_free_finds_a_tilted_spot(spot_room):
     scene, true, phot = spot_room
     res = locate(scene, 1200.0, LocateSettings(aim="free", indirect="none"),
@@ -214,6 +215,7 @@ def test_locate_aim_free_finds_a_tilted_spot(spot_room):
     assert spot.to_dict()["normal"] == [round(float(x), 6) for x in spot.normal]
 
 
+@pytest.mark.slow
 def test_locate_aim_fixed_keeps_luminaires_facing_their_surface(spot_room):
     """The default cannot explain the spot: every luminaire faces straight down."""
     scene, true, phot = spot_room

@@ -278,6 +278,7 @@ def test_locate_with_interreflected_light(name):
     assert r.rooms[0].ambient_lux > 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name,rho", [(n, rho) for n in MIXED_SCENARIOS for rho in (0.0, 0.6)])
 def test_locate_without_flux_finds_mixed_fluxes(name, rho):
     """No flux given, luminaires of different fluxes (800 to 4500 lm, in one room and per
@@ -409,6 +410,7 @@ def _requirement_room():
                                           np.nan))
 
 
+@pytest.mark.slow
 def test_crowded_pairs_are_spread_where_the_fit_allows():
     """A requirement leaves a flat cost: luminaires crowded into a pair are moved apart
     (to at least half the lumen-method spacing) for at most 3 % more data cost; an exact

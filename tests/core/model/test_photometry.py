@@ -149,6 +149,7 @@ def test_cli_render_with_a_lambertian_file_matches_the_default(tmp_path):
     assert np.allclose(outs[1][lit], outs[0][lit], rtol=0.01)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name,rho", [("spot.ies", 0.0), ("asymmetric.ies", 0.5)])
 def test_locate_refines_with_the_distribution(name, rho):
     """Luminaires with a narrow beam or asymmetric C-planes: the lambertian refinement

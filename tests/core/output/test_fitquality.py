@@ -54,11 +54,11 @@ def test_requirement_verdict_by_hand():
 def test_locate_states_its_fit_quality_and_a_wrong_flux_is_poor():
     from invrad_wb.core.inverse.locate import locate
     from invrad_wb.core.synthetic.scenarios import known_scene
-    scene, true = known_scene("one_ceiling", reflectance=0.0, cell=0.2, backend="numpy")
-    good = locate(scene, true[0].flux_lm, backend="numpy")
+    scene, true = known_scene("one_ceiling", reflectance=0.0, cell=0.2, backend="auto")
+    good = locate(scene, true[0].flux_lm, backend="auto")
     fq = good.rooms[0].fit
     assert fq.targets > 100 and fq.rms_relative < 0.05 and not fq.poor
     assert good.to_dict()["rooms"][0]["fit"]["within_20pct"] >= 0.95
     # twice the flux: one luminaire cannot be dimmed, so every lit point is ~2x too bright
-    bad = locate(scene, 2.0 * true[0].flux_lm, backend="numpy", overlap_levels=1)
+    bad = locate(scene, 2.0 * true[0].flux_lm, backend="auto", overlap_levels=1)
     assert bad.rooms[0].fit.poor

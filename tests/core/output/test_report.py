@@ -472,6 +472,7 @@ def test_iso_levels_are_round_and_include_the_target():
     assert FG.iso_levels(np.array([5.0, 5.0])) == []
 
 
+@pytest.mark.slow
 def test_report_is_atomic(tmp_path, monkeypatch):
     s = g.box_room((4, 3, 2.5), cell=0.5, reflectance=0.0)
     lums = [Luminaire([2.0, 1.5, 2.5], [0, 0, -1], 2000.0)]
