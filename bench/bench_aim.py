@@ -191,13 +191,16 @@ def main():
         flux = None if args.free_flux else lums[0].flux_lm
         modes = ["free"] + (["fixed"] if args.fixed else [])
         for mode in modes:
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             res = locate(sc, flux, LocateSettings(aim=mode), photometry=phot)
-            dt = time.perf_counter() - t0
+            dt, cpu = time.perf_counter() - t0, time.process_time() - c0
+            stages = " ".join(f"{k} {v:.1f}" for k, v in res.timings.items()
+                              if k != "total" and v >= 0.05)
             rows, spurious = evaluate(res.luminaires, lums, args.free_flux)
             print(f"{name:8s} aim {mode:5s} {'interrefl.' if inter else 'direct    '}"
                   f" {len(lums)} true, {len(res.luminaires)} found, spurious {spurious},"
-                  f" {dt:6.1f} s", flush=True)
+                  f" {dt:6.1f} s ({cpu:.1f} s CPU, load {os.getloadavg()[0]:.1f};"
+                  f" {stages})", flush=True)
             for t, f, d, ang, fe in rows:
                 tt, tp = tilt_pan(t.normal, DOWN)
                 if f is None:

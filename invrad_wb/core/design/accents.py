@@ -467,6 +467,17 @@ class AimedSpotResult(SpotResult):
             d["peak_tolerance"], d["size_tolerance"] = PEAK_TOLERANCE, SIZE_TOLERANCE
         return d
 
+    def accent_words(self):
+        """The report's accent cell: '2 x SPOT-35 aimed 32, 32 deg; peak 554/544 lx,
+        half-peak area 1.46/1.67 m2' (None without accents)."""
+        if not self.accents:
+            return None
+        s = self.shape
+        return (f"{len(self.accents)} x {self.accents[0].extra.get('type')} aimed"
+                f" {', '.join(str(round(lum.extra['tilt_deg'])) for lum in self.accents)} deg;"
+                f" peak {s['peak_lux']:.0f}/{s['target_peak_lux']:.0f} lx, half-peak area"
+                f" {s['size_m2']:.2f}/{s['target_size_m2']:.2f} m2")
+
     def describe(self):
         """The design note: the verdict, the accents and the shape, in one line."""
         g = self.goal

@@ -150,7 +150,7 @@ class RoomDesign:
                 "rated_w_per_m2_100lx": (None if self.w_per_m2_100lx is None
                                          else round(self.w_per_m2_100lx, 3)),
                 "output_percent": round(100 * self.candidate.dim, 1),
-                "deep_dimming": self.deep_dimming,
+                "deep_dimming": bool(self.deep_dimming),   # numpy's after re-dimming
                 "operating_hours": self.operating_hours,
                 "energy_kwh_per_year": (None if self.energy_kwh is None
                                         else round(self.energy_kwh, 1)),
