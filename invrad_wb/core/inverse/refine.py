@@ -713,7 +713,7 @@ def _score(problem, lights, cost):
 
 
 def swap_search(problem, lights, candidates, min_gain=0.05, merge_distance=0.25, tries=8,
-                max_evals=40, optimiser="lm", deadline=None):
+                max_evals=40, optimiser="lm", deadline=None, screen=False):
     """Escape a poor greedy answer: replace one luminaire by another candidate.
 
     Greedy selection cannot undo an early choice (a peak between two overlapping
@@ -721,6 +721,11 @@ def swap_search(problem, lights, candidates, min_gain=0.05, merge_distance=0.25,
     is replaced in turn by the best ``tries`` candidates that are not near another
     luminaire; all are refined jointly and the swap is kept if the cost drops by
     ``min_gain``. Stops after ``max_evals`` refinements.
+
+    ``screen``: each candidate is first refined alone beside the others as they stand
+    (their light fixed: a refinement of a few parameters); only one that then lowers the
+    cost is refined jointly (``locate --aim free``, where every joint refinement fits
+    position and aim of every luminaire). Each screen counts as a refinement.
 
     Returns
     -------
@@ -746,11 +751,21 @@ def swap_search(problem, lights, candidates, min_gain=0.05, merge_distance=0.25,
             near = [c for c, d in zip(pool, dist) if d < 1.5]
             far = [c for c, d in zip(pool, dist) if d >= 1.5]
             pool = near[:tries] + far[:tries // 2]
+            fixed = None
             for cand in pool:
                 if evals >= max_evals or (deadline is not None and time.time() > deadline):
                     return lights, cost, swaps
                 evals += 1
-                trial, c = opt(rest + [problem.with_indirect(cand)])
+                new = problem.with_indirect(cand)
+                if screen:
+                    if fixed is None:
+                        fixed = problem.fixed_light(rest)
+                    alone, c1 = opt([new], fixed=fixed)
+                    if c1 >= cost:
+                        continue
+                    evals += 1
+                    new = alone[0]
+                trial, c = opt(rest + [new])
                 if c < cost * (1.0 - min_gain):
                     lights, cost = trial, c
                     swaps += 1
