@@ -326,8 +326,8 @@ class RefineProblem:
         return sym
 
     def _photometric_lights(self, C, N, scale, V, with_grad, M=None):
-        if M is not None and self._symmetric():
-            # aimable luminaires (--aim free) of a symmetric distribution: one batch
+        if (M is not None or self.free_aim) and self._symmetric():
+            # --aim free with a symmetric distribution: one batch (aimlight)
             return self._beam().lights(C, N, scale * self.flux, V, with_grad)
         E = np.where(V, self._photometric(C, N, scale, M), 0.0)
         if not with_grad:
