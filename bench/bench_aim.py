@@ -22,7 +22,13 @@ are high and noisy):
                (three overlapping cos^10 wall-wash beams and a floor spot)
   free flux:   gallery 5/5 (<= 1.9 cm, <= 0.35 deg, flux <= 2.5 %), 168 s;
                shop 4/4 (<= 1.1 cm, <= 0.46 deg, flux <= 0.7 %), 145 s.
-  The 30 s per room target is not met.
+Measured 2026-11-25 22:00-22:20 (wall / CPU seconds; the machine at load 8-10 on 2 cores,
+so wall is about 3 x CPU; same answers as above):
+  before the batched symmetric light (ae68814^): gallery 132.2 s / 40.1 s CPU,
+               shop 122.3 s / 39.5 s CPU;
+  after (988dc90): gallery 26.6 s / 8.4 s CPU, shop 44.9 s / 12.9 s CPU, lobby 58.0 s /
+               16.7 s CPU (still 0/5, as above); free flux gallery 117.4 s / 38.9 s CPU
+               (the free-flux vote ladder: 14 vote casts, 27-35 s).
 """
 import argparse
 import math
