@@ -22,7 +22,13 @@ are high and noisy):
                (three overlapping cos^10 wall-wash beams and a floor spot)
   free flux:   gallery 5/5 (<= 1.9 cm, <= 0.35 deg, flux <= 2.5 %), 168 s;
                shop 4/4 (<= 1.1 cm, <= 0.46 deg, flux <= 0.7 %), 145 s.
-  The 30 s per room target is not met.
+Measured 2026-11-25 22:00-22:20 (wall / CPU seconds; the machine at load 8-10 on 2 cores,
+so wall is about 3 x CPU; same answers as above):
+  before the batched symmetric light (ae68814^): gallery 132.2 s / 40.1 s CPU,
+               shop 122.3 s / 39.5 s CPU;
+  after (988dc90): gallery 26.6 s / 8.4 s CPU, shop 44.9 s / 12.9 s CPU, lobby 58.0 s /
+               16.7 s CPU (still 0/5, as above); free flux gallery 117.4 s / 38.9 s CPU
+               (the free-flux vote ladder: 14 vote casts, 27-35 s).
 """
 import argparse
 import math
@@ -191,13 +197,16 @@ def main():
         flux = None if args.free_flux else lums[0].flux_lm
         modes = ["free"] + (["fixed"] if args.fixed else [])
         for mode in modes:
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             res = locate(sc, flux, LocateSettings(aim=mode), photometry=phot)
-            dt = time.perf_counter() - t0
+            dt, cpu = time.perf_counter() - t0, time.process_time() - c0
+            stages = " ".join(f"{k} {v:.1f}" for k, v in res.timings.items()
+                              if k != "total" and v >= 0.05)
             rows, spurious = evaluate(res.luminaires, lums, args.free_flux)
             print(f"{name:8s} aim {mode:5s} {'interrefl.' if inter else 'direct    '}"
                   f" {len(lums)} true, {len(res.luminaires)} found, spurious {spurious},"
-                  f" {dt:6.1f} s", flush=True)
+                  f" {dt:6.1f} s ({cpu:.1f} s CPU, load {os.getloadavg()[0]:.1f};"
+                  f" {stages})", flush=True)
             for t, f, d, ang, fe in rows:
                 tt, tp = tilt_pan(t.normal, DOWN)
                 if f is None:

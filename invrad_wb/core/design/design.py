@@ -17,6 +17,7 @@ from invrad_wb.core.accel.workers import map_rooms
 from invrad_wb.core.design.evaluate import RoomModel, surface_grids
 from invrad_wb.core.design.room import DesignRoom
 from invrad_wb.core.design.accent import SPOT_TOLERANCE, find_goals, light_spots, within
+from invrad_wb.core.design.accents import light_spots_aimed
 from invrad_wb.core.design.search import (Candidate, Metrics, RoomSearch, metrics_comply,
                                           run_search)
 
@@ -149,7 +150,7 @@ class RoomDesign:
                 "rated_w_per_m2_100lx": (None if self.w_per_m2_100lx is None
                                          else round(self.w_per_m2_100lx, 3)),
                 "output_percent": round(100 * self.candidate.dim, 1),
-                "deep_dimming": self.deep_dimming,
+                "deep_dimming": bool(self.deep_dimming),   # numpy's after re-dimming
                 "operating_hours": self.operating_hours,
                 "energy_kwh_per_year": (None if self.energy_kwh is None
                                         else round(self.energy_kwh, 1)),
@@ -350,7 +351,9 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
     if photometry is None:
         from invrad_wb.core.model.photometry import read_photometry
         photometry = {e.name: read_photometry(e.photometry) for e in entries if e.photometry}
-    search = RoomSearch(model, req, rs, entries, photometry, mixed=mixed, dimming=dimming,
+    # aimable entries (adjustable spots) are for accents when the room has others
+    general = [e for e in entries if not e.aimable] or entries
+    search = RoomSearch(model, req, rs, general, photometry, mixed=mixed, dimming=dimming,
                         fractions=fractions)
     if not search.geoms:
         rd.notes.append(f"no position in this room suits a {rs.mounting.kind} mounting")
@@ -366,7 +369,7 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
     _ugr_note(rd, droom)
     rd.rated_watts = sum(_entry_watts(entries, lum) for lum in rd.luminaires)
     rd.operating_hours = rs.operating_hours
-    _explain(rd, search, entries)
+    _explain(rd, search, general)
     rd.seconds = time.perf_counter() - t0
     return rd
 
@@ -424,10 +427,18 @@ def _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search=N
     if not goals:
         return
     shade = _shade_points(scene, rd.room)
-    accents, rd.spots = light_spots(model, droom, rs, entries, photometry, rd.luminaires,
-                                    goals, droom.floor_z + req.height_m,
-                                    shade=shade if len(shade[0]) else None,
-                                    shade_limit=rs.shade_limit_lux)
+    aimable = [e for e in entries if e.aimable]
+    if aimable:               # painted spots lit by aimed spots (accents.py)
+        accents, rd.spots = light_spots_aimed(scene, model, droom, rs, aimable, photometry,
+                                              rd.luminaires, goals,
+                                              droom.floor_z + req.height_m,
+                                              shade=shade if len(shade[0]) else None,
+                                              shade_limit=rs.shade_limit_lux)
+    else:
+        accents, rd.spots = light_spots(model, droom, rs, entries, photometry, rd.luminaires,
+                                        goals, droom.floor_z + req.height_m,
+                                        shade=shade if len(shade[0]) else None,
+                                        shade_limit=rs.shade_limit_lux)
     if accents:
         general = rd.luminaires
         rd.luminaires = rd.luminaires + accents
@@ -440,7 +451,9 @@ def _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search=N
             _redim_with_accents(rd, model, search, parts, accents, req, rs)
     for sp in rd.spots:
         g = sp.goal
-        if g.kind == "spot":
+        if hasattr(sp, "describe"):          # aimed accents say their shape too
+            rd.notes.append(sp.describe())
+        elif g.kind == "spot":
             how = ("" if sp.accent is None else
                    f" with an accent {sp.accent.extra.get('type')} at"
                    f" {100 * sp.accent_watts / max(_entry_watts(entries, sp.accent), 1e-9):.0f} %")

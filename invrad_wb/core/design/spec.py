@@ -30,6 +30,9 @@ minimums (walls 50 lx, ceiling 30 lx, U0 0.10 each; 75 / 50 lx in offices and ed
 (default: the room type's). ``"cylindrical"`` (Ez where people meet and talk) is accepted and
 reported as required but is not designed for nor computed yet. ``"operating_hours"`` (per
 room or for the whole spec, h/a) gives the energy estimate.
+A catalogue entry with ``"aimable": true`` (and ``"max_tilt_deg"``, default
+:data:`DEFAULT_MAX_TILT_DEG`) is an adjustable spot: it lights painted spots as an aimed
+accent (:mod:`invrad_wb.core.design.accents`) and is kept out of the general lighting.
 
 Units: lux, lumens, watts, metres.
 """
@@ -47,6 +50,8 @@ MOUNTINGS = ("ceiling", "pendant", "wall")
 DEFAULT_SHADE_LIMIT_LUX = 5.0
 #: EN 12464-1 border zone of a work plane that is a whole room (metres).
 DEFAULT_MARGIN_M = 0.5
+#: Largest tilt of an aimable entry that does not state its own (degrees).
+DEFAULT_MAX_TILT_DEG = 60.0
 #: Usual desk height (metres).
 DEFAULT_WORK_PLANE_HEIGHT_M = 0.75
 
@@ -67,6 +72,9 @@ class CatalogueEntry:
     photometry : str or None, path of an EULUMDAT (.ldt) or IES (.ies) file
     mount_height_m : (float, float), the mounting heights above the floor the maker
         allows (e.g. high-bays from 4 m); (0, inf) if not stated
+    aimable : bool, an adjustable spot (gimbal, track): it lights painted spots as an
+        aimed accent (:mod:`invrad_wb.core.design.accents`), not the work plane
+    max_tilt_deg : float, the largest tilt off its mounting surface's normal (aimable)
     """
 
     name: str
@@ -77,6 +85,8 @@ class CatalogueEntry:
     mounting: tuple = ("ceiling", "pendant")
     photometry: Optional[str] = None
     mount_height_m: tuple = (0.0, math.inf)
+    aimable: bool = False
+    max_tilt_deg: float = 0.0
 
     @property
     def efficacy(self):
@@ -97,6 +107,8 @@ class CatalogueEntry:
             # as the spec writes it: null is "no upper limit" (JSON has no infinity)
             d["mount_height_m"] = [h if math.isfinite(h) else None
                                    for h in self.mount_height_m]
+        if self.aimable:
+            d.update(aimable=True, max_tilt_deg=self.max_tilt_deg)
         return d
 
 
@@ -246,7 +258,8 @@ def _object(value, where, keys):
 
 def _entry(d, where, base_dir):
     d = _object(d, where, ("name", "flux_lm", "watts", "radius_m", "dimming", "mounting",
-                           "photometry", "mount_height_m", "description"))
+                           "photometry", "mount_height_m", "description", "aimable",
+                           "max_tilt_deg"))
     name = d.get("name")
     if not isinstance(name, str) or not name.strip():
         raise (where / "name").error(f"{name!r}: every catalogue entry needs a name")
@@ -290,8 +303,15 @@ def _entry(d, where, base_dir):
         raise (w / "mount_height_m").error(f"{mh!r}: give [lowest, highest] metres")
     h0 = _number(mh[0], w / "mount_height_m", "m", lo=0)
     h1 = _number(mh[1], w / "mount_height_m", "m", lo=h0, allow_none=True)
+    aimable = d.get("aimable", False)
+    if not isinstance(aimable, bool):
+        raise (w / "aimable").error(f"{aimable!r}: give true or false")
+    if "max_tilt_deg" in d and not aimable:
+        raise (w / "max_tilt_deg").error("a largest tilt needs \"aimable\": true")
+    tilt = (_number(d.get("max_tilt_deg", DEFAULT_MAX_TILT_DEG), w / "max_tilt_deg",
+                    "degrees", lo=0, hi=89.0) if aimable else 0.0)
     return CatalogueEntry(name.strip(), flux, watts, radius, (lo, hi), tuple(mounting), phot,
-                          (h0, math.inf if h1 is None else h1))
+                          (h0, math.inf if h1 is None else h1), aimable, tilt)
 
 
 def _work_plane(d, where, source="spec"):

@@ -93,7 +93,7 @@ class _RoomFit:
         if lights and cost > 1e-3 * cost0:
             # not the near-exact fit a set of the right luminaires gives: try swaps
             lights, cost, nswap = swap_search(prob, lights, cands, min_gain=s.min_gain,
-                                              optimiser=s.optimiser)
+                                              optimiser=s.optimiser, screen=s.aim == "free")
             self.trace.append({"swaps": nswap, "cost_after": cost})
             if nswap:
                 # swapped luminaires may have made others redundant (or two may coincide)

@@ -306,6 +306,16 @@ class RefineProblem:
             out[i] = np.where(cs > 1e-9, scale[i] * self.flux * i_lm * cs / r2, 0.0)
         return out
 
+    def _beam(self):
+        """The :class:`~invrad_wb.core.inverse.aimlight.SymmetricBeam` of the problem's
+        distribution at its points (made once)."""
+        beam = getattr(self, "_sym_beam", None)
+        if beam is None:
+            from invrad_wb.core.inverse.aimlight import SymmetricBeam
+            beam = self._sym_beam = SymmetricBeam(self.photometry.table[0], self.positions,
+                                                  self.normals)
+        return beam
+
     def _symmetric(self):
         """Whether the distribution is rotationally symmetric (its frame's C = 0 axis
         does not matter)."""
@@ -316,6 +326,9 @@ class RefineProblem:
         return sym
 
     def _photometric_lights(self, C, N, scale, V, with_grad, M=None):
+        if (M is not None or self.free_aim) and self._symmetric():
+            # --aim free with a symmetric distribution: one batch (aimlight)
+            return self._beam().lights(C, N, scale * self.flux, V, with_grad)
         E = np.where(V, self._photometric(C, N, scale, M), 0.0)
         if not with_grad:
             return E, None
@@ -396,15 +409,21 @@ class RefineProblem:
         """(k, 2) d E / d aim coordinates of one aimable luminaire (central differences)."""
         p = L.params()
         n = L._npos()
-        out = np.empty((len(self.positions), 2))
+        if self.photometry is not None and self._symmetric():
+            ab = p[n:n + 2]
+            if np.hypot(*ab) < np.tan(np.radians(L.max_tilt)) - 2 * h:   # not clamped
+                from invrad_wb.core.model.aiming import aim_of_offset_jacobian
+                g = self._beam().aim_grad(L.position, L.normal, L.flux_scale * self.flux,
+                                          aim_of_offset_jacobian(L.mount, ab))
+                return np.where(np.asarray(vis, dtype=bool).reshape(-1)[:, None], g, 0.0)
+        moved = []
         for j in range(2):
-            q = p.copy()
-            q[n + j] += h
-            e1 = self.lights_of([L.with_params(q)], [vis])[0][0]
-            q[n + j] -= 2 * h
-            e0 = self.lights_of([L.with_params(q)], [vis])[0][0]
-            out[:, j] = (e1 - e0) / (2 * h)
-        return out
+            for sign in (1.0, -1.0):
+                q = p.copy()
+                q[n + j] += sign * h
+                moved.append(L.with_params(q))
+        E = self.lights_of(moved, [vis] * 4)[0]                 # the four in one call
+        return np.stack([(E[0] - E[1]) / (2 * h), (E[2] - E[3]) / (2 * h)], axis=1)
 
     def cost_of(self, r):
         c = self.robust_scale
@@ -694,7 +713,7 @@ def _score(problem, lights, cost):
 
 
 def swap_search(problem, lights, candidates, min_gain=0.05, merge_distance=0.25, tries=8,
-                max_evals=40, optimiser="lm", deadline=None):
+                max_evals=40, optimiser="lm", deadline=None, screen=False):
     """Escape a poor greedy answer: replace one luminaire by another candidate.
 
     Greedy selection cannot undo an early choice (a peak between two overlapping
@@ -702,6 +721,11 @@ def swap_search(problem, lights, candidates, min_gain=0.05, merge_distance=0.25,
     is replaced in turn by the best ``tries`` candidates that are not near another
     luminaire; all are refined jointly and the swap is kept if the cost drops by
     ``min_gain``. Stops after ``max_evals`` refinements.
+
+    ``screen``: each candidate is first refined alone beside the others as they stand
+    (their light fixed: a refinement of a few parameters); only one that then lowers the
+    cost is refined jointly (``locate --aim free``, where every joint refinement fits
+    position and aim of every luminaire). Each screen counts as a refinement.
 
     Returns
     -------
@@ -727,11 +751,21 @@ def swap_search(problem, lights, candidates, min_gain=0.05, merge_distance=0.25,
             near = [c for c, d in zip(pool, dist) if d < 1.5]
             far = [c for c, d in zip(pool, dist) if d >= 1.5]
             pool = near[:tries] + far[:tries // 2]
+            fixed = None
             for cand in pool:
                 if evals >= max_evals or (deadline is not None and time.time() > deadline):
                     return lights, cost, swaps
                 evals += 1
-                trial, c = opt(rest + [problem.with_indirect(cand)])
+                new = problem.with_indirect(cand)
+                if screen:
+                    if fixed is None:
+                        fixed = problem.fixed_light(rest)
+                    alone, c1 = opt([new], fixed=fixed)
+                    if c1 >= cost:
+                        continue
+                    evals += 1
+                    new = alone[0]
+                trial, c = opt(rest + [new])
                 if c < cost * (1.0 - min_gain):
                     lights, cost = trial, c
                     swaps += 1

@@ -304,8 +304,9 @@ def room_rows(result):
                                "tol": f"{100 * SPOT_TOLERANCE:.0f} %",
                                "target": f"{s.goal.target_mean:.0f}",
                                "achieved": f"{s.achieved_mean:.0f}", "ok": s.ok,
-                               "accent": None if s.accent is None
-                               else s.accent.extra.get("type")}
+                               "accent": (s.accent_words() if hasattr(s, "accent_words")
+                                          else None if s.accent is None
+                                          else s.accent.extra.get("type"))}
                               for s in r.spots if s.goal.kind == "spot"])
         rows.append(row)
     return rows

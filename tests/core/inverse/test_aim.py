@@ -224,3 +224,39 @@ def test_locate_aim_fixed_keeps_luminaires_facing_their_surface(spot_room):
     assert all(L.normal @ DOWN > 0.999 or L.extra.get("mount") == "pendant"
                for L in res.luminaires)
     assert all("tilt_deg" not in L.extra for L in res.luminaires)
+
+
+def test_symmetric_beam_against_the_photometry_and_its_gradients():
+    """The refinement's batched light of aimed symmetric spots (aimlight) gives the
+    bilinear table's light, and analytic position and aim gradients equal to central
+    differences."""
+    from invrad_wb.core.inverse.aimlight import SymmetricBeam
+    from invrad_wb.core.model.scene import plane_basis
+    phot = read_photometry(os.path.join(PHOT, "spot.ies"))
+    pts, nrm = _points(np.random.default_rng(5), 600)
+    beam = SymmetricBeam(phot.table[0], pts, nrm)
+    C = np.array([[1.2, 1.8, 2.5], [3.0, 1.0, 2.5]])
+    m = DOWN
+    ab = np.array([[0.4, -0.3], [-0.2, 0.6]])
+    N = np.array([aiming.aim_of_offset(m, x) for x in ab])
+    flux = np.array([1500.0, 700.0])
+    E, G = beam.light(C, N, flux, with_grad=True)
+    for i in range(2):
+        u, v = plane_basis(N[i])
+        d = pts - C[i]
+        r2 = np.einsum("ij,ij->i", d, d)
+        w = d / np.sqrt(r2)[:, None]
+        cs = np.maximum(-np.einsum("ij,ij->i", nrm, w), 0.0)
+        ref = flux[i] * phot.intensity_per_lm(np.stack([w @ u, w @ v, w @ N[i]], 1)) * cs / r2
+        np.testing.assert_allclose(E[i], np.where(cs > 1e-9, ref, 0.0), rtol=1e-9,
+                                   atol=1e-9 * ref.max())
+    h = 1e-6
+    fd = np.stack([(beam.light(C + h * e, N, flux) - beam.light(C - h * e, N, flux)) / (2 * h)
+                   for e in np.eye(3)], axis=-1)
+    assert np.abs(G - fd).max() <= 1e-5 * np.abs(fd).max()
+    J = aiming.aim_of_offset_jacobian(m, ab[0])
+    ga = beam.aim_grad(C[0], N[0], flux[0], J)
+    fa = np.stack([(beam.light(C[:1], aiming.aim_of_offset(m, ab[0] + h * e)[None], flux[0])[0]
+                    - beam.light(C[:1], aiming.aim_of_offset(m, ab[0] - h * e)[None],
+                                 flux[0])[0]) / (2 * h) for e in np.eye(2)], axis=1)
+    assert np.abs(ga - fa).max() <= 1e-5 * np.abs(fa).max()
