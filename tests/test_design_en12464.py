@@ -258,3 +258,32 @@ def test_power_deep_dimming_energy_and_the_room_summary_through_the_cli(tmp_path
         assert words in html, words
     rows = (tmp_path / "rep" / "rooms.csv").read_text(encoding="utf-8").splitlines()
     assert "rated_w" in rows[0] and "walls" in rows[0]
+
+
+def test_surface_grid_leaves_out_what_no_eye_sees_and_has_no_slivers():
+    """FZK-Haus's Flur failed its walls' U0 (0.05) on one grid point in a 2 cm slot between
+    a wall and a beam box hung off it: a surface no occupant sees. The grid keeps only what
+    an eye in the room sees, in equal cells per plane (no sliver cell at a wall's end)."""
+    from invrad_wb.core.design.evaluate import surface_grids
+    from invrad_wb.core.design.room import DesignRoom
+    w, d, h, gap, beam = 5.0, 4.0, 2.8, 0.02, (0.2, 0.2)
+    mb = g.MeshBuilder(0.2)
+    g.add_prism_room(mb, [(0, 0), (w, 0), (w, d), (0, d)], [(0, 0, w, d)], height=h)
+    g.add_box_occluder(mb, (0.0, gap, h - beam[1]), (w, gap + beam[0], h), skip_top=True)
+    sc = mb.scene()
+    dr = DesignRoom(sc, 0)
+    P, N, W = surface_grids(sc, 0, dr)["walls"]
+    # nothing in the slot (the wall behind the beam, the beam's back face)
+    assert not np.any((P[:, 1] < gap + 0.01) & (P[:, 2] > h - beam[1])), P[P[:, 1] < 0.05]
+    # what is seen: the walls less the slot's wall and the ends hidden in and behind the
+    # beam, plus the beam's front face
+    seen = 2 * (w + d) * h - w * beam[1] - 2 * (gap + beam[0]) * beam[1] + w * beam[1]
+    assert W.sum() == pytest.approx(seen, abs=0.15)
+    # the beam's front face is graded (a surface in plain view)
+    assert np.any((np.abs(P[:, 1] - gap - beam[0]) < 0.01) & (N[:, 1] > 0.9))
+    # equal cells per plane: on the long wall none is a sliver of its neighbours
+    box = g.box_room(size=(w, d, h), cell=0.4)
+    P, N, W = surface_grids(box, 0, DesignRoom(box, 0))["walls"]
+    long_wall = W[N[:, 1] > 0.9]
+    assert long_wall.sum() == pytest.approx(w * h, rel=1e-6)
+    assert long_wall.min() > 0.5 * np.median(long_wall)

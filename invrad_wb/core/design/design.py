@@ -330,7 +330,7 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
         return rd
     req = rd.requirement = rs.work_plane
     points, _ = droom.grid(req.height_m, req.margin_m)
-    surfaces = surface_grids(scene, room, droom)
+    surfaces = surface_grids(scene, room, droom, backend=backend)
     rd.surface_reqs = {k: v for k, v in rs.surfaces.items() if k in surfaces}
     rd.cylindrical = rs.cylindrical
     if rs.cylindrical is not None:
