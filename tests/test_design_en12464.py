@@ -287,3 +287,39 @@ def test_surface_grid_leaves_out_what_no_eye_sees_and_has_no_slivers():
     long_wall = W[N[:, 1] > 0.9]
     assert long_wall.sum() == pytest.approx(w * h, rel=1e-6)
     assert long_wall.min() > 0.5 * np.median(long_wall)
+
+
+def _linear_photometry(wide_in_c0):
+    """A luminaire wide in one C plane (lambertian there) and narrow across (cos^9)."""
+    from invrad_wb.core.model.photometry import Photometry
+    c = np.radians(np.arange(361))[:, None]
+    gam = np.radians(np.arange(181))[None, :]
+    s2 = np.sin(c) ** 2 if wide_in_c0 else np.cos(c) ** 2
+    return Photometry(np.maximum(np.cos(gam), 0.0) ** (1.0 + 8.0 * s2), 1.0, name="linear")
+
+
+def test_a_linear_luminaire_is_laid_along_or_across_whichever_lights_the_room_better():
+    """The search tries C0 along the room and across it: the same luminaire turned by 90
+    degrees in its file gives the same design, turned the other way in the room."""
+    from invrad_wb.core.design.design import design_room
+    sc = g.with_reflectances(g.box_room(size=(8.0, 2.4, 2.8), cell=0.4))
+    spec = _spec({"work_plane": {"lux": 200, "u0": 0.4}},
+                 cat=[{"name": "LIN", "flux_lm": 2500, "watts": 20.0,
+                       "dimming": [0.1, 1.0]}])
+    rd = {}
+    for wide_c0 in (True, False):
+        rd[wide_c0] = design_room(sc, spec, 0, photometry={"LIN": _linear_photometry(wide_c0)})
+        assert rd[wide_c0].compliant, rd[wide_c0].notes
+    # the file turned by 90 degrees: the design turned back (along <-> across), C0 on the
+    # room's long axis (x) or across it (y)
+    swap = {"along": "across", "across": "along"}
+    got = {w: [lum.extra.get("orientation") for lum in rd[w].luminaires] for w in rd}
+    assert sorted(got[False]) == sorted(swap[o] for o in got[True]), got
+    for w in rd:
+        for lum in rd[w].luminaires:
+            along = lum.extra["orientation"] == "along"
+            assert np.allclose(np.abs(lum.c0), [1, 0, 0] if along else [0, 1, 0], atol=1e-9)
+        assert "the room" in rd[w].to_dict()["layout"]
+    # the same light either way: the two designs are the same installation
+    assert rd[True].watts == pytest.approx(rd[False].watts, rel=1e-6)
+    assert rd[True].metrics.em == pytest.approx(rd[False].metrics.em, rel=1e-6)

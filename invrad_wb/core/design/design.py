@@ -114,6 +114,12 @@ class RoomDesign:
             out[t] += 1
         return out
 
+    def _turned(self):
+        """', C0 along the room' (or across) where the chosen type was turned."""
+        o = sorted({lum.extra["orientation"] for lum in self.luminaires
+                    if lum.extra.get("orientation")})
+        return "".join(f", C0 {x} the room" for x in o)
+
     def to_dict(self):
         d = {"room": self.room, "name": self.name, "area_m2": round(self.area_m2, 3),
              "size_m": [round(float(x), 3) for x in self.size_m],
@@ -129,7 +135,7 @@ class RoomDesign:
                       "pass": {k: bool(v) for k, v in self.verdicts.items()},
                       "compliant": self.compliant, "watts": round(self.watts, 2),
                       "w_per_m2": round(self.watts / max(self.area_m2, 1e-9), 3),
-                      "layout": self.candidate.geom.describe(),
+                      "layout": self.candidate.geom.describe() + self._turned(),
                       "dim": round(self.candidate.dim, 4),
                       "ugr": None if self.ugr is None else round(self.ugr, 1),
                       "ugr_limit": self.ugr_limit,

@@ -14,6 +14,7 @@ solve of the room (:class:`~invrad_wb.core.forward.radiosity.RadiosityModel`), g
 the grid points. Both scale the new installation's light by the maintenance factor.
 """
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -26,6 +27,7 @@ from invrad_wb.core.forward.radiosity import RadiosityModel
 from invrad_wb.core.geometry.bvh import BVH
 from invrad_wb.core.geometry.meshing import nearest_site, refine
 from invrad_wb.core.geometry.raster import locate_points
+from invrad_wb.core.model.aiming import photometric_frame
 from invrad_wb.core.model.luminaires import Luminaire, disk_quadrature
 from invrad_wb.core.model.scene import Scene, plane_basis
 
@@ -51,7 +53,8 @@ def room_mesh(scene, room):
                  check_winding=False)
 
 
-def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photometry=None):
+def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photometry=None,
+                  c0=None):
     """Direct illuminance per lumen: (k, L) lux/lm of L luminaires at k receivers, no shadows.
 
     Parameters
@@ -62,6 +65,8 @@ def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photome
     photometry : object with ``intensity_per_lm(local_dirs)``, optional
         Intensity per lumen (cd/lm) for (..., 3) unit directions in the luminaire's frame
         (x, y in its plane, z along its facing normal); None: lambertian ``cos(gamma) / pi``.
+    c0 : (3,) float64 or None, the C = 0 direction of every luminaire (made perpendicular to
+        its normal; :func:`~invrad_wb.core.model.aiming.photometric_frame`)
     """
     points = np.asarray(points, dtype=np.float64)
     normals = np.asarray(normals, dtype=np.float64)
@@ -72,7 +77,7 @@ def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photome
     for key in np.unique(np.round(lum_normals, 9), axis=0):
         cols = np.flatnonzero(np.all(np.abs(lum_normals - key) < 1e-8, axis=1))
         n = lum_normals[cols[0]]
-        u, v = plane_basis(n)
+        u, v = photometric_frame(n, c0)
         for q, w in zip(qp, qw):
             c = positions[cols] + radius_m * (q[0] * u + q[1] * v)
             for b in range(0, len(cols), max(1, _BLOCK * 64 // max(1, len(points)))):
@@ -362,13 +367,56 @@ class RoomModel:
         return self.mf * e * self.correction
 
 
-def luminaires_of(positions, normals, fluxes, entries, entry_index, room, photometry=None):
+def luminaires_of(positions, normals, fluxes, entries, entry_index, room, photometry=None,
+                  axes=None):
     """Luminaire objects of a layout (the catalogue entry's name kept in ``extra``, its
-    intensity distribution from ``photometry``: entry name -> Photometry)."""
+    intensity distribution from ``photometry``: entry name -> Photometry; an entry turned
+    'along' or 'across' gets its C0 along the room's longer or shorter plan axis of
+    ``axes``, :func:`entry_c0`)."""
     photometry = photometry or {}
     out = []
     for p, n, f, k in zip(positions, normals, fluxes, entry_index):
         e = entries[k]
-        out.append(Luminaire(p, n, float(f), e.radius_m, room=room,
-                             extra={"type": e.name}, photometry=photometry.get(e.name)))
+        extra = {"type": e.name}
+        if e.orientation is not None:
+            extra["orientation"] = e.orientation
+        out.append(Luminaire(p, n, float(f), e.radius_m, room=room, extra=extra,
+                             photometry=photometry.get(e.name), c0=entry_c0(e, axes)))
     return out
+
+
+def entry_c0(entry, axes):
+    """World C0 direction (3,) of an entry turned 'along' / 'across' the room: ``axes``
+    is ((s, t) plan unit axes (2, 2), size (2,)); None for an entry not turned."""
+    if entry.orientation is None or axes is None:
+        return None
+    ax, size = axes
+    long_i = 0 if size[0] >= size[1] else 1
+    i = long_i if entry.orientation == "along" else 1 - long_i
+    return np.array([ax[i][0], ax[i][1], 0.0])
+
+
+#: two C planes whose intensities differ by less than this (relative) count as the same:
+#: a luminaire so symmetric is not turned
+SYMMETRY_TOL = 0.02
+
+
+def turned_entries(entries, photometry):
+    """The catalogue as the search tries it: an entry whose photometry differs between its
+    C0 and C90 planes becomes two, C0 laid along the room and across it (EN 12464-1
+    designers try both: a batwing panel turned 90 degrees lights a room differently)."""
+    out = []
+    for e in entries:
+        ph = photometry.get(e.name) if photometry else None
+        if ph is not None and not _rotationally_symmetric(ph):
+            out += [replace(e, orientation="along"), replace(e, orientation="across")]
+        else:
+            out.append(e)
+    return out
+
+
+def _rotationally_symmetric(ph):
+    """Whether a photometry is (nearly) the same in its C0 and C90 planes."""
+    t = ph.table
+    a, b = t[0], t[90]
+    return bool(np.max(np.abs(a - b)) <= SYMMETRY_TOL * max(float(t.max()), 1e-12))

@@ -67,6 +67,9 @@ class CatalogueEntry:
     photometry : str or None, path of an EULUMDAT (.ldt) or IES (.ies) file
     mount_height_m : (float, float), the mounting heights above the floor the maker
         allows (e.g. high-bays from 4 m); (0, inf) if not stated
+    orientation : None, 'along' or 'across': set by the design on a copy of an entry whose
+        photometry is not the same in every C plane (C0 laid along the room's longer side
+        or across it, both tried); None: the photometric frame of the mount normal
     """
 
     name: str
@@ -77,6 +80,12 @@ class CatalogueEntry:
     mounting: tuple = ("ceiling", "pendant")
     photometry: Optional[str] = None
     mount_height_m: tuple = (0.0, math.inf)
+    orientation: Optional[str] = None
+
+    @property
+    def key(self):
+        """The entry as the search tells it apart (its name, and how it is turned)."""
+        return self.name if self.orientation is None else f"{self.name} (C0 {self.orientation})"
 
     @property
     def efficacy(self):
