@@ -1,5 +1,6 @@
-"""Design from requirements over a whole building: FZK-Haus, every room compliant or
-explained, fixtures of the chosen catalogue types inside their IfcSpace, one undo step."""
+"""Design from requirements over a whole building: FZK-Haus, every room compliant on
+every EN 12464-1 item, fixtures of the chosen catalogue types inside their IfcSpace, one
+undo step."""
 import json
 import os
 import tempfile
@@ -44,11 +45,13 @@ class TestDesignFZK(FreeCADTestCase):
         for r in d["rooms"]:
             with self.subTest(room=r["name"]):
                 q = req[r["name"]]["work_plane"]
-                if r["compliant"]:
-                    self.assertGreaterEqual(r["em_lux"], q["lux"] - 0.5)
-                    self.assertGreaterEqual(r["u0"], q["u0"] - 0.005)
-                else:
-                    self.assertTrue(r["notes"], "a failed room must say why")
+                # every EN 12464-1 item asked: work plane, walls, ceiling; UGR shown
+                self.assertTrue(r["compliant"], (r["pass"], r["notes"]))
+                self.assertTrue(all(r["pass"].values()), r["pass"])
+                self.assertEqual(set(r["surfaces"]), {"walls", "ceiling"})
+                self.assertGreaterEqual(r["em_lux"], q["lux"] - 0.5)
+                self.assertGreaterEqual(r["u0"], q["u0"] - 0.005)
+                self.assertIsNotNone(r["ugr"])
                 # regular layouts: rows x columns of the room's axes
                 self.assertIn(" grid", r["layout"])
         fx = all_fixtures(doc)

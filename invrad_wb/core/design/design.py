@@ -115,6 +115,12 @@ class RoomDesign:
             out[t] += 1
         return out
 
+    def _turned(self):
+        """', C0 along the room' (or across) where the chosen type was turned."""
+        o = sorted({lum.extra["orientation"] for lum in self.luminaires
+                    if lum.extra.get("orientation")})
+        return "".join(f", C0 {x} the room" for x in o)
+
     def to_dict(self):
         d = {"room": self.room, "name": self.name, "area_m2": round(self.area_m2, 3),
              "size_m": [round(float(x), 3) for x in self.size_m],
@@ -130,7 +136,7 @@ class RoomDesign:
                       "pass": {k: bool(v) for k, v in self.verdicts.items()},
                       "compliant": self.compliant, "watts": round(self.watts, 2),
                       "w_per_m2": round(self.watts / max(self.area_m2, 1e-9), 3),
-                      "layout": self.candidate.geom.describe(),
+                      "layout": self.candidate.geom.describe() + self._turned(),
                       "dim": round(self.candidate.dim, 4),
                       "ugr": None if self.ugr is None else round(self.ugr, 1),
                       "ugr_limit": self.ugr_limit,
@@ -331,7 +337,7 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
         return rd
     req = rd.requirement = rs.work_plane
     points, _ = droom.grid(req.height_m, req.margin_m)
-    surfaces = surface_grids(scene, room, droom)
+    surfaces = surface_grids(scene, room, droom, backend=backend)
     rd.surface_reqs = {k: v for k, v in rs.surfaces.items() if k in surfaces}
     rd.cylindrical = rs.cylindrical
     if rs.cylindrical is not None:

@@ -16,6 +16,10 @@ import math
 
 from invrad_wb.core.output.metrics import grid_spacing  # noqa: F401 - the standard's grid
 
+#: EN 12464-1:2021 4.4: the border zone of 0.5 m along the walls left out of a task area
+#: (the default work plane's margin; surfaces are graded as seen from outside it)
+BORDER_M = 0.5
+
 
 @dataclass(frozen=True)
 class RoomTypeRequirement:

@@ -14,16 +14,20 @@ solve of the room (:class:`~invrad_wb.core.forward.radiosity.RadiosityModel`), g
 the grid points. Both scale the new installation's light by the maintenance factor.
 """
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from invrad_wb import constants as C
+from invrad_wb.errors import SceneError
 from invrad_wb.core.design import en12464
 from invrad_wb.core.forward.direct import direct_illuminance
+from invrad_wb.core.forward.occlusion import segments_occluded
 from invrad_wb.core.forward.radiosity import RadiosityModel
 from invrad_wb.core.geometry.bvh import BVH
 from invrad_wb.core.geometry.meshing import nearest_site, refine
 from invrad_wb.core.geometry.raster import locate_points
+from invrad_wb.core.model.aiming import photometric_frame
 from invrad_wb.core.model.luminaires import Luminaire, disk_quadrature
 from invrad_wb.core.model.scene import Scene, plane_basis
 
@@ -49,7 +53,8 @@ def room_mesh(scene, room):
                  check_winding=False)
 
 
-def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photometry=None):
+def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photometry=None,
+                  c0=None):
     """Direct illuminance per lumen: (k, L) lux/lm of L luminaires at k receivers, no shadows.
 
     Parameters
@@ -60,6 +65,8 @@ def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photome
     photometry : object with ``intensity_per_lm(local_dirs)``, optional
         Intensity per lumen (cd/lm) for (..., 3) unit directions in the luminaire's frame
         (x, y in its plane, z along its facing normal); None: lambertian ``cos(gamma) / pi``.
+    c0 : (3,) float64 or None, the C = 0 direction of every luminaire (made perpendicular to
+        its normal; :func:`~invrad_wb.core.model.aiming.photometric_frame`)
     """
     points = np.asarray(points, dtype=np.float64)
     normals = np.asarray(normals, dtype=np.float64)
@@ -70,7 +77,7 @@ def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photome
     for key in np.unique(np.round(lum_normals, 9), axis=0):
         cols = np.flatnonzero(np.all(np.abs(lum_normals - key) < 1e-8, axis=1))
         n = lum_normals[cols[0]]
-        u, v = plane_basis(n)
+        u, v = photometric_frame(n, c0)
         for q, w in zip(qp, qw):
             c = positions[cols] + radius_m * (q[0] * u + q[1] * v)
             for b in range(0, len(cols), max(1, _BLOCK * 64 // max(1, len(points)))):
@@ -103,16 +110,26 @@ class Layout:
         return layout if isinstance(layout, Layout) else cls(layout)
 
 
-def surface_grids(scene, room, droom, lift_m=1e-3):
+def surface_grids(scene, room, droom, lift_m=1e-3, backend="auto"):
     """Calculation points of a room's walls and ceiling (EN 12464-1:2021 5.2.3).
 
     The room's real faces (open borders left out) that stand upright (walls, columns,
-    partitions: ``|n_z| <= 0.3``) or face down (ceiling, sloped or flat: ``n_z < -0.3``),
-    split into triangles no longer on a side than the EN 12464-1 grid spacing ``p`` of the
-    room's longer side, then gathered into cells of ``p`` (one per cube of side ``p`` and
-    facing direction): a point at each cell's area-weighted centroid, ``lift_m`` off the
-    surface, weighted by the cell's area (the mean is area-weighted, Emin the least cell).
-    A fine input mesh thus gives no more points than a coarse one.
+    partitions: ``|n_z| <= 0.3``) or face down (ceiling, sloped or flat: ``n_z < -0.3``).
+    Each plane of them gets the EN 12464-1 grid of its own: its extent split into equal
+    cells no longer than the spacing ``p`` of the room's longer side (a 0.24 m return of a
+    wall is one column of cells, not a sliver cut off by a grid laid over the whole room),
+    a point at each cell's area-weighted centroid, ``lift_m`` off the surface, weighted by
+    the cell's area (the mean is area-weighted, Emin the least cell). A fine input mesh thus
+    gives no more points than a coarse one.
+
+    Only what the room's occupants see is graded: the faces are split finely (edges of at
+    most ``p / SURFACE_SPLIT``) and a piece counts where its centre faces into the floor
+    outline, has no other face of the room within :data:`INSIDE_PROBE_M` in front of it
+    (a crevice: FZK-Haus's Flur has a beam box hung 2 cm off a wall, a slot no one sees
+    into), and can be seen from at least one eye point (:data:`EYE_HEIGHT_M` above the
+    work-plane cells, outside the border zone where the room is wide enough, at most
+    :data:`EYE_POINTS` of them spread over the room). The outside of a wall, a face kept
+    with the wrong winding and a face hidden in a box are left out.
 
     Returns
     -------
@@ -122,33 +139,107 @@ def surface_grids(scene, room, droom, lift_m=1e-3):
     sel = (scene.face_room == room) & ~scene.face_virtual
     nz = scene.face_normals[:, 2]
     p = en12464.grid_spacing(max(droom.size))
+    eyes = _eye_points(droom)
+    bvh = BVH(scene.vertices[scene.faces[np.flatnonzero(sel)]])
     out = {}
     for name, mask in (("walls", np.abs(nz) <= 0.3), ("ceiling", nz < -0.3)):
         faces = np.flatnonzero(sel & mask)
         if len(faces) == 0:
             continue
-        v, t, tags = refine(scene.vertices, scene.faces[faces], p, tags=faces)
+        v, t, tags = refine(scene.vertices, scene.faces[faces], p / SURFACE_SPLIT, tags=faces)
         tri = v[t]
         a = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
                                  axis=1)
         keep = a > 1e-12
         n, c, a = scene.face_normals[tags[keep]], tri[keep].mean(axis=1), a[keep]
-        key = np.c_[np.round(n * 1e3), np.floor((c - c.min(axis=0)) / p)]
-        _, cell = np.unique(key, axis=0, return_inverse=True)
-        cell = cell.reshape(-1)
+        # a piece that does not face into the floor outline (the outside of a wall, a face
+        # kept with the wrong winding) or that no eye sees (a crevice) is left out
+        ahead = c[:, :2] + INSIDE_PROBE_M * n[:, :2]
+        seen = droom.inside(ahead) & (droom.wall_distance(ahead) > 0.0)
+        # a crevice: another face of the room closer in front than the probe
+        lifted = c + lift_m * n
+        s = np.flatnonzero(seen)
+        seen[s] = ~segments_occluded(bvh, lifted[s], c[s] + INSIDE_PROBE_M * n[s], backend)
+        seen[seen] = _seen_from(bvh, lifted[seen], n[seen], eyes, backend)
+        if not seen.any():
+            continue
+        n, c, a = n[seen], c[seen], a[seen]
+        cell = _plane_cells(n, c, p)
         w = np.bincount(cell, weights=a)
         pts = np.stack([np.bincount(cell, weights=a * c[:, i]) for i in range(3)], 1)
         nrm = np.stack([np.bincount(cell, weights=a * n[:, i]) for i in range(3)], 1)
+        ok = w > 0
+        w, pts, nrm = w[ok], pts[ok] / w[ok, None], nrm[ok]
         nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
-        pts = pts / w[:, None]
-        # a face of the room that does not face into its floor outline (the outside of a
-        # wall, a face kept with the wrong winding) is no surface a person sees: left out
-        ahead = pts[:, :2] + INSIDE_PROBE_M * nrm[:, :2]
-        inside = droom.inside(ahead) & (droom.wall_distance(ahead) > 0.0)
-        if not inside.any():
-            continue
-        out[name] = (pts[inside] + lift_m * nrm[inside], nrm[inside], w[inside])
+        out[name] = (pts + lift_m * nrm, nrm, w)
     return out
+
+
+#: surface pieces are split to edges of at most the grid spacing over this (for the
+#: visibility of each piece and equal cells per plane)
+SURFACE_SPLIT = 4
+#: eye height of the points a surface must be seen from (m above the floor; EN 12464-1's
+#: seated eye height 1.2 m)
+EYE_HEIGHT_M = 1.2
+#: at most this many eye points per room (spread over its work-plane cells)
+EYE_POINTS = 24
+
+
+def _eye_points(droom):
+    """Up to :data:`EYE_POINTS` eye points of the room: its work-plane cells outside the
+    border zone (all of them where that leaves none) at :data:`EYE_HEIGHT_M`, spread
+    evenly."""
+    pts = np.zeros((0, 3))
+    for margin in (en12464.BORDER_M, 0.0):
+        try:
+            pts, _ = droom.grid(EYE_HEIGHT_M, margin)
+            break
+        except SceneError:      # too narrow, or no head room at eye height
+            continue
+    if len(pts) > EYE_POINTS:
+        pts = pts[np.round(np.linspace(0, len(pts) - 1, EYE_POINTS)).astype(int)]
+    return pts
+
+
+def _seen_from(bvh, points, normals, eyes, backend="auto"):
+    """(k,) bool: each surface point (its normal) sees at least one eye point in front."""
+    seen = np.zeros(len(points), dtype=bool)
+    if len(eyes) == 0:
+        seen[:] = True
+        return seen
+    for eye in eyes:
+        todo = np.flatnonzero(~seen)
+        if len(todo) == 0:
+            break
+        front = np.einsum("ij,ij->i", eye - points[todo], normals[todo]) > 1e-6
+        todo = todo[front]
+        if len(todo):
+            blocked = segments_occluded(bvh, points[todo],
+                                        np.broadcast_to(eye, (len(todo), 3)), backend)
+            seen[todo[~blocked]] = True
+    return seen
+
+
+def _plane_cells(n, c, p):
+    """Cell index (k,) of surface pieces (normals n, centres c): per plane (normal and
+    offset), its extent split into equal cells no longer than ``p`` on a side."""
+    plane_key = np.c_[np.round(n * 1e3), np.round(np.einsum("ij,ij->i", n, c) / 1e-3)]
+    _, plane = np.unique(plane_key, axis=0, return_inverse=True)
+    plane = plane.reshape(-1)
+    cell = np.zeros(len(c), dtype=np.int64)
+    base = 0
+    for k in range(plane.max() + 1):
+        m = np.flatnonzero(plane == k)
+        u, v = plane_basis(n[m[0]])
+        st = np.c_[c[m] @ u, c[m] @ v]
+        lo, hi = st.min(axis=0), st.max(axis=0)
+        cnt = np.maximum(np.ceil((hi - lo) / p - 1e-9), 1).astype(np.int64)
+        ij = np.minimum(((st - lo) / np.maximum(hi - lo, 1e-12) * cnt).astype(np.int64),
+                        cnt - 1)
+        cell[m] = base + ij[:, 0] * cnt[1] + ij[:, 1]
+        base += int(cnt[0] * cnt[1])
+    _, cell = np.unique(cell, return_inverse=True)
+    return cell.reshape(-1)
 
 
 #: how far in front of a surface cell its point must lie inside the floor outline (m)
@@ -276,13 +367,56 @@ class RoomModel:
         return self.mf * e * self.correction
 
 
-def luminaires_of(positions, normals, fluxes, entries, entry_index, room, photometry=None):
+def luminaires_of(positions, normals, fluxes, entries, entry_index, room, photometry=None,
+                  axes=None):
     """Luminaire objects of a layout (the catalogue entry's name kept in ``extra``, its
-    intensity distribution from ``photometry``: entry name -> Photometry)."""
+    intensity distribution from ``photometry``: entry name -> Photometry; an entry turned
+    'along' or 'across' gets its C0 along the room's longer or shorter plan axis of
+    ``axes``, :func:`entry_c0`)."""
     photometry = photometry or {}
     out = []
     for p, n, f, k in zip(positions, normals, fluxes, entry_index):
         e = entries[k]
-        out.append(Luminaire(p, n, float(f), e.radius_m, room=room,
-                             extra={"type": e.name}, photometry=photometry.get(e.name)))
+        extra = {"type": e.name}
+        if e.orientation is not None:
+            extra["orientation"] = e.orientation
+        out.append(Luminaire(p, n, float(f), e.radius_m, room=room, extra=extra,
+                             photometry=photometry.get(e.name), c0=entry_c0(e, axes)))
     return out
+
+
+def entry_c0(entry, axes):
+    """World C0 direction (3,) of an entry turned 'along' / 'across' the room: ``axes``
+    is ((s, t) plan unit axes (2, 2), size (2,)); None for an entry not turned."""
+    if entry.orientation is None or axes is None:
+        return None
+    ax, size = axes
+    long_i = 0 if size[0] >= size[1] else 1
+    i = long_i if entry.orientation == "along" else 1 - long_i
+    return np.array([ax[i][0], ax[i][1], 0.0])
+
+
+#: two C planes whose intensities differ by less than this (relative) count as the same:
+#: a luminaire so symmetric is not turned
+SYMMETRY_TOL = 0.02
+
+
+def turned_entries(entries, photometry):
+    """The catalogue as the search tries it: an entry whose photometry differs between its
+    C0 and C90 planes becomes two, C0 laid along the room and across it (EN 12464-1
+    designers try both: a batwing panel turned 90 degrees lights a room differently)."""
+    out = []
+    for e in entries:
+        ph = photometry.get(e.name) if photometry else None
+        if ph is not None and not _rotationally_symmetric(ph):
+            out += [replace(e, orientation="along"), replace(e, orientation="across")]
+        else:
+            out.append(e)
+    return out
+
+
+def _rotationally_symmetric(ph):
+    """Whether a photometry is (nearly) the same in its C0 and C90 planes."""
+    t = ph.table
+    a, b = t[0], t[90]
+    return bool(np.max(np.abs(a - b)) <= SYMMETRY_TOL * max(float(t.max()), 1e-12))

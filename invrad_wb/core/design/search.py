@@ -18,7 +18,8 @@ import math
 
 import numpy as np
 
-from invrad_wb.core.design.evaluate import Layout, unit_response, luminaires_of
+from invrad_wb.core.design.evaluate import (Layout, entry_c0, luminaires_of,
+                                            turned_entries, unit_response)
 from invrad_wb.core.design.spec import SurfaceRequirement
 from invrad_wb.core.output.glare import observers, ugr_from_sum, unit_glare
 from invrad_wb.core.design.layouts import grid_geometries
@@ -139,10 +140,13 @@ class RoomSearch:
         # the surface grids the model holds, judged against the room's requirements
         self.surf_reqs = {k: v for k, v in getattr(room_spec, "surfaces", {}).items()
                           if k in model.layout.parts}
-        self.entries = list(entries)
         self.phot = photometry or {}
+        # an entry with a photometry not the same in its C0 and C90 planes is tried laid
+        # along the room and across it
+        self.entries = turned_entries(list(entries), self.phot)
         self.mixed, self.dimming = mixed, dimming
         droom = model.droom
+        self._axes = (droom.axes, droom.size)
         wp_z = droom.floor_z + req.height_m
         need = req.lux * max(droom.floor_area, 1e-6) / model.mf   # lm on the floor area
         # plausible counts per entry: the lumen method with utilisation factors
@@ -173,7 +177,11 @@ class RoomSearch:
         self.checked = {}
 
     def _optics(self, e):
-        return (e.radius_m, e.photometry)
+        return (e.radius_m, e.photometry, e.orientation)
+
+    def _c0(self, e):
+        """World C0 of an entry turned along / across the room (None: not turned)."""
+        return entry_c0(e, self._axes)
 
     def _responses(self):
         """Per optical key and class: (G, k) unit-flux direct light sums, and counts."""
@@ -200,7 +208,7 @@ class RoomSearch:
                 b1 = min(len(order), b0 + block)
                 cols = order[b0:b1]
                 r = unit_response(m.points, m.normals, pos[cols], nrm[cols], e.radius_m,
-                                  self.phot.get(e.name))
+                                  self.phot.get(e.name), self._c0(e))
                 st = np.flatnonzero(np.r_[True, gs[b0 + 1:b1] != gs[b0:b1 - 1]])
                 np.add.at(out, gs[b0:b1][st], np.add.reduceat(r, st, axis=1).T)
             self.S[key] = out.reshape(G, 2, -1).transpose(1, 0, 2)
@@ -229,7 +237,7 @@ class RoomSearch:
             out = np.zeros((2 * G, O))
             for o, (eye, view) in enumerate(self.obs):
                 np.add.at(out[:, o], group, unit_glare(eye, view, pos, nrm, self._area(e),
-                                                       self.phot.get(e.name)))
+                                                       self.phot.get(e.name), self._c0(e)))
             self.GL[key] = out.reshape(G, 2, O).transpose(1, 0, 2)
 
     def fast_ugr(self, pair, sel, dim):
@@ -242,8 +250,8 @@ class RoomSearch:
         g0, g1 = self.GL[self._optics(e0)][0][sel], self.GL[self._optics(e1)][1][sel]
         N = self.N[sel]
         total = (e0.flux_lm ** 2 * g0 + e1.flux_lm ** 2 * g1) * (dim ** 2)[:, None]
-        lb = m.mf * dim[:, None] * (np.outer(N[:, 0] * e0.flux_lm, self.eye_ind[e0.name])
-                                    + np.outer(N[:, 1] * e1.flux_lm, self.eye_ind[e1.name]))
+        lb = m.mf * dim[:, None] * (np.outer(N[:, 0] * e0.flux_lm, self.eye_ind[e0.key])
+                                    + np.outer(N[:, 1] * e1.flux_lm, self.eye_ind[e1.key]))
         u = ugr_from_sum(total, lb)
         with np.errstate(all="ignore"):
             return np.where(np.isnan(u).all(axis=1), np.nan,
@@ -260,10 +268,11 @@ class RoomSearch:
         total = np.zeros(len(self.obs))
         for o, (eye, view) in enumerate(self.obs):
             for lum in luminaires:
-                e = next(x for x in self.entries if x.name == lum.extra.get("type"))
+                e = next(x for x in self.entries if x.name == lum.extra.get("type")
+                         and x.orientation == lum.extra.get("orientation"))
                 total[o] += lum.flux_lm ** 2 * unit_glare(
                     eye, view, lum.position[None], lum.normal[None], self._area(e),
-                    self.phot.get(e.name))[0]
+                    self.phot.get(e.name), lum.c0)[0]
         lb = self.model.mf * self.model.indirect_at(eyes, views, luminaires)
         return total, lb
 
@@ -277,12 +286,12 @@ class RoomSearch:
         for k, e in enumerate(self.entries):
             lums = luminaires_of(mid.positions, mid.normals, np.full(mid.count, e.flux_lm),
                                  self.entries, np.full(mid.count, k), m.droom.room,
-                                 self.phot)
-            m.calibrate(e.name, lums, None)
+                                 self.phot, self._axes)
+            m.calibrate(e.key, lums, None)
             if self.obs:
                 eyes = np.array([x for x, _ in self.obs])
                 views = np.array([v for _, v in self.obs])
-                self.eye_ind[e.name] = (m.indirect_at(eyes, views, lums)
+                self.eye_ind[e.key] = (m.indirect_at(eyes, views, lums)
                                         / (e.flux_lm * mid.count))
 
     def evaluate(self, pair, sel):
@@ -295,8 +304,8 @@ class RoomSearch:
         s0, s1 = self.S[self._optics(e0)][0][sel], self.S[self._optics(e1)][1][sel]
         N = self.N[sel]
         direct = m.mf * (e0.flux_lm * s0 + e1.flux_lm * s1)
-        ind = (np.outer(N[:, 0] * e0.flux_lm, m.indirect_per_lm[e0.name])
-               + np.outer(N[:, 1] * e1.flux_lm, m.indirect_per_lm[e1.name]))
+        ind = (np.outer(N[:, 0] * e0.flux_lm, m.indirect_per_lm[e0.key])
+               + np.outer(N[:, 1] * e1.flux_lm, m.indirect_per_lm[e1.key]))
         lux = (direct + m.mf * ind) * m.correction
         em = lux[:, :n_wp].mean(axis=1)
         u0 = lux[:, :n_wp].min(axis=1) / np.maximum(em, 1e-12)
@@ -408,7 +417,7 @@ class RoomSearch:
         idx = np.asarray(cand.entries)[g.cls]
         flux = np.array([self.entries[k].flux_lm for k in idx]) * cand.dim
         return luminaires_of(g.positions, g.normals, flux, self.entries, idx,
-                             self.model.droom.room, self.phot)
+                             self.model.droom.room, self.phot, self._axes)
 
     def check(self, cand, fast_lux=None):
         """Exact figures of a candidate (cached); re-dims it to the exact Em."""
@@ -545,12 +554,12 @@ def _fast_args(search, cand):
         sel = idx == k
         cols.append((unit_response(search.model.points, search.model.normals,
                                    g.positions[sel], g.normals[sel], e.radius_m,
-                                   search.phot.get(e.name)), sel, k))
+                                   search.phot.get(e.name), search._c0(e)), sel, k))
     resp = np.zeros((len(search.model.points), g.count))
     for r, sel, _ in cols:
         resp[:, sel] = r
     flux = np.array([search.entries[k].flux_lm for k in idx])
-    keys = [search.entries[k].name for k in idx]
+    keys = [search.entries[k].key for k in idx]
     return resp, flux, keys
 
 

@@ -75,6 +75,9 @@ class CatalogueEntry:
     aimable : bool, an adjustable spot (gimbal, track): it lights painted spots as an
         aimed accent (:mod:`invrad_wb.core.design.accents`), not the work plane
     max_tilt_deg : float, the largest tilt off its mounting surface's normal (aimable)
+    orientation : None, 'along' or 'across': set by the design on a copy of an entry whose
+        photometry is not the same in every C plane (C0 laid along the room's longer side
+        or across it, both tried); None: the photometric frame of the mount normal
     """
 
     name: str
@@ -87,6 +90,12 @@ class CatalogueEntry:
     mount_height_m: tuple = (0.0, math.inf)
     aimable: bool = False
     max_tilt_deg: float = 0.0
+    orientation: Optional[str] = None
+
+    @property
+    def key(self):
+        """The entry as the search tells it apart (its name, and how it is turned)."""
+        return self.name if self.orientation is None else f"{self.name} (C0 {self.orientation})"
 
     @property
     def efficacy(self):

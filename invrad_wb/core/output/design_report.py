@@ -221,6 +221,74 @@ def schedule_rows(result):
     return rows
 
 
+def _entry_photometry(e):
+    """A catalogue entry's intensity distribution: its file's, else lambertian (None when
+    the file cannot be read: the design would have said so already)."""
+    from invrad_wb.core.model.photometry import Photometry, read_photometry
+    if not e.photometry:
+        return Photometry.lambertian()
+    try:
+        return read_photometry(e.photometry)
+    except Exception:             # noqa: BLE001 - the sheet shows what it can
+        return None
+
+
+def _luminous_text(e, ph):
+    """Luminous area of an entry as the UGR uses it (m^2 and its shape), or a note."""
+    import math
+    if e.radius_m > 0:
+        return f"{math.pi * e.radius_m ** 2:.3f} m² (round, Ø {2000 * e.radius_m:.0f} mm)"
+    area = getattr(ph, "luminous_area_m2", None) if e.photometry else None
+    if area:
+        ext = getattr(ph, "luminous_extent_m", None)
+        shape = (f", {1000 * ext[0]:.0f} x {1000 * ext[1]:.0f} mm (C0 x C90)"
+                 if ext else " (from the file)")
+        return f"{area:.3f} m²{shape}"
+    return "not given: rated as a CIE 147 small source for UGR"
+
+
+def polar_png(e, ph):
+    """PNG bytes of an entry's polar curve: cd per 1000 lm in the C0-C180 and C90-C270
+    planes (gamma 0 pointing down, as luminaire data sheets draw it)."""
+    g = np.arange(0, 181)
+    t = ph.table * 1000.0
+    fig = _fig(3.4, 3.4, dpi=110)
+    ax = fig.add_subplot(111, projection="polar")
+    ax.set_theta_zero_location("S")
+    for (c_a, c_b), style, label in (((0, 180), "-", "C0-C180"),
+                                     ((90, 270), "--", "C90-C270")):
+        theta = np.radians(np.r_[-g[::-1], g[1:]])
+        r = np.r_[t[c_b][::-1], t[c_a][1:]]
+        ax.plot(theta, r, style, color="black" if c_a == 0 else "#c0392b", lw=1.4,
+                label=label)
+    ax.set_thetagrids(range(0, 360, 30), [f"{a if a <= 180 else 360 - a}°"
+                                          for a in range(0, 360, 30)], fontsize=7)
+    ax.tick_params(axis="y", labelsize=7)
+    ax.set_title(f"{e.name}: cd / 1000 lm", fontsize=9)
+    ax.legend(loc="upper right", bbox_to_anchor=(1.15, 1.12), fontsize=7, frameon=False)
+    return _png(fig)
+
+
+def datasheet_rows(result):
+    """One data sheet per catalogue type the design uses: flux, power, efficacy, dimming,
+    luminous area, its photometry file and the polar curve's PNG name (dicts)."""
+    used = {lum.extra.get("type") for r in result.rooms for lum in r.luminaires}
+    rows = []
+    for i, e in enumerate(result.spec.catalogue):
+        if e.name not in used:
+            continue
+        ph = _entry_photometry(e)
+        rows.append({"entry": e, "ph": ph, "name": e.name, "flux_lm": f"{e.flux_lm:.0f}",
+                     "watts": f"{e.watts:g}", "efficacy": f"{e.efficacy:.1f}",
+                     "dimming": (f"{100 * e.dimming[0]:.0f}-{100 * e.dimming[1]:.0f} %"
+                                 if e.dimming[0] < e.dimming[1] else "not dimmable"),
+                     "area": _luminous_text(e, ph),
+                     "photometry": (os.path.basename(e.photometry) if e.photometry
+                                    else "none given: lambertian (cos γ / π)"),
+                     "polar": f"polar_{i}.png" if ph is not None else None})
+    return rows
+
+
 def _csv(rows, fields):
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=fields, extrasaction="ignore")
@@ -350,6 +418,10 @@ def write_design_report(result, out_dir, title="Lighting design", project=None, 
             name = f"floor_plan_{i}.png"
             _write(tmp, name, floor_plan_png(rooms, z, types))
             floors.append({"file": name, "z": f"{z:.2f}"})
+        sheets = datasheet_rows(result)
+        for sh in sheets:
+            if sh["polar"]:
+                _write(tmp, sh["polar"], polar_png(sh["entry"], sh["ph"]))
         _write(tmp, "schedule.csv", _csv(sched, list(sched[0]) if sched else ["room"]))
         rows = room_rows(result)
         _write(tmp, "rooms.csv", _csv(rows, ["name", "area", "size", "em_req", "em", "emin",
@@ -367,7 +439,7 @@ def write_design_report(result, out_dir, title="Lighting design", project=None, 
             energy=(None if result.energy_kwh is None else f"{result.energy_kwh:.0f}"),
             surface_ref=SURFACE_REFERENCE,
             compliant=result.compliant, n_lum=len(result.luminaires),
-            catalogue=result.spec.catalogue, floors=floors)
+            catalogue=result.spec.catalogue, floors=floors, sheets=sheets)
         _write(tmp, "index.html", html)
         if pdf:
             try:

@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from invrad_wb.core.model.luminaires import luminous_area
-from invrad_wb.core.model.scene import plane_basis
+from invrad_wb.core.model.aiming import photometric_frame
 
 #: seated observer's eye height (metres), CIE 117 / EN 12464-1
 EYE_HEIGHT_M = 1.2
@@ -75,7 +75,7 @@ def ugr(luminaires, eye, view, background_lux):
         if cos_e <= 1e-6:
             continue                      # the eye is behind the luminous area
         if getattr(lum, "photometry", None) is not None:
-            u, w = plane_basis(lum.normal)
+            u, w = photometric_frame(lum.normal, getattr(lum, "c0", None))
             i_cd = lum.flux_lm * float(lum.photometry.intensity_per_lm(
                 np.array([to_eye @ u, to_eye @ w, cos_e])))
         else:
@@ -94,7 +94,7 @@ def ugr(luminaires, eye, view, background_lux):
     return 8.0 * math.log10(0.25 / lb * total)
 
 
-def unit_glare(eye, view, positions, normals, area_m2=None, photometry=None):
+def unit_glare(eye, view, positions, normals, area_m2=None, photometry=None, c0=None):
     """Vectorised glare terms of luminaires of one type at unit flux: ``(L,)`` values of
     ``L^2 omega / p^2`` per lm^2 (a luminaire of flux F adds ``F^2`` times its term to the
     sum of :func:`ugr`), 0 for those the observer does not see (behind, below the eye,
@@ -106,6 +106,8 @@ def unit_glare(eye, view, positions, normals, area_m2=None, photometry=None):
     positions, normals : (L, 3) float64, luminaire centres (m) and facing directions
     area_m2 : float or None, luminous area (None: a small source)
     photometry : object with ``intensity_per_lm(local_dirs)`` or None (lambertian)
+    c0 : (3,) float64 or None, the C = 0 direction of every luminaire (None: the frame of
+        its normal, :func:`~invrad_wb.core.model.aiming.photometric_frame`)
     """
     eye = np.asarray(eye, dtype=np.float64)
     v = np.asarray(view, dtype=np.float64)
@@ -126,7 +128,7 @@ def unit_glare(eye, view, positions, normals, area_m2=None, photometry=None):
         i_lm = np.zeros(len(d))
         for key in np.unique(np.round(N, 9), axis=0):
             rows = np.flatnonzero(np.all(np.abs(N - key) < 1e-8, axis=1))
-            u, w = plane_basis(N[rows[0]])
+            u, w = photometric_frame(N[rows[0]], c0)
             local = np.stack([to_eye[rows] @ u, to_eye[rows] @ w, cos_e[rows]], -1)
             i_lm[rows] = photometry.intensity_per_lm(local)
     else:

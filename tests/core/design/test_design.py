@@ -270,8 +270,19 @@ def test_design_report_is_a_document_with_the_figures(tmp_path):
     text = open(html, encoding="utf-8").read()
     assert "Bad &lt;b&gt;&#34;&amp;&lt;/b&gt;" in text and "<b>\"&</b>" not in text
     files = sorted(os.listdir(tmp_path / "rep"))
-    assert files == ["floor_plan_0.png", "index.html", "plan_room0.png", "plan_room1.png",
-                     "report.pdf", "rooms.csv", "schedule.csv"]
+    polar = [f for f in files if f.startswith("polar_")]
+    assert [f for f in files if f not in polar] == [
+        "floor_plan_0.png", "index.html", "plan_room0.png", "plan_room1.png", "report.pdf",
+        "rooms.csv", "schedule.csv"]
+    # a data sheet per type used: its polar curve, lm, W, lm/W, luminous area, the MF
+    used = sorted({lum.extra["type"] for lum in res.luminaires})
+    assert len(polar) == len(used) and "Luminaire data sheets" in text
+    for e in sp.catalogue:
+        if e.name in used:
+            assert f"<h3>{e.name}</h3>" in text and f"{e.efficacy:.1f} lm/W" in text
+            if e.radius_m > 0:
+                assert f"{np.pi * e.radius_m ** 2:.3f} m²" in text
+    assert f"Maintenance factor {sp.maintenance_factor}" in text
     rows = list(csv.DictReader(open(tmp_path / "rep" / "rooms.csv", encoding="utf-8")))
     for row, r in zip(rows, res.rooms):
         assert float(row["em"]) == pytest.approx(r.metrics.em, abs=0.5)

@@ -258,3 +258,68 @@ def test_power_deep_dimming_energy_and_the_room_summary_through_the_cli(tmp_path
         assert words in html, words
     rows = (tmp_path / "rep" / "rooms.csv").read_text(encoding="utf-8").splitlines()
     assert "rated_w" in rows[0] and "walls" in rows[0]
+
+
+def test_surface_grid_leaves_out_what_no_eye_sees_and_has_no_slivers():
+    """FZK-Haus's Flur failed its walls' U0 (0.05) on one grid point in a 2 cm slot between
+    a wall and a beam box hung off it: a surface no occupant sees. The grid keeps only what
+    an eye in the room sees, in equal cells per plane (no sliver cell at a wall's end)."""
+    from invrad_wb.core.design.evaluate import surface_grids
+    from invrad_wb.core.design.room import DesignRoom
+    w, d, h, gap, beam = 5.0, 4.0, 2.8, 0.02, (0.2, 0.2)
+    mb = g.MeshBuilder(0.2)
+    g.add_prism_room(mb, [(0, 0), (w, 0), (w, d), (0, d)], [(0, 0, w, d)], height=h)
+    g.add_box_occluder(mb, (0.0, gap, h - beam[1]), (w, gap + beam[0], h), skip_top=True)
+    sc = mb.scene()
+    dr = DesignRoom(sc, 0)
+    P, N, W = surface_grids(sc, 0, dr)["walls"]
+    # nothing in the slot (the wall behind the beam, the beam's back face)
+    assert not np.any((P[:, 1] < gap + 0.01) & (P[:, 2] > h - beam[1])), P[P[:, 1] < 0.05]
+    # what is seen: the walls less the slot's wall and the ends hidden in and behind the
+    # beam, plus the beam's front face
+    seen = 2 * (w + d) * h - w * beam[1] - 2 * (gap + beam[0]) * beam[1] + w * beam[1]
+    assert W.sum() == pytest.approx(seen, abs=0.15)
+    # the beam's front face is graded (a surface in plain view)
+    assert np.any((np.abs(P[:, 1] - gap - beam[0]) < 0.01) & (N[:, 1] > 0.9))
+    # equal cells per plane: on the long wall none is a sliver of its neighbours
+    box = g.box_room(size=(w, d, h), cell=0.4)
+    P, N, W = surface_grids(box, 0, DesignRoom(box, 0))["walls"]
+    long_wall = W[N[:, 1] > 0.9]
+    assert long_wall.sum() == pytest.approx(w * h, rel=1e-6)
+    assert long_wall.min() > 0.5 * np.median(long_wall)
+
+
+def _linear_photometry(wide_in_c0):
+    """A luminaire wide in one C plane (lambertian there) and narrow across (cos^9)."""
+    from invrad_wb.core.model.photometry import Photometry
+    c = np.radians(np.arange(361))[:, None]
+    gam = np.radians(np.arange(181))[None, :]
+    s2 = np.sin(c) ** 2 if wide_in_c0 else np.cos(c) ** 2
+    return Photometry(np.maximum(np.cos(gam), 0.0) ** (1.0 + 8.0 * s2), 1.0, name="linear")
+
+
+def test_a_linear_luminaire_is_laid_along_or_across_whichever_lights_the_room_better():
+    """The search tries C0 along the room and across it: the same luminaire turned by 90
+    degrees in its file gives the same design, turned the other way in the room."""
+    from invrad_wb.core.design.design import design_room
+    sc = g.with_reflectances(g.box_room(size=(8.0, 2.4, 2.8), cell=0.4))
+    spec = _spec({"work_plane": {"lux": 200, "u0": 0.4}},
+                 cat=[{"name": "LIN", "flux_lm": 2500, "watts": 20.0,
+                       "dimming": [0.1, 1.0]}])
+    rd = {}
+    for wide_c0 in (True, False):
+        rd[wide_c0] = design_room(sc, spec, 0, photometry={"LIN": _linear_photometry(wide_c0)})
+        assert rd[wide_c0].compliant, rd[wide_c0].notes
+    # the file turned by 90 degrees: the design turned back (along <-> across), C0 on the
+    # room's long axis (x) or across it (y)
+    swap = {"along": "across", "across": "along"}
+    got = {w: [lum.extra.get("orientation") for lum in rd[w].luminaires] for w in rd}
+    assert sorted(got[False]) == sorted(swap[o] for o in got[True]), got
+    for w in rd:
+        for lum in rd[w].luminaires:
+            along = lum.extra["orientation"] == "along"
+            assert np.allclose(np.abs(lum.c0), [1, 0, 0] if along else [0, 1, 0], atol=1e-9)
+        assert "the room" in rd[w].to_dict()["layout"]
+    # the same light either way: the two designs are the same installation
+    assert rd[True].watts == pytest.approx(rd[False].watts, rel=1e-6)
+    assert rd[True].metrics.em == pytest.approx(rd[False].metrics.em, rel=1e-6)
