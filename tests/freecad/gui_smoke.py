@@ -1031,10 +1031,8 @@ class Smoke:
         n0 = doc.UndoCount
         t1 = time.time()
         FreeCADGui.doCommand("import invrad_wb.gui.runner")
-        # one process: on the shared 2-core machine the worker pool of this run hung in
-        # FreeCAD 1.0's GUI (14 min, its workers gone, map_rooms waiting)
         FreeCADGui.doCommand(f"invrad_wb.gui.runner.locate(App.getDocument({doc.Name!r}),"
-                             " run={'flux_lm': 1500.0, 'resolution_m': 0.4, 'workers': 1})")
+                             " run={'flux_lm': 1500.0, 'resolution_m': 0.4})")
         yield self.idle
         fx = fixtures.all_fixtures(doc)
         ifc = proj.Proxy.ifcfile
@@ -1077,6 +1075,11 @@ class Smoke:
         FreeCADGui.runCommand("InvRad_Verify")
         yield self.said("Verify and report", before)
         yield self.idle
+        last = messages.LOG[-1][2] if messages.LOG else ""
+        self.check("NativeIFC FZK-Haus: Verify reads the located IfcLightFixtures (their flux"
+                   " in the IFC file) and says per room whether it is met",
+                   last.startswith(f"{len(fx)} luminaire(s)") and "left out" not in last
+                   and all(f"met: {n}:" in last for n in lux), last)
         self.check("NativeIFC FZK-Haus: verified, the achieved light in false colour with"
                    " the legend and the ground floor's names",
                    display.mode(doc) == "achieved"

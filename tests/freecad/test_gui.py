@@ -742,6 +742,13 @@ class TestRunnerHeadless(ParamsIsolated):
         self.assertEqual(self.doc.UndoCount, n + 1)
         self.assertEqual(len(fixtures.room_fixtures(space)), len(res.luminaires))
         self.assertIs(runner.stored(self.doc).result, res)
+        # a level on the work plane is a requirement: the message says per room whether
+        # it is met, against what (the freecad command's words)
+        v_loc = res.summary["rooms"][0]["verdict"]
+        self.assertEqual(v_loc["targets"], "requirement")
+        self.assertIn(f"{'met' if v_loc['met'] else 'NOT met'}: {v_loc['words']}",
+                      messages.LOG[-1][2])
+        self.assertIn("EN 12464-1 for 400 lx", messages.LOG[-1][2])
         lums = runner.repeak(self.doc, threshold=120.0, neighbourhood_m=0.5)
         self.assertIsNotNone(lums, messages.LOG[-1:])
         self.assertEqual(self.doc.UndoCount, n + 2)
@@ -751,6 +758,14 @@ class TestRunnerHeadless(ParamsIsolated):
         vr = runner.verify(self.doc, report_dir=rep)
         self.assertIsNotNone(vr, messages.LOG[-1:])
         self.assertEqual(self.doc.UndoCount, n + 3)
+        # Verify judges the same fixtures the same way (the level on its task area, not
+        # the whole plane up to the walls)
+        v_ver = vr.summary["rooms"][0]["verdict"]
+        self.assertEqual(v_ver["targets"], "requirement")
+        self.assertEqual(v_ver["met"], v_loc["met"])
+        self.assertAlmostEqual(v_ver["em_lux"], v_loc["em_lux"], delta=0.01 * v_loc["em_lux"])
+        self.assertIn(v_ver["words"], messages.LOG[-1][2])
+        self.assertEqual(len(vr.luminaires), len(lums))
         self.assertTrue(os.path.isfile(os.path.join(rep, "summary.json")))
         with open(os.path.join(rep, "summary.json")) as fh:
             self.assertTrue(json.load(fh)["metrics"])
