@@ -365,6 +365,19 @@ class TestDisplayNumpy(FreeCADTestCase):
         np.testing.assert_allclose((x, y, z), (2000.0, 1500.0, 2400.0), atol=1e-6)
 
 
+    def test_boundary_edges_per_group(self):
+        faces = np.array([[0, 1, 2], [0, 2, 3]])
+        def sides(e):
+            return sorted(tuple(sorted(x)) for x in e.tolist())
+        square = [(0, 1), (0, 3), (1, 2), (2, 3)]
+        for big in (0, 3_000_000, 3_000_000_000):   # one int64 key; past it, rows
+            for groups in ([5, 5], [-1, -1]):
+                e = display.boundary_edges(faces + big, np.array(groups))
+                self.assertEqual(sides(e - big), square)
+            # two groups: each triangle whole, the diagonal once for each
+            e = display.boundary_edges(faces + big, np.array([-1, 7]))
+            self.assertEqual(sides(e - big), sorted(square + [(0, 2), (0, 2)]))
+
     def test_subdivide_is_conforming(self):
         # two triangles of a unit square; split one: its neighbour is split in two
         pts = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
