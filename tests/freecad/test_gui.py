@@ -596,6 +596,37 @@ class TestDisplayNumpy(FreeCADTestCase):
             display.forget(doc.Name)
 
 
+class TestDocumentObserver(FreeCADTestCase):
+    """A shown targets' display is rebuilt when targets or rooms change, only its names
+    placed again when a room's contents change (Locate and Design insert fixtures)."""
+
+    def test_contents_of_a_room_are_not_its_targets(self):
+        space = make_walled_room(self.doc, label="Office")
+        targets.set_work_plane(space, 500.0)
+        self.doc.recompute()
+        obs = commands.DocumentObserver()
+        self.assertTrue(obs._contents_only(space, "Group"))
+        self.assertTrue(obs._contents_only(space, "IfcData"))
+        target = next(o for o in self.doc.Objects
+                      if document.object_type(o) == "InvRadTarget")
+        self.assertFalse(obs._contents_only(target, "Group"))
+        # the solid: nothing shown to compare with -> rebuilt
+        self.assertFalse(obs._contents_only(space, "Shape"))
+        st = display._doc_state(self.doc, create=True)
+        try:
+            st.overlay = {"rooms": {space.Name: display.room_signature(space)}}
+            # recomputed to the same solid (after an insert): the names only
+            fixtures.insert_fixtures(self.doc, [(space, [down(2.0, 1.5)])])
+            self.assertTrue(obs._contents_only(space, "Shape"))
+            self.assertTrue(obs._contents_only(space, "Placement"))
+            # another solid than the display's: rebuilt
+            sig = display.room_signature(space)
+            st.overlay["rooms"][space.Name] = (sig[0] + 1.0,) + sig[1:]
+            self.assertFalse(obs._contents_only(space, "Shape"))
+        finally:
+            st.overlay = None
+
+
 class TestSelection(FreeCADTestCase):
 
     def setUp(self):
