@@ -65,3 +65,27 @@ class InvRadWorkbench(FreeCADGui.Workbench):
 
 
 FreeCADGui.addWorkbench(InvRadWorkbench())
+
+# The 3D view's text (invrad's room names and legend, every other workbench's too): Coin
+# opens FreeType and fontconfig at run time by their unversioned names, libfreetype.so and
+# libfontconfig.so, which only the -dev packages install. FreeCAD 1.0 from Debian 13 has
+# neither, and its text falls back to Coin's thin built-in font; where only the run-time
+# libraries (.so.6, .so.1) load, Coin is pointed at them (its COIN_*_LIBNAME variables,
+# read when the first text is drawn). Nothing changes where Coin finds them itself.
+import sys as _sys
+if _sys.platform.startswith("linux"):
+    import ctypes as _ct
+    import os as _os
+    for _env, _dev, _run in (("COIN_FREETYPE2_LIBNAME", "libfreetype.so", "libfreetype.so.6"),
+                             ("COIN_FONTCONFIG_LIBNAME", "libfontconfig.so",
+                              "libfontconfig.so.1")):
+        if _env in _os.environ:
+            continue
+        try:
+            _ct.CDLL(_dev)
+        except OSError:
+            try:
+                _ct.CDLL(_run)
+                _os.environ[_env] = _run
+            except OSError:
+                pass

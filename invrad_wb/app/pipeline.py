@@ -595,14 +595,17 @@ def _summary(doc, flux, settings, building, target, achieved, per_room):
     return summary
 
 
-def room_verdicts(building, target, achieved, kinds=None, requirements=None, flux=None):
+def room_verdicts(building, target, achieved, kinds=None, requirements=None, flux=None,
+                  located=True):
     """Per room (in ``building.rooms`` order) which targets are met and why not.
 
     Requirement rooms: Em against the level (-10/+30 %) and U0 against EN 12464-1 for the
     level on the task area (:func:`invrad_wb.core.design.requirements.judge`); exact rooms:
     the fit quality over the lit targets (relative RMS, share within 20 %) and a one-line
     warning when it is poor. Returns a list of dicts with ``targets``, ``met``, ``words``
-    and, where not met, ``why_not`` and ``advice``.
+    and, where not met, ``why_not`` and ``advice``. ``located=False`` (Verify: the
+    fixtures in the document, however they came there) leaves out what is said of how
+    Locate treated the room.
     """
     from invrad_wb.core.design.requirements import judge
     from invrad_wb.core.output.fitquality import fit_quality, poor_fit_warning
@@ -629,7 +632,7 @@ def room_verdicts(building, target, achieved, kinds=None, requirements=None, flu
                 d["advice"] = ("these targets are requirements: Design (a catalogue of"
                                " luminaires, dimming) finds the layout of least power that"
                                " meets them")
-            if rd is None and flux is None:
+            if rd is None and flux is None and located:
                 d.setdefault("why_not", []).append(
                     "no luminaire flux given: the targets were fitted point by point; give"
                     " the flux for a regular layout, or use Design")
@@ -646,6 +649,37 @@ def room_verdicts(building, target, achieved, kinds=None, requirements=None, flu
             d["warning"] = warn
         out.append(d)
     return out
+
+
+def describe_rooms(summary):
+    """Lines for a person, per located room: its luminaires, the mean achieved against the
+    target lux, and its verdict (met or not, the layout, why not, the advice); the
+    ``freecad`` command prints them, the GUI shows them after Locate."""
+    lines = []
+    for room in summary["rooms"]:
+        n = sum(1 for l in summary["luminaires"] if l["room_name"] == room["room"])
+        line = f"room {room['room']}: {n} luminaire(s)"
+        level = room.get("verdict", {}).get("targets") == "requirement"
+        for part in ("surfaces",) if level else ("work_plane", "surfaces"):
+            # a level is judged on its task area's grid (the verdict below), not over
+            # the whole work plane up to the walls
+            st = room.get(part, {})
+            if "mean_target_lux" in st:
+                line += (f"; {part.replace('_', ' ')} {st['mean_achieved_lux']:.0f} lx for"
+                         f" {st['mean_target_lux']:.0f} lx")
+        lines.append(line)
+        v = room.get("verdict")
+        if v:
+            lines.append(f"  {'met' if v['met'] else 'NOT met'}: {v['words']}")
+            if v.get("layout"):
+                lines.append(f"    {v['layout']} ({v.get('mounting', 'ceiling')})")
+            lines += [f"    {note}" for note in v.get("notes", ())]
+            lines += [f"    {why}" for why in v.get("why_not", ())]
+            if v.get("advice"):
+                lines.append(f"    {v['advice']}")
+            if v.get("warning"):
+                lines.append(f"  {v['warning']}")
+    return lines
 
 
 def _write_json(path, data):

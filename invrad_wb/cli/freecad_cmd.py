@@ -519,34 +519,14 @@ def _open_input(src, ext, opts, say):
 
 
 def _say_result(summary, say):
-    """One line per room (luminaires, mean achieved vs target lux), one per luminaire."""
+    """One line per room (luminaires, mean achieved vs target lux, its verdict), one per
+    luminaire."""
+    from invrad_wb.app.pipeline import describe_rooms
     if "design" in summary:
         _say_design(summary["design"], say)
-    for room in summary["rooms"] if "design" not in summary else ():
-        n = sum(1 for l in summary["luminaires"] if l["room_name"] == room["room"])
-        line = f"room {room['room']}: {n} luminaire(s)"
-        level = room.get("verdict", {}).get("targets") == "requirement"
-        for part in ("surfaces",) if level else ("work_plane", "surfaces"):
-            # a level is judged on its task area's grid (the verdict below), not over
-            # the whole work plane up to the walls
-            st = room.get(part, {})
-            if "mean_target_lux" in st:
-                line += (f"; {part.replace('_', ' ')} {st['mean_achieved_lux']:.0f} lx for"
-                         f" {st['mean_target_lux']:.0f} lx")
-        say(line)
-        v = room.get("verdict")
-        if v:
-            say(f"  {'met' if v['met'] else 'NOT met'}: {v['words']}")
-            if v.get("layout"):
-                say(f"    {v['layout']} ({v.get('mounting', 'ceiling')})")
-            for note in v.get("notes", ()):
-                say(f"    {note}")
-            for why in v.get("why_not", ()):
-                say(f"    {why}")
-            if v.get("advice"):
-                say(f"    {v['advice']}")
-            if v.get("warning"):
-                say(f"  {v['warning']}")
+    else:
+        for line in describe_rooms(summary):
+            say(line)
     for l in summary["luminaires"]:
         p = ", ".join(f"{x:.3f}" for x in l["position"])
         n = ", ".join(f"{x:.2f}" for x in l["normal"])

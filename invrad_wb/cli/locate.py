@@ -132,20 +132,34 @@ def _locate_one(args, scene_path, output, vote_maps, settings, phot, workers):
         # a plain mesh's single room takes the scene's name (progress, vote-map titles)
         names = ({int(scene.rooms[0]): os.path.splitext(os.path.basename(scene_path))[0]}
                  if len(scene.rooms) == 1 else None)
-        result = locate(scene, args.flux, settings=settings, backend=args.backend,
-                        progress=progress, photometry=phot, workers=workers, dask=args.dask,
-                        room_names=names)
+        kinds = {}
+        if args.flux is not None:        # a level on a work plane is a requirement
+            from invrad_wb.core.design.requirements import classify_rooms
+            kinds = classify_rooms(scene, [int(r) for r in scene.rooms], names)
+        verdicts = None
+        if any(k.requirement for k in kinds.values()):
+            result, verdicts = _locate_requirements(scene, kinds, args, settings, phot,
+                                                    workers, names, progress)
+        else:
+            result = locate(scene, args.flux, settings=settings, backend=args.backend,
+                            progress=progress, photometry=phot, workers=workers,
+                            dask=args.dask, room_names=names)
     with_photometry(result.luminaires, phot)
     data = result.to_dict()
+    if verdicts is not None:
+        data["verdicts"] = verdicts
     if vote_maps:                  # first: an interrupted map write leaves RESULT.json as it was
         files = result.save_vote_maps(vote_maps)
     atomic_write_text(output, strict_json(data))
     for l in result.luminaires:
         p = ", ".join(f"{x:.3f}" for x in l.position)
         n = ", ".join(f"{round(float(x), 2) + 0.0:.2f}" for x in l.normal)   # never -0.00
-        print(f"room {l.room}: luminaire at ({p}) m facing ({n}), {l.flux_lm:.0f} lm,"
-              f" score {l.score:.3f} [{l.extra.get('mount', '')}]")
+        score = "" if l.score is None else f", score {l.score:.3f}"   # None: a layout's
+        print(f"room {l.room}: luminaire at ({p}) m facing ({n}), {l.flux_lm:.0f} lm"
+              f"{score} [{l.extra.get('mount', '')}]")
     _say_fit(result, names)
+    for v in verdicts or ():
+        _say_verdict(v)
     of = "" if args.flux is None else f" of {args.flux:g} lm"
     print(f"{len(result.luminaires)} luminaire(s){of} in"
           f" {result.timings['total']:.2f} s ({result.backend}) -> {output}")
@@ -162,6 +176,67 @@ def _locate_one(args, scene_path, output, vote_maps, settings, phot, workers):
             return 3
         print(f"invrad: no luminaire needed: {scene_path}: {reason}", file=sys.stderr)
     return 0
+
+
+def _locate_requirements(scene, kinds, args, settings, phot, workers, names, progress):
+    """Rooms whose targets are requirements (a level on the work plane: :mod:`invrad_wb.
+    core.design.requirements`) get a regular layout of the luminaire, as through the
+    ``freecad`` command; the other rooms are fitted point by point. Each requirement room
+    is then judged as EN 12464-1 does, on the light of every luminaire with
+    interreflection. Returns (LocateResult holding every luminaire, verdicts: one dict per
+    requirement room)."""
+    from dataclasses import asdict
+    import time
+    from invrad_wb.core.design.requirements import design_requirements, judge
+    from invrad_wb.core.forward.render import render
+    from invrad_wb.core.inverse.locate import LocateResult, locate
+    names = names or {}
+    t0 = time.perf_counter()
+    req = design_requirements(scene, kinds, args.flux, photometry=phot, backend=args.backend,
+                              room_names=names, progress=progress, workers=workers)
+    exact = [r for r, k in kinds.items() if not k.requirement]
+    if exact:
+        result = locate(scene, args.flux, settings=settings, backend=args.backend,
+                        progress=progress, photometry=phot, workers=workers, dask=args.dask,
+                        rooms=exact, room_names=names)
+    else:
+        result = LocateResult([], asdict(settings), {}, args.flux, [], args.backend)
+    result.luminaires = list(result.luminaires) + list(req.luminaires)
+    with_photometry(result.luminaires, phot)
+    achieved = render(scene, result.luminaires, interreflection=True, backend=args.backend)
+    verdicts = []
+    for r, rt in kinds.items():
+        if not rt.requirement:
+            continue
+        name = names.get(r) or f"room {r}"
+        v = judge(scene, r, rt, achieved, name)
+        d = {"room": int(r), "targets": "requirement", **v.to_dict(),
+             "words": f"{name}: {v.words()}"}
+        rd = req.rooms.get(r)
+        if rd is not None and rd.candidate is not None:
+            d["layout"] = rd.candidate.geom.describe()
+            d["mounting"] = req.mountings[r].kind
+            d["notes"] = [n for n in rd.notes if "nothing designed" not in n]
+        if not v.met:
+            d["why_not"] = v.why_not()
+            d["advice"] = ("these targets are requirements: `python -m invrad_wb design`"
+                           " (a catalogue of luminaires, dimming) finds the layout of least"
+                           " power that meets them")
+        verdicts.append(d)
+    result.timings["requirements"] = round(req.seconds, 4)
+    result.timings["total"] = time.perf_counter() - t0
+    return result, verdicts
+
+
+def _say_verdict(v):
+    """A requirement room's verdict, as the ``freecad`` command says it."""
+    print(f"{'met' if v['met'] else 'NOT met'}: {v['words']}")
+    if v.get("layout"):
+        print(f"  {v['layout']} ({v.get('mounting', 'ceiling')})")
+    for line in v.get("notes", []) + v.get("why_not", []):
+        print(f"  {line}")
+    if v.get("advice"):
+        print(f"  {v['advice']}")
 
 
 def _say_fit(result, names=None):

@@ -280,11 +280,15 @@ class DocumentObserver:
 
     * a closed document's stored locate result and overlay are forgotten;
     * a shown target display is rebuilt (shortly after, once) when a target or a room
-      changes, is added or is deleted (undo/redo included).
+      changes, is added or is deleted (undo/redo included);
+    * when only a room's contents change (fixtures inserted by Locate or Design, or taken
+      out by an undo), its targets are the same: only the room names move clear of the
+      fixtures. Rebuilding the display there re-meshed the whole building in the GUI
+      thread after every run (FZK-Haus: minutes, the GUI frozen, on a busy machine).
     """
 
     def __init__(self):
-        self._pending = set()
+        self._pending = {}              # document name -> "labels" or "display"
 
     def _relevant(self, obj):
         from invrad_wb.app.document import object_type
@@ -293,15 +297,20 @@ class DocumentObserver:
         except Exception:
             return False
 
-    def _schedule(self, obj):
+    def _schedule(self, obj, what="display"):
         from invrad_wb.gui import display
         try:
             doc = obj.Document
         except Exception:
             return
-        if not display.is_shown(doc, "targets") or doc.Name in self._pending:
+        if not display.is_shown(doc, "targets"):
             return
-        self._pending.add(doc.Name)
+        before = self._pending.get(doc.Name)
+        if before is not None:
+            if what == "display":
+                self._pending[doc.Name] = what          # the whole display wins
+            return
+        self._pending[doc.Name] = what
         from PySide import QtCore
         name = doc.Name
         QtCore.QTimer.singleShot(300, lambda: self._refresh(name))
@@ -309,9 +318,13 @@ class DocumentObserver:
     def _refresh(self, name):
         import FreeCAD
         from invrad_wb.gui import display
-        self._pending.discard(name)
+        what = self._pending.pop(name, "display")
         if name in FreeCAD.listDocuments():
-            display.refresh(FreeCAD.getDocument(name))
+            doc = FreeCAD.getDocument(name)
+            if what == "labels":
+                display.relabel(doc)
+            else:
+                display.refresh(doc)
 
     def slotCreatedObject(self, obj):
         if self._relevant(obj):
@@ -325,7 +338,27 @@ class DocumentObserver:
         if prop in ("Label", "Label2", "ExpressionEngine", "Visibility"):
             return
         if self._relevant(obj):
-            self._schedule(obj)
+            self._schedule(obj, "labels" if self._contents_only(obj, prop) else "display")
+
+    #: a room's properties that Locate and Design change with its contents (fixtures
+    #: grouped in it, its IFC data, the areas FreeCAD recomputes), not its targets
+    CONTENTS_PROPS = ("Group", "_GroupTouched", "IfcData", "IfcProperties",
+                      "ElevationWithFlooring", "VerticalArea", "HorizontalArea", "Area")
+
+    def _contents_only(self, obj, prop):
+        """Whether this change leaves the room's targets as they are: its contents, or
+        its solid recomputed to what it was (a recompute after an insert)."""
+        from invrad_wb.app.document import object_type
+        from invrad_wb.gui import display
+        try:
+            if object_type(obj) != "Space":
+                return False
+            if prop in self.CONTENTS_PROPS:
+                return True
+            return (prop in ("Shape", "Placement")
+                    and not display.room_geometry_changed(obj.Document, obj))
+        except Exception:
+            return False
 
     def slotDeletedDocument(self, doc):
         from invrad_wb.gui import display, runner

@@ -192,7 +192,9 @@ def show(doc, building, values, title, mode_name, targets=True, vmax=None, mesh=
                         "building": building, "vmax": geom["vmax"],
                         "triangles": len(geom["surfaces"]) + len(geom["work_plane"]),
                         "labels": room_labels(building), "label_node": label_node,
-                        "label_vis": None, "sensors": []}
+                        "label_vis": None, "sensors": [],
+                        "rooms": {p.space.Name: room_signature(p.space)
+                                  for p in building.rooms}}
     update_labels(doc)
     # a clipping plane toggled or moved later shows and hides the names again
     for sg in graphs:
@@ -203,6 +205,41 @@ def show(doc, building, values, title, mode_name, targets=True, vmax=None, mesh=
         except Exception:          # without the sensor the names follow at the next show
             pass
     return geom["vmax"]
+
+
+def room_signature(space):
+    """A room's solid in a few numbers (volume, area, bounding box, mm), or None."""
+    try:
+        sh = space.Shape
+        bb = sh.BoundBox
+        return (round(sh.Volume, 3), round(sh.Area, 3),
+                tuple(round(v, 3) for v in (bb.XMin, bb.YMin, bb.ZMin, bb.XMax, bb.YMax,
+                                            bb.ZMax)))
+    except Exception:
+        return None
+
+
+def room_geometry_changed(doc, space):
+    """Whether a room's solid differs from the one the shown overlay was built on (True
+    when nothing is shown or the room is not in it)."""
+    st = _overlay(doc)
+    rooms = (st or {}).get("rooms") or {}
+    if space.Name not in rooms:
+        return True
+    sig = room_signature(space)
+    return sig is None or sig != rooms[space.Name]
+
+
+def relabel(doc):
+    """The room names of the shown overlay placed again (clear of the fixtures in the
+    rooms now), without rebuilding the display; False when nothing is shown."""
+    st = _overlay(doc)
+    if st is None:
+        return False
+    st["labels"] = room_labels(st["building"])
+    st["label_vis"] = None
+    update_labels(doc)
+    return True
 
 
 def update_labels(doc):

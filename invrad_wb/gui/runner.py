@@ -122,14 +122,9 @@ def locate(doc=None, rooms=None, run=None, locate=None):
     lines = [f"{len(res.luminaires)} luminaire(s) of {settings.flux_lm:.0f} lm in"
              f" {len(res.building.rooms)} room(s) ({rooms_txt}),"
              f" {res.timings.get('total', 0):.1f} s"]
-    for r in res.summary.get("rooms", []):
-        for part in ("work_plane", "surfaces"):
-            d = r.get(part) or {}
-            if "mean_achieved_lux" in d:
-                lines.append(f"  {r['room']} {part.replace('_', ' ')}: mean"
-                             f" {d['mean_achieved_lux']:.0f} lx for"
-                             f" {d['mean_target_lux']:.0f} lx, typical deviation"
-                             f" {100 * d['rms_relative_error']:.0f} %")
+    # per room: met or not, the regular layout of a requirement room, why not, and the
+    # pointer to Design (what the freecad command prints)
+    lines += pipeline.describe_rooms(res.summary)
     messages.show("info", title, "\n".join(lines), box=False)
     return res
 
@@ -352,10 +347,9 @@ def verify(doc=None, rooms=None, report_dir=None, show=True):
             messages.warning(title, f"could not show the result in false colour: {exc}")
     lines = [f"{len(vr.luminaires)} luminaire(s) in {len(vr.building.rooms)} room(s);"
              f" report: {html}"]
-    # the report view in an architect's words (the report's appendix keeps RMSE)
-    lines += ["  " + s.replace("RMSE", "typical deviation")
-              for s in results.describe_rows(vr.rows)]
+    # per room met or not, as after Locate (the sheet and the report hold the numbers)
+    lines += pipeline.describe_rooms(vr.summary)
     if skipped:
-        lines.append(f"  left out (no LuminousFlux): {', '.join(skipped)}")
+        lines.append(f"  left out (no luminous flux): {', '.join(skipped)}")
     messages.show("info", title, "\n".join(lines), box=False)
     return vr

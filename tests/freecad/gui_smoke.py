@@ -20,9 +20,11 @@ and inside the GUI:
    in false colour), with screenshots; checks one undo step per action;
 5. cancels a run and makes one fail, and checks that the document is unchanged and the
    message was shown;
-6. with ``--fzk``, also imports the FZK-Haus IFC file through invrad's importer, sets
-   work-plane targets in five rooms, cuts the view below the ceilings with a clipping
-   plane, locates, verifies and saves screenshots from above and in isometric view.
+6. with ``--fzk``, also imports the FZK-Haus IFC file through invrad's importer, applies
+   ``examples/fzk_targets.json`` (a work-plane level in every room), cuts the view below
+   the ceilings with a clipping plane, locates (regular ceiling rows, every level met),
+   verifies, designs, and saves screenshots from above (ground floor and Galerie) and in
+   isometric view.
 
 Results: ``<out>/gui_smoke.json`` (every check with its outcome, the messages shown),
 PNG screenshots of the 3D view (``saveImage``) and pictures of the task panels, the
@@ -381,6 +383,24 @@ class Smoke:
                                                    FreeCAD.Rotation()))
         return view
 
+    def upper_floor_shot(self, doc, view, name):
+        """FZK-Haus from above with the plan cut raised under the roof (the Galerie), then
+        back at the ground floor."""
+        import FreeCAD
+        from invrad_wb.app import rooms
+        gal = [sp for sp in rooms.find_spaces(doc) if rooms.room_name(sp) == "Galerie"]
+        if not gal:
+            return
+        z = gal[0].Shape.BoundBox.ZMin + 1800.0
+        view.toggleClippingPlane(0)
+        view.toggleClippingPlane(1, False, True, FreeCAD.Placement(FreeCAD.Vector(0, 0, z),
+                                                                   FreeCAD.Rotation()))
+        view.viewTop()
+        self.frame(view)
+        self.shot(name)
+        view.toggleClippingPlane(0)
+        self.plan_cut(doc)
+
     def frame(self, view=None):
         """The view framed on the active document's rooms, right of the legend, for the
         screenshots' 1000 x 750 (display.frame_rooms; fitAll framed the site and left
@@ -599,6 +619,7 @@ class Smoke:
         panel.widget("resolution_m").setValue(0.3)
         n0 = doc.UndoCount
         snap = document.snapshot(doc)
+        shown = display._overlay(doc)
         self.check("locate panel accepted", panel.accept())
         yield lambda: runner.stored(doc) is not None or messages.LOG and \
             messages.LOG[-1][1] == "Locate luminaires"
@@ -614,6 +635,12 @@ class Smoke:
                    all(f.IfcType == "Light Fixture" and f.LuminousFlux == 2500.0
                        for f in fx))
         self.check("locate is one undo step", doc.UndoCount == n0 + 1, (n0, doc.UndoCount))
+        yield lambda: not commands._observer._pending
+        now = display._overlay(doc)
+        self.check("the targets' display is kept after Locate (the fixtures change the"
+                   " room's contents, not its targets), its names placed again",
+                   shown is not None and now is not None and now["node"] is shown["node"]
+                   and now["label_vis"] is not None, (shown is None, now is None))
         self.check("the flux was stored in the parameters",
                    __import__("invrad_wb.gui.params", fromlist=["x"]).load_run()[
                        "flux_lm"] == 2500.0)
@@ -857,12 +884,11 @@ class Smoke:
         spaces = rooms.find_spaces(doc)
         self.check("FZK-Haus: 7 rooms imported", len(spaces) == 7,
                    f"{len(spaces)} in {time.time() - t0:.0f} s")
-        lux = {"Wohnen": 300, "Küche": 500, "Buero": 500, "Bad": 300, "Schlafzimmer": 200}
-        ground = []
-        for sp in spaces:
-            if sp.Label in lux:
-                targets.set_work_plane(sp, lux[sp.Label])
-                ground.append(sp)
+        # an architect's own targets: a work-plane level in every room, nothing on the
+        # walls (examples/fzk_targets.json, as the README's freecad command)
+        opts = targets.apply_targets_file(doc, os.path.join(ROOT, "examples",
+                                                            "fzk_targets.json"))
+        names = [rooms.room_name(sp) for sp in spaces]
         FreeCADGui.runCommand("InvRad_ToggleTargets")
         yield None
         view = self.plan_cut(doc)
@@ -871,13 +897,24 @@ class Smoke:
         self.frame(view)
         self.shot("fzk_targets")
         FreeCADGui.doCommand("import invrad_wb.gui.runner")
+        t1 = time.time()
         FreeCADGui.doCommand(f"invrad_wb.gui.runner.locate(App.getDocument({doc.Name!r}),"
-                             " run={'flux_lm': 1500.0, 'resolution_m': 0.4})")
+                             f" run={{'flux_lm': {float(opts['flux_lm'])!r},"
+                             f" 'resolution_m': {float(opts['resolution_m'])!r}}})")
         yield self.idle
         n = len(fixtures.all_fixtures(doc))
         st = runner.stored(doc)
-        self.check("FZK-Haus: fixtures inserted", n > 0 and st is not None,
-                   messages.LOG[-1:] if messages.LOG else "")
+        last = messages.LOG[-1] if messages.LOG else ("", "", "")
+        self.check("FZK-Haus: fixtures inserted", n > 0 and st is not None, last)
+        print(f"FZK-Haus locate (fzk_targets.json) in the GUI: {time.time() - t1:.1f} s,"
+              f" {n} fixtures\n{last[2]}")
+        # requirement targets: regular ceiling rows, each room's level met, said so
+        self.check("FZK-Haus: Locate says every room meets its level (fzk_targets.json)",
+                   all(f"  met: {nm}:" in last[2] for nm in names)
+                   and "NOT met" not in last[2], last[2])
+        walls = [fx.Label for fx in fixtures.all_fixtures(doc)
+                 if fx.LightDirection.z > -0.7]
+        self.check("FZK-Haus: no wall light", not walls, walls)
         from test_fixtures import wall_clearance_m
         from invrad_wb.core.inverse.locate import MOUNT_CLEARANCE_M
         bad = []
@@ -904,6 +941,7 @@ class Smoke:
         self.shot("fzk_located_top")
         self.view_iso()
         self.shot("fzk_located_iso")
+        self.upper_floor_shot(doc, view, "fzk_located_upper_top")
         before = len(messages.LOG)
         FreeCADGui.runCommand("InvRad_Verify")
         yield self.said("Verify and report", before)
@@ -915,6 +953,11 @@ class Smoke:
         self.shot("fzk_achieved_top")
         self.view_iso()
         self.shot("fzk_achieved_iso")
+        self.upper_floor_shot(doc, view, "fzk_achieved_upper_top")
+        last = messages.LOG[-1] if messages.LOG else ("", "", "")
+        self.check("FZK-Haus: Verify judges the located fixtures as Locate did",
+                   all(f"  met: {nm}:" in last[2] for nm in names)
+                   and "NOT met" not in last[2], last[2])
         FreeCADGui.runCommand("InvRad_ToggleDeviation")
         yield None
         self.check("FZK-Haus: deviation shown", display.mode(doc) == "deviation")
@@ -923,7 +966,7 @@ class Smoke:
         self.shot("fzk_deviation_top")
         self.check("FZK-Haus: in the plan cut only the ground floor's room names",
                    "Galerie" not in [n for n, _ in display.shown_labels(doc)]
-                   and len(display.shown_labels(doc)) == 5, display.shown_labels(doc))
+                   and len(display.shown_labels(doc)) == 6, display.shown_labels(doc))
         # the design panel with the bundled requirements (examples/fzk_design.json)
         from invrad_wb.gui import designpanel, taskpanel
         FreeCADGui.Selection.clearSelection()
@@ -997,7 +1040,7 @@ class Smoke:
         from PySide import QtGui
         from fctest import FZK
         from invrad_wb.app import fixtures, ifcimport, nativeifc, rooms, targets
-        from invrad_wb.gui import messages
+        from invrad_wb.gui import messages, runner
         if not self.check("NativeIFC available (FreeCAD 1.x)", nativeifc.available()):
             return
         tmp = tempfile.mkdtemp(prefix="invrad-native-")
@@ -1010,16 +1053,20 @@ class Smoke:
         spaces = {rooms.room_name(s): s for s in rooms.find_spaces(doc)}
         self.check("NativeIFC FZK-Haus: 7 rooms from its IfcSpaces", len(spaces) == 7,
                    f"{sorted(spaces)} in {time.time() - t0:.0f} s")
-        lux = {"Wohnen": 300, "Küche": 500, "Buero": 500, "Bad": 300, "Schlafzimmer": 200}
-        for name, v in lux.items():
-            if name in spaces:
-                targets.set_work_plane(spaces[name], v)
+        # the architect's own targets (a work-plane level in every room), as in the
+        # classic document; the plan cut shows the ground floor's rooms
+        opts = targets.apply_targets_file(doc, os.path.join(ROOT, "examples",
+                                                            "fzk_targets.json"))
+        lux = [n for n in spaces if n != "Galerie"]
         # the targets in false colour with their legend and the rooms' names, as in a
         # classic document, framed on the building (not the site's terrain)
         from invrad_wb.gui import display
         FreeCADGui.runCommand("InvRad_ToggleTargets")
         yield None
         view = self.plan_cut(doc)
+        # orthographic, as the classic views (the BIM workbench's view was a perspective
+        # one: framed, its near plane cut the building)
+        view.setCameraType("Orthographic")
         view.viewTop()
         self.frame(view)
         yield None
@@ -1031,12 +1078,17 @@ class Smoke:
         n0 = doc.UndoCount
         t1 = time.time()
         FreeCADGui.doCommand("import invrad_wb.gui.runner")
-        # one process: on the shared 2-core machine the worker pool of this run hung in
-        # FreeCAD 1.0's GUI (14 min, its workers gone, map_rooms waiting)
         FreeCADGui.doCommand(f"invrad_wb.gui.runner.locate(App.getDocument({doc.Name!r}),"
-                             " run={'flux_lm': 1500.0, 'resolution_m': 0.4, 'workers': 1})")
+                             f" run={{'flux_lm': {float(opts['flux_lm'])!r},"
+                             f" 'resolution_m': {float(opts['resolution_m'])!r}}})")
         yield self.idle
         fx = fixtures.all_fixtures(doc)
+        last = messages.LOG[-1][2] if messages.LOG else ""
+        self.check("NativeIFC FZK-Haus: Locate says every room meets its level, no wall"
+                   " light", all(f"  met: {n}:" in last for n in spaces)
+                   and "NOT met" not in last
+                   and all(fixtures.fixture_luminaire(f).normal[2] < -0.7 for f in fx),
+                   last)
         ifc = proj.Proxy.ifcfile
         import ifcopenshell.util.element as E
         lights = [e for e in ifc.by_type("IfcLightFixture")
@@ -1077,20 +1129,47 @@ class Smoke:
         FreeCADGui.runCommand("InvRad_Verify")
         yield self.said("Verify and report", before)
         yield self.idle
+        last = messages.LOG[-1][2] if messages.LOG else ""
+        self.check("NativeIFC FZK-Haus: Verify reads the located IfcLightFixtures (their flux"
+                   " in the IFC file) and says per room whether it is met",
+                   last.startswith(f"{len(fx)} luminaire(s)") and "left out" not in last
+                   and all(f"met: {n}:" in last for n in lux), last)
         self.check("NativeIFC FZK-Haus: verified, the achieved light in false colour with"
                    " the legend and the ground floor's names",
                    display.mode(doc) == "achieved"
                    and sorted(n for n, _ in display.shown_labels(doc)) == sorted(lux),
                    (display.mode(doc), display.shown_labels(doc), messages.LOG[-1:]))
+        view.setCameraType("Orthographic")
         view.viewIsometric()
         self.frame(view)
         yield None
         self.shot("native_fzk_located_iso")
         self.main_window_shot("native_fzk_bim_workbench")
+        view.setCameraType("Orthographic")
         view.viewTop()
         self.frame(view)
         yield None
         self.shot("native_fzk_located_top")
+        self.upper_floor_shot(doc, view, "native_fzk_achieved_upper_top")
+        # Design with the bundled requirements (examples/fzk_design.json)
+        with open(os.path.join(ROOT, "examples", "fzk_design.json"), encoding="utf-8") as fh:
+            spec = json.load(fh)
+        before, t2 = len(messages.LOG), time.time()
+        res = runner.design(doc, spec=spec)
+        yield self.idle
+        last = ([m for m in messages.LOG[before:] if m[1] == "Design lighting"]
+                or [("", "", "")])[-1]
+        self.check("NativeIFC FZK-Haus: designed, every requirement met",
+                   res is not None and "every requirement met" in last[2],
+                   (last, f"{time.time() - t2:.0f} s"))
+        view.viewTop()
+        self.frame(view)
+        yield None
+        self.shot("native_fzk_designed_top")
+        view.viewIsometric()
+        self.frame(view)
+        yield None
+        self.shot("native_fzk_designed_iso")
 
 
 SMOKE = None
@@ -1103,10 +1182,18 @@ def main_inside():
     # descriptor)
     stacks = open(os.path.join(os.environ[ENV_OUT], "crash_stacks.txt"), "w")
     faulthandler.enable(file=stacks, all_threads=True)
+    # and on demand: kill -USR1 <FreeCAD's pid> (a run that seems stuck)
+    import signal
+    faulthandler.register(signal.SIGUSR1, file=stacks, all_threads=True, chain=False)
     # a hang writes them too, shortly before the outer timeout kills FreeCAD
     hang = float(os.environ.get("INVRAD_SMOKE_HANG_S", "0") or 0)
     if hang > 0:
         faulthandler.dump_traceback_later(hang, repeat=True, file=stacks)
+    # standard views at once (FreeCAD 1.0 animates them: a picture saved right after
+    # viewTop() caught the camera half-way)
+    import FreeCAD
+    FreeCAD.ParamGet("User parameter:BaseApp/Preferences/View").SetBool(
+        "UseNavigationAnimations", False)
     global SMOKE
     # a module-level reference: PySide's connections to bound methods do not keep the
     # object alive, and the Smoke <-> its step generator cycle was collected by the cyclic

@@ -365,6 +365,19 @@ class TestDisplayNumpy(FreeCADTestCase):
         np.testing.assert_allclose((x, y, z), (2000.0, 1500.0, 2400.0), atol=1e-6)
 
 
+    def test_boundary_edges_per_group(self):
+        faces = np.array([[0, 1, 2], [0, 2, 3]])
+        def sides(e):
+            return sorted(tuple(sorted(x)) for x in e.tolist())
+        square = [(0, 1), (0, 3), (1, 2), (2, 3)]
+        for big in (0, 3_000_000, 3_000_000_000):   # one int64 key; past it, rows
+            for groups in ([5, 5], [-1, -1]):
+                e = display.boundary_edges(faces + big, np.array(groups))
+                self.assertEqual(sides(e - big), square)
+            # two groups: each triangle whole, the diagonal once for each
+            e = display.boundary_edges(faces + big, np.array([-1, 7]))
+            self.assertEqual(sides(e - big), sorted(square + [(0, 2), (0, 2)]))
+
     def test_subdivide_is_conforming(self):
         # two triangles of a unit square; split one: its neighbour is split in two
         pts = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
@@ -583,6 +596,37 @@ class TestDisplayNumpy(FreeCADTestCase):
             display.forget(doc.Name)
 
 
+class TestDocumentObserver(FreeCADTestCase):
+    """A shown targets' display is rebuilt when targets or rooms change, only its names
+    placed again when a room's contents change (Locate and Design insert fixtures)."""
+
+    def test_contents_of_a_room_are_not_its_targets(self):
+        space = make_walled_room(self.doc, label="Office")
+        targets.set_work_plane(space, 500.0)
+        self.doc.recompute()
+        obs = commands.DocumentObserver()
+        self.assertTrue(obs._contents_only(space, "Group"))
+        self.assertTrue(obs._contents_only(space, "IfcData"))
+        target = next(o for o in self.doc.Objects
+                      if document.object_type(o) == "InvRadTarget")
+        self.assertFalse(obs._contents_only(target, "Group"))
+        # the solid: nothing shown to compare with -> rebuilt
+        self.assertFalse(obs._contents_only(space, "Shape"))
+        st = display._doc_state(self.doc, create=True)
+        try:
+            st.overlay = {"rooms": {space.Name: display.room_signature(space)}}
+            # recomputed to the same solid (after an insert): the names only
+            fixtures.insert_fixtures(self.doc, [(space, [down(2.0, 1.5)])])
+            self.assertTrue(obs._contents_only(space, "Shape"))
+            self.assertTrue(obs._contents_only(space, "Placement"))
+            # another solid than the display's: rebuilt
+            sig = display.room_signature(space)
+            st.overlay["rooms"][space.Name] = (sig[0] + 1.0,) + sig[1:]
+            self.assertFalse(obs._contents_only(space, "Shape"))
+        finally:
+            st.overlay = None
+
+
 class TestSelection(FreeCADTestCase):
 
     def setUp(self):
@@ -742,6 +786,13 @@ class TestRunnerHeadless(ParamsIsolated):
         self.assertEqual(self.doc.UndoCount, n + 1)
         self.assertEqual(len(fixtures.room_fixtures(space)), len(res.luminaires))
         self.assertIs(runner.stored(self.doc).result, res)
+        # a level on the work plane is a requirement: the message says per room whether
+        # it is met, against what (the freecad command's words)
+        v_loc = res.summary["rooms"][0]["verdict"]
+        self.assertEqual(v_loc["targets"], "requirement")
+        self.assertIn(f"{'met' if v_loc['met'] else 'NOT met'}: {v_loc['words']}",
+                      messages.LOG[-1][2])
+        self.assertIn("EN 12464-1 for 400 lx", messages.LOG[-1][2])
         lums = runner.repeak(self.doc, threshold=120.0, neighbourhood_m=0.5)
         self.assertIsNotNone(lums, messages.LOG[-1:])
         self.assertEqual(self.doc.UndoCount, n + 2)
@@ -751,6 +802,14 @@ class TestRunnerHeadless(ParamsIsolated):
         vr = runner.verify(self.doc, report_dir=rep)
         self.assertIsNotNone(vr, messages.LOG[-1:])
         self.assertEqual(self.doc.UndoCount, n + 3)
+        # Verify judges the same fixtures the same way (the level on its task area, not
+        # the whole plane up to the walls)
+        v_ver = vr.summary["rooms"][0]["verdict"]
+        self.assertEqual(v_ver["targets"], "requirement")
+        self.assertEqual(v_ver["met"], v_loc["met"])
+        self.assertAlmostEqual(v_ver["em_lux"], v_loc["em_lux"], delta=0.01 * v_loc["em_lux"])
+        self.assertIn(v_ver["words"], messages.LOG[-1][2])
+        self.assertEqual(len(vr.luminaires), len(lums))
         self.assertTrue(os.path.isfile(os.path.join(rep, "summary.json")))
         with open(os.path.join(rep, "summary.json")) as fh:
             self.assertTrue(json.load(fh)["metrics"])

@@ -15,7 +15,7 @@ import numpy as np
 import FreeCAD
 
 from fctest import FZK, FZK_ROOMS, ROOT, FreeCADTestCase, needs_fzk
-from invrad_wb.app import fixtures, ifcimport, nativeifc, pipeline, rooms, targets
+from invrad_wb.app import fixtures, ifcimport, nativeifc, pipeline, results, rooms, targets
 from invrad_wb.app import design as app_design
 from invrad_wb.app.document import snapshot
 from invrad_wb.errors import InvradError
@@ -138,6 +138,13 @@ class TestNativeFZK(FreeCADTestCase):
         for a, b in zip(found, stored):
             np.testing.assert_allclose(a.position, b.position, atol=1e-6)
             np.testing.assert_allclose(a.normal, b.normal, atol=1e-6)
+        # Verify reads them back (their flux is in the IFC entity, not a FreeCAD
+        # property: it said '0 luminaire(s)', every fixture left out)
+        lums, skipped = results.document_luminaires(res.building)
+        self.assertEqual(skipped, [])
+        self.assertEqual(sorted(l.extra["fixture"] for l in lums),
+                         sorted(f.Label for f in fx))
+        self.assertTrue(all(abs(l.flux_lm - 2000.0) < 1e-6 for l in lums))
         self.doc.undo()
         self.assertEqual(invrad_lights(self.ifc), [])
 

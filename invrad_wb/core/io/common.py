@@ -30,6 +30,7 @@ class _MeshData:
         self.n_split = n_split
         self.vertex_lux = self.face_lux = None
         self.face_room = self.face_reflectance = None
+        self.face_virtual = None
         self.vertex_uv = self.lux_texture = None
 
     def scene(self):
@@ -46,6 +47,7 @@ class _MeshData:
                           face_lux=per_triangle(self.face_lux),
                           face_room=per_triangle(self.face_room),
                           face_reflectance=per_triangle(self.face_reflectance),
+                          face_virtual=per_triangle(self.face_virtual),
                           face_uv=face_uv, lux_texture=self.lux_texture, source=self.path)
         except SceneError as exc:
             if not self.n_split or "face" not in str(exc):

@@ -399,6 +399,13 @@ def _mesh_from_ply(path, scale, need_uv=False):
     mesh.face_lux = scalar(face, "lux", "face")
     mesh.face_room = scalar(face, "room", "face")
     mesh.face_reflectance = scalar(face, "reflectance", "face")
+    virtual = scalar(face, "virtual", "face")
+    if virtual is not None:
+        bad = np.flatnonzero(~np.isin(virtual, (0.0, 1.0)))
+        if len(bad):
+            raise SceneError(f"face {bad[0]}: virtual must be 0 or 1, got"
+                             f" {virtual[bad[0]]:g}", path)
+        mesh.face_virtual = virtual.astype(bool)
     _check_face_values(path, mesh.face_room, mesh.face_reflectance, mesh.face_lux)
     if need_uv:
         for su, sv in _PLY_UV_NAMES:
@@ -463,8 +470,12 @@ def write_ply(path, scene, lux=None, binary=True, comments=()):
     room = np.asarray(scene.face_room, dtype=np.int64)
     if room.size and room.max() > np.iinfo(np.int32).max:
         raise SceneError(f"room id {room.max()} does not fit a PLY int", path)
+    # a work plane (virtual faces: they receive light, block and reflect none) keeps its
+    # flag, so that a written scene reads back the same (locate's requirement rooms)
+    virtual = np.asarray(scene.face_virtual, dtype=bool)
     ffields = [("n", "u1"), ("vertex_indices", "i4", (3,)), ("room", "i4"),
-               ("reflectance", "f8")] + ([("lux", "f8")] if face_lux is not None else [])
+               ("reflectance", "f8")] + ([("lux", "f8")] if face_lux is not None else []) \
+        + ([("virtual", "u1")] if virtual.any() else [])
     frec = np.empty(m, dtype=[(f[0], endian + f[1], *f[2:]) for f in ffields])
     frec["n"] = 3
     frec["vertex_indices"] = scene.faces
@@ -472,7 +483,9 @@ def write_ply(path, scene, lux=None, binary=True, comments=()):
     frec["reflectance"] = scene.face_reflectance
     if face_lux is not None:
         frec["lux"] = face_lux
-    names = {"f8": "double", "i4": "int"}
+    if virtual.any():
+        frec["virtual"] = virtual
+    names = {"f8": "double", "i4": "int", "u1": "uchar"}
     head = ["ply", f"format {'binary_little_endian' if binary else 'ascii'} 1.0",
             "comment written by invrad"]
     head += ["comment " + " ".join(str(c).split()) for c in comments]
@@ -480,6 +493,7 @@ def write_ply(path, scene, lux=None, binary=True, comments=()):
     head += [f"element face {m}", "property list uchar int vertex_indices",
              "property int room", "property double reflectance"]
     head += ["property double lux"] if face_lux is not None else []
+    head += ["property uchar virtual"] if virtual.any() else []
     head += ["end_header", ""]
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
         fh.write("\n".join(head).encode("ascii"))

@@ -3,7 +3,9 @@
 Three input forms, chosen by :func:`read_scene` from the file name:
 
 1. **PLY** (the interchange format): vertex properties ``x y z [lux]``, face properties
-   ``vertex_indices [room] [reflectance] [lux]`` (per-face ``lux`` instead of per-vertex),
+   ``vertex_indices [room] [reflectance] [lux] [virtual]`` (per-face ``lux`` instead of
+   per-vertex; ``virtual`` 1 marks a work plane's faces, which receive light and neither
+   block nor reflect it),
    ASCII or binary (little or big endian). Read by invrad's own PLY parser
    (:mod:`invrad_wb.core.io.ply` says why not trimesh's or plyfile's). Polygons are
    triangulated (:mod:`invrad_wb.core.geometry.triangulation`: a fan for convex ones, ear

@@ -132,3 +132,32 @@ def test_the_verification_report_judges_a_level_against_en12464_and_says_so(tmp_
     assert f"U0 {v.u0:.2f} &gt;= 0.60 (EN 12464-1 for 500 lx) met" in html
     assert ">1 of 1</b>rooms meet their targets" in html.replace("\n", "")
 
+
+
+def test_cli_locate_on_a_plain_mesh_lays_out_a_requirement_room(tmp_path, capsys):
+    """A work plane written to PLY keeps its virtual faces, and ``python -m invrad_wb
+    locate`` takes its level as a requirement, as the freecad command does: a regular
+    ceiling layout judged on the task area (the point-by-point fit ringed the walls)."""
+    import json
+    from invrad_wb import cli
+    from invrad_wb.core.io.sceneio import read_scene, write_scene
+    room = _room(level=300.0, cell=0.5)
+    ply = tmp_path / "room.ply"
+    write_scene(ply, room)
+    back = read_scene(ply)
+    assert np.array_equal(back.face_virtual, room.face_virtual) and room.face_virtual.any()
+    assert classify(back, 0).kind == "requirement"
+    out = tmp_path / "r.json"
+    rc = cli.main(["locate", str(ply), "--flux", "2000", "-o", str(out),
+                   "--backend", "numpy"])
+    said = capsys.readouterr().out
+    assert rc == 0, said
+    data = json.loads(out.read_text())
+    (v,) = data["verdicts"]
+    assert v["targets"] == "requirement" and v["met"], said
+    assert 0.9 * 300 <= v["em_lux"] <= 1.3 * 300 and v["u0"] >= 0.4
+    assert " grid" in v["layout"] and f"met: room: Em" in said
+    lums = data["luminaires"]
+    assert len(lums) >= 2 and all(l["normal"][2] < -0.99 for l in lums)   # no wall light
+    assert all(abs(l["position"][2] - 3.0) < 0.05 for l in lums)           # on the ceiling
+    assert len({round(l["flux_lm"], 6) for l in lums}) == 1
