@@ -392,3 +392,41 @@ def test_workers_start_with_ctrl_c_held_and_then_ignore_it():
                                             | (1 << (signal.SIGHUP - 1)))
     ignored = _sig_bits(after, "SigIgn")
     assert ignored & (1 << (signal.SIGINT - 1)) and ignored & (1 << (signal.SIGHUP - 1))
+
+
+@needs_proc
+@pytest.mark.parametrize("sig,status", [("SIGTERM", 143), ("SIGHUP", 129)])
+def test_a_direct_freecad_cmd_run_is_guarded_too(tmp_path, sig, status):
+    """``python -m invrad_wb.cli.freecad_cmd`` (not through ``python -m invrad_wb``) stops
+    on SIGTERM/SIGHUP like the main command line: one line, 128 + signal, its freecadcmd
+    child stopped and its job folder removed (it died of the signal, leaving the folder)."""
+    import zipfile
+    doc = tmp_path / "in.FCStd"
+    with zipfile.ZipFile(doc, "w") as z:
+        z.writestr("Document.xml", "<Document/>")
+    started = tmp_path / "child.pid"
+    fake = tmp_path / "freecadcmd"
+    fake.write_text(f"#!/bin/sh\necho $$ > {started}\nexec sleep 60\n")
+    fake.chmod(0o755)
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    p = subprocess.Popen([sys.executable, "-m", "invrad_wb.cli.freecad_cmd", str(doc),
+                          "--out", str(tmp_path / "out.FCStd"), "--report",
+                          str(tmp_path / "report"), "--freecadcmd", str(fake)], cwd=ROOT,
+                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                         start_new_session=True, env=dict(os.environ, TMPDIR=str(tmp)))
+    try:
+        assert _wait_for(lambda: started.exists() and started.read_text().strip()
+                         or p.poll() is not None, 60)
+        assert p.poll() is None, p.communicate()[1]
+        child = int(started.read_text())
+        p.send_signal(getattr(signal, sig))
+        _, err = p.communicate(timeout=60)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == status, err
+    assert sig in _one_line(err)
+    assert _wait_for(lambda: not _alive(child), 10), "freecadcmd left running"
+    assert os.listdir(tmp) == [], "job folder left behind"
+    assert not (tmp_path / "out.FCStd").exists() and not (tmp_path / "report").exists()
