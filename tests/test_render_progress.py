@@ -42,3 +42,14 @@ def test_false_cancels():
     scene, lums = _setup()
     with pytest.raises(Cancelled):
         render(scene, lums, backend="numpy", progress=lambda f, msg: f < 0.3)
+
+
+def test_a_floor_of_many_rooms_is_announced_with_its_size():
+    from invrad_wb.progress import FLOOR_NOTE_ROOMS, floor_note
+    many, _ = g.floor_of_rooms(rooms=((2.0, 2.0),) * FLOOR_NOTE_ROOMS, cell=1.0)
+    note = floor_note(many, 2)
+    assert note.startswith(f"{FLOOR_NOTE_ROOMS} rooms x ") and f"({len(many.faces)} faces)"\
+        in note and "2 at a time" in note
+    assert "--workers N" in floor_note(many, 1)
+    few, _ = g.floor_of_rooms(rooms=((2.0, 2.0),) * (FLOOR_NOTE_ROOMS - 1), cell=1.0)
+    assert floor_note(few, 1) is None
