@@ -1,8 +1,11 @@
 #!/usr/bin/env python3
 """Forward-solve benchmark: a 6 x 4 x 3 m room meshed at 8 cm, direct light and with
-interreflection, OpenCL vs numpy, in one run (machines are noisy: compare ratios).
+interreflection, OpenCL vs numpy, in one run (machines are noisy: compare ratios); then
+``--many`` luminaires (default 10,000) 5 cm under the ceiling of the same room at 10 cm,
+Lambertian and with a 40-degree intensity distribution, and in the room with a pillar
+(render with interreflections, the default backend).
 
-Usage: python bench/bench_render.py [--cell 0.08] [--repeat 3]
+Usage: python bench/bench_render.py [--cell 0.08] [--repeat 3] [--many 10000]
 """
 import argparse
 import os
@@ -33,7 +36,41 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--cell", type=float, default=0.08)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--many", type=int, default=10000,
+                    help="luminaires of the many-luminaire figures (0: none)")
+    ap.add_argument("--only-many", action="store_true", help="only those figures")
     args = ap.parse_args()
+    if not args.only_many:
+        few(args)
+    if args.many:
+        many(args.many)
+
+
+def many(n):
+    """Render ``n`` luminaires (the cost that grows as luminaires x points)."""
+    from invrad_wb.core.model.photometry import Photometry
+    rng = np.random.default_rng(0)
+    xy = rng.uniform([0.2, 0.2], [5.8, 3.8], size=(n, 2))
+    gam = np.arange(181.0)
+    narrow = Photometry(np.tile(np.where(gam < 40, np.cos(np.radians(gam)), 0.0), (361, 1)),
+                        name="40 degrees")
+    print(f"\n{n} luminaires 5 cm under the ceiling, 6 x 4 x 3 m, mesh 10 cm, with"
+          " interreflection")
+    print(f"{'room':8s} {'distribution':14s} {'seconds':>8s} {'vertices':>9s}  mean lux")
+    for room, scene in (("box", g.box_room((6, 4, 3), cell=0.1, reflectance=0.5)),
+                        ("pillar", g.pillar_room(cell=0.1, reflectance=0.5))):
+        for name, phot in (("lambertian", None), ("40 degrees", narrow)):
+            lums = [Luminaire([x, y, 2.95], [0, 0, -1], 12000.0 / n, photometry=phot)
+                    for x, y in xy]
+            scene.__dict__.pop("_bvh", None)
+            scene.__dict__.pop("_radiosity", None)
+            t = time.perf_counter()
+            lux = render(scene, lums)
+            print(f"{room:8s} {name:14s} {time.perf_counter() - t:8.2f}"
+                  f" {len(scene.vertices):9d}  {lux.mean():8.2f}", flush=True)
+
+
+def few(args):
     lums = [Luminaire([x, y, 3.0], [0, 0, -1], 3000.0) for x in (1.5, 4.5) for y in (1.0, 3.0)]
     backends = ["numpy"] + (["opencl"] if opencl_available() else [])
     if "opencl" in backends:

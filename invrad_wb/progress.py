@@ -52,6 +52,24 @@ class CliProgress:
         return False
 
 
+#: rooms from which a locate or design announces its size before it starts (a 256-room
+#: floor took minutes on two cores)
+FLOOR_NOTE_ROOMS = 16
+
+
+def floor_note(scene, workers=1, what="located"):
+    """One line announcing a run over many rooms (rooms x faces), or None for a few."""
+    rooms = getattr(scene, "rooms", None)
+    rooms = 0 if rooms is None else len(rooms)
+    if rooms < FLOOR_NOTE_ROOMS:
+        return None
+    faces = len(scene.faces)
+    par = (f"{workers} at a time" if isinstance(workers, int) and workers > 1
+           else "one after another (--workers N: N at a time)")
+    return (f"{rooms} rooms x {faces // rooms} faces on average ({faces} faces): each room"
+            f" is {what} on its own, {par}; this takes a while")
+
+
 def add_parallel_args(p):
     """--workers and --dask (rooms in parallel; the result is the same as one by one)."""
     p.add_argument("--workers", default="1", metavar="N",

@@ -374,7 +374,9 @@ def run(doc, settings, progress=None, locate=None, building=None):
     t = time.perf_counter()
     from invrad_wb.core.forward.render import render
     achieved = render(building.locate_scene, building.to_zones(lums),
-                      interreflection=settings.interreflection, backend=settings.backend)
+                      interreflection=settings.interreflection, backend=settings.backend,
+                      progress=lambda frac, msg: step(frac, f"{where}verify {len(lums)}"
+                                                            f" luminaire(s): {msg}"))
     timings["verify"] = time.perf_counter() - t
     target = scene.vertex_lux.copy() if scene.vertex_lux is not None else scene.vertex_targets()
     summary = _summary(doc, flux, settings, building, target, achieved, per_room)

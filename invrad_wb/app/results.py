@@ -268,7 +268,8 @@ def verify(doc, settings, progress=None, building=None, luminaires=None):
         from invrad_wb.core.forward.render import render
         achieved = render(building.locate_scene, building.to_zones(luminaires),
                           interreflection=settings.interreflection,
-                          backend=settings.backend)
+                          backend=settings.backend,
+                          progress=lambda frac, msg: step(frac, f"forward solve: {msg}"))
     else:
         achieved = np.zeros(len(scene.vertices))
     timings["render"] = time.perf_counter() - t

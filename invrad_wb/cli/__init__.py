@@ -24,8 +24,7 @@ import os
 import sys
 
 from invrad_wb.cli import design, example, info, locate, render, verify
-from invrad_wb.cli.common import internal_error
-from invrad_wb.errors import InvradError
+from invrad_wb.cli.common import run_guarded
 
 
 def build_parser():
@@ -60,33 +59,7 @@ def main(argv=None):
         if not any(h.name == handler.name for h in log.handlers):
             log.addHandler(handler)
         log.setLevel(logging.INFO)
-    from invrad_wb.runguard import RunGuard, exit_status, interrupted_text, output_error
-    try:
-        with RunGuard():              # signals like Ctrl-C; a failed run's outputs removed
-            rc = args.func(args)
-    except InvradError as exc:
-        if getattr(exc, "traceback_text", None):      # an internal error of a child process
-            return internal_error(exc, exc.traceback_text, argv)
-        print(f"invrad: error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt as exc:              # also SIGTERM, SIGHUP (runguard)
-        print(f"invrad: {interrupted_text(exc)}", file=sys.stderr)
-        return exit_status(exc)
-    except BrokenPipeError:
-        # the reader of our output went away (``| head``): not an error of ours
-        try:
-            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        except (OSError, ValueError):
-            pass
-        return 141
-    except Exception as exc:             # a bug: one line, the traceback in a log file
-        line = output_error(exc)         # ... unless the disk is full or read-only
-        if line:
-            print(f"invrad: error: {line}", file=sys.stderr)
-            return 2
-        import traceback
-        return internal_error(exc, traceback.format_exc(), argv)
-    return rc if isinstance(rc, int) else 0
+    return run_guarded(args.func, args, argv)
 
 
 if __name__ == "__main__":

@@ -210,3 +210,40 @@ def internal_error(exc, tb_text, argv=None):
         sys.stderr.write(text)
     return EXIT_INTERNAL
 
+
+def run_guarded(func, args, argv=None, cancelled_status=2):
+    """``func(args)`` under a :class:`~invrad_wb.runguard.RunGuard` (signals end it like
+    Ctrl-C, a failed run leaves no output it created), with the command line's endings:
+    an InvradError or a full disk in one line (2), a signal ``128 + signal`` with one
+    line, a closed pipe 141, anything else an internal error (70, the traceback in a log
+    file). A :class:`~invrad_wb.errors.Cancelled` run ends with ``cancelled_status``.
+    Returns the exit status. Used by ``python -m invrad_wb`` and by a direct
+    ``python -m invrad_wb.cli.freecad_cmd``."""
+    from invrad_wb.errors import Cancelled
+    from invrad_wb.runguard import RunGuard, exit_status, interrupted_text, output_error
+    try:
+        with RunGuard():              # signals like Ctrl-C; a failed run's outputs removed
+            rc = func(args)
+    except InvradError as exc:
+        if getattr(exc, "traceback_text", None):      # an internal error of a child process
+            return internal_error(exc, exc.traceback_text, argv)
+        print(f"invrad: error: {exc}", file=sys.stderr)
+        return cancelled_status if isinstance(exc, Cancelled) else 2
+    except KeyboardInterrupt as exc:              # also SIGTERM, SIGHUP (runguard)
+        print(f"invrad: {interrupted_text(exc)}", file=sys.stderr)
+        return exit_status(exc)
+    except BrokenPipeError:
+        # the reader of our output went away (``| head``): not an error of ours
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return 141
+    except Exception as exc:             # a bug: one line, the traceback in a log file
+        line = output_error(exc)         # ... unless the disk is full or read-only
+        if line:
+            print(f"invrad: error: {line}", file=sys.stderr)
+            return 2
+        import traceback
+        return internal_error(exc, traceback.format_exc(), argv)
+    return rc if isinstance(rc, int) else 0

@@ -12,7 +12,7 @@ import os
 import sys
 
 from invrad_wb.cli.common import batch_scenes, run_batch
-from invrad_wb.progress import CliProgress, add_parallel_args, workers_arg
+from invrad_wb.progress import CliProgress, add_parallel_args, floor_note, workers_arg
 
 #: exit status of a design that does not meet every requirement
 EXIT_NOT_COMPLIANT = 3
@@ -128,6 +128,9 @@ def _design_one(args, scene_path, output, schedule, report, spec, workers):
     # verification report), so the report and the schedule do not say 'room 0'
     names = ({int(scene.rooms[0]): os.path.splitext(os.path.basename(scene_path))[0]}
              if len(scene.rooms) == 1 else None)
+    note = floor_note(scene, workers, "designed")      # rooms x faces
+    if note:
+        print(f"invrad: {note}", file=sys.stderr)
     with CliProgress(args.verbose, "design") as progress:
         result = design(scene, spec, room_names=names, backend=args.backend,
                         progress=progress,

@@ -41,6 +41,11 @@ def honour_pythonpath():
 
 
 honour_pythonpath()
+if __name__ == "__main__":
+    # a direct ``python -m invrad_wb.cli.freecad_cmd``: a stop signal while the modules
+    # load ends it with one line (the run guard takes over in _standalone)
+    from invrad_wb.runguard import stop_early_on_signals
+    stop_early_on_signals()
 if __name__ == "freecad_cmd":
     # run as a script by freecadcmd, which puts this folder on sys.path: its modules
     # (design, locate, common...) must not pass for top-level ones
@@ -48,7 +53,7 @@ if __name__ == "freecad_cmd":
     sys.path[:] = [p for p in sys.path if os.path.abspath(p or os.curdir) != _here]
 
 from invrad_wb.errors import Cancelled, InvradError, SettingsError  # noqa: E402
-from invrad_wb.cli.common import internal_error  # noqa: E402
+from invrad_wb.cli.common import run_guarded  # noqa: E402
 from invrad_wb.progress import workers_arg  # noqa: E402
 
 ENV_JOB = "INVRAD_FREECAD_JOB"
@@ -577,19 +582,9 @@ def _standalone(argv=None):
     ap = argparse.ArgumentParser(prog="python -m invrad_wb freecad")
     add_arguments(ap)
     args = ap.parse_args(argv)
-    try:
-        return main(args)
-    except InvradError as exc:
-        if getattr(exc, "traceback_text", None):
-            return internal_error(exc, exc.traceback_text, argv)
-        print(f"invrad: error: {exc}", file=sys.stderr)
-        return 130 if isinstance(exc, Cancelled) else 2
-    except KeyboardInterrupt:
-        print("invrad: interrupted", file=sys.stderr)
-        return 130
-    except Exception as exc:
-        import traceback
-        return internal_error(exc, traceback.format_exc(), argv)
+    # the command line's run guard: SIGTERM/SIGHUP end it like Ctrl-C (the freecadcmd child
+    # terminated, its job folder removed), one line, 128 + signal; a full disk in one line
+    return run_guarded(main, args, argv, cancelled_status=130)
 
 
 if __name__ == "freecad_cmd" and os.environ.get(ENV_JOB):

@@ -13,7 +13,7 @@ from invrad_wb.cli.common import (batch_scenes, bool_arg, photometry_arg, run_ba
 from invrad_wb.core.model.targets import no_luminaire_reason, require_targets
 from invrad_wb.errors import InvradError
 from invrad_wb.outputs import check_file, check_folder
-from invrad_wb.progress import CliProgress, add_parallel_args, workers_arg
+from invrad_wb.progress import CliProgress, add_parallel_args, floor_note, workers_arg
 
 
 def add_parser(sub):
@@ -128,6 +128,9 @@ def _locate_one(args, scene_path, output, vote_maps, settings, phot, workers):
                        texture_max_lux=args.texture_max_lux, unit=args.unit)
     require_targets(scene, scene_path, args.lux, args.texture)
     warn_suspicious_targets(scene_path, scene)
+    note = floor_note(scene, workers, "located")      # rooms x faces
+    if note:
+        print(f"invrad: {note}", file=sys.stderr)
     with CliProgress(args.verbose, "locate") as progress:
         # a plain mesh's single room takes the scene's name (progress, vote-map titles)
         names = ({int(scene.rooms[0]): os.path.splitext(os.path.basename(scene_path))[0]}

@@ -7,6 +7,7 @@ import numpy as np
 
 from invrad_wb.cli.common import (check_placement, photometry_arg, read_scene_arg,
                                   scene_args, with_photometry)
+from invrad_wb.progress import CliProgress
 from invrad_wb.outputs import check_file
 
 
@@ -15,6 +16,7 @@ def add_parser(sub):
     scene_args(p)
     p.add_argument("--luminaires", required=True, help="LUMS.json")
     p.add_argument("-o", "--output", required=True, help="output PLY with lux")
+    p.add_argument("-v", "--verbose", action="store_true", help="one line per step")
     p.add_argument("--no-interreflection", action="store_true", help="direct light only")
     p.add_argument("--no-occlusion", action="store_true", help="no shadows")
     p.set_defaults(func=run)
@@ -33,9 +35,12 @@ def run(args):
     if note:
         print(f"invrad: {note}", file=sys.stderr)
     t = time.time()
-    total, direct, indirect = render(scene, lums, interreflection=not args.no_interreflection,
-                                     occlusion=not args.no_occlusion, backend=args.backend,
-                                     return_parts=True)
+    with CliProgress(args.verbose, "render") as progress:
+        total, direct, indirect = render(scene, lums,
+                                         interreflection=not args.no_interreflection,
+                                         occlusion=not args.no_occlusion,
+                                         backend=args.backend, return_parts=True,
+                                         progress=progress)
     write_scene(args.output, scene, lux=total)
     print(f"rendered {len(lums)} luminaire(s) on {len(scene.vertices)} vertices in"
           f" {time.time() - t:.2f} s: {total.min():.1f}-{total.max():.1f} lx"

@@ -6,6 +6,7 @@ import sys
 from invrad_wb.cli.common import (check_placement, photometry_arg, read_scene_arg,
                                   scene_args, warn_suspicious_targets, with_photometry)
 from invrad_wb.core.model.targets import require_targets
+from invrad_wb.progress import CliProgress
 from invrad_wb.outputs import check_folder
 
 
@@ -14,6 +15,7 @@ def add_parser(sub):
     scene_args(p)
     p.add_argument("--luminaires", required=True, help="LUMS.json or a locate RESULT.json")
     p.add_argument("--report", required=True, help="output folder")
+    p.add_argument("-v", "--verbose", action="store_true", help="one line per step")
     p.add_argument("--no-interreflection", action="store_true")
     p.set_defaults(func=run)
 
@@ -32,8 +34,9 @@ def run(args):
     note = work_note(scene, lums, not args.no_interreflection)   # luminaires x points
     if note:
         print(f"invrad: {note}", file=sys.stderr)
-    achieved = render(scene, lums, interreflection=not args.no_interreflection,
-                      backend=args.backend)
+    with CliProgress(args.verbose, "verify") as progress:
+        achieved = render(scene, lums, interreflection=not args.no_interreflection,
+                          backend=args.backend, progress=progress)
     paths = build_report(scene, scene.vertex_targets(), achieved, lums, args.report,
                          project=os.path.splitext(os.path.basename(args.scene))[0])
     print(f"report -> {paths.html}" + (f" and {paths.pdf}" if paths.pdf else ""))

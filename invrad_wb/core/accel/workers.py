@@ -322,7 +322,8 @@ def _stop_signals():
 @contextlib.contextmanager
 def _stop_signals_deferred():
     """SIGINT, SIGTERM and SIGHUP held back while the block runs, then delivered again
-    (to whatever handler was there). Main thread only (elsewhere: no-op).
+    (to whatever handler was there). Main thread only (elsewhere: no-op). Each is held by
+    a handler that notes it (whichever thread the kernel delivers it to), and:
 
     SIGINT and SIGHUP are blocked in the signal mask, which the workers started meanwhile
     inherit through fork and exec: Ctrl-C or a hang-up reaches the whole process group, and
@@ -344,9 +345,13 @@ def _stop_signals_deferred():
     can_mask = hasattr(signal, "pthread_sigmask")
     old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, masked) if can_mask else None
     try:
+        # every stop signal is also held by a handler: a signal for the process reaches
+        # any thread that does not block it (an OpenCL runtime's, the pool's), and Python
+        # then runs the handler in the main thread all the same; a KeyboardInterrupt
+        # raised there inside the pool's constructor left a worker spawned but not told
+        # what to run (EOFError traceback) or started with nobody to stop it
+        # (FileNotFoundError on the pool's semaphore, the parent gone)
         for sig in _stop_signals():
-            if can_mask and sig in masked:
-                continue
             saved[sig] = signal.getsignal(sig)
             if saved[sig] is signal.SIG_IGN or saved[sig] is None:
                 del saved[sig]

@@ -179,6 +179,32 @@ def _form_factors_numpy(points, normals, point_plane, ps, point_patch, vis, cent
     return out
 
 
+def _pair_form_factors_numpy(p, m, ps, pj):
+    """The form factors of :func:`_form_factors_numpy` (no plane, no visibility) for
+    (receiver, patch) pairs only: p, m (k, 3), pj (k,) -> (k,). What a few near patches
+    of many receivers need, without the (receivers, P) array and the exact near field of
+    every other near patch of theirs."""
+    p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
+    m = np.asarray(m, dtype=np.float64).reshape(-1, 3)
+    pj = np.asarray(pj, dtype=np.int64).reshape(-1)
+    if not len(pj):
+        return np.zeros(0)
+    d = ps.centroid[pj] - p
+    d2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-24)
+    ci = np.einsum("ij,ij->i", d, m)
+    cj = -np.einsum("ij,ij->i", d, ps.normal[pj])
+    area = np.where(ps.emits[pj], ps.area[pj], 0.0)
+    f = area * np.maximum(ci, 0.0) * np.maximum(cj, 0.0) / (np.pi * d2 * d2)
+    b2 = ps.blend_r2[pj]
+    near = np.flatnonzero(d2 < b2)
+    if len(near):
+        exact = _near_field_numpy(p[near], m[near], ps, pj[near])
+        inner = _inner_ratio()
+        t = np.clip((d2[near] - inner * b2[near]) / ((1.0 - inner) * b2[near]), 0.0, 1.0)
+        f[near] = exact + t * (f[near] - exact)
+    return f
+
+
 def _patch_launch(env, ps, vis, centre, kernel):
     """What both radiosity.cl form-factor kernels take: the centre (float32 coordinates are
     relative to it), patch blocks of ``PATCH_LANES`` (count and padded length), the patch

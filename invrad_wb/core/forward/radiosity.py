@@ -82,7 +82,8 @@ from invrad_wb.core.accel.device import check_backend, get_env  # noqa: F401 - R
 from invrad_wb.core.forward.patches import (  # noqa: F401
     PatchSet, _cluster_stats, _grid_cells, default_patch_size)
 from invrad_wb.core.forward.form_factors import (  # noqa: F401
-    _form_factors_numpy, form_factor_matrix, patch_form_factors, point_triangle_form_factor)
+    _form_factors_numpy, _pair_form_factors_numpy, form_factor_matrix, patch_form_factors,
+    point_triangle_form_factor)
 from invrad_wb.core.forward.visibility import patch_visibility  # noqa: F401
 
 
@@ -99,10 +100,11 @@ def _near_field_correction(ps, p, n, lums, bvh, occlusion):
     Luminaires go in blocks of :data:`NEAR_FIELD_BLOCK`: their pairs, the gather's form
     factors (one (block, P) call) and, for Lambertian point luminaires, the direct light's
     ratio to the point's, which is the pair's visibility (one occlusion test for all pairs
-    of the block). Disk luminaires and those with an intensity distribution get their
-    direct light one by one as before. One luminaire at a time took 18 ms each (10,000
-    luminaires near a ceiling: minutes)."""
-    from invrad_wb.core.forward.direct import direct_illuminance
+    of the block); those with an intensity distribution get theirs for all pairs of the
+    block at once (:func:`~invrad_wb.core.forward.direct.photometric_pairs`), disk
+    luminaires one by one. One luminaire at a time took 18 ms each (10,000 luminaires near
+    a ceiling: minutes). The form factors are computed for the pairs only."""
+    from invrad_wb.core.forward.direct import direct_illuminance, photometric_pairs
     from invrad_wb.core.geometry.bvh import segments_occluded_numpy
     out = np.zeros(ps.n)
     lums = list(lums)
@@ -132,15 +134,21 @@ def _near_field_correction(ps, p, n, lums, bvh, occlusion):
         if occlusion and bvh is not None and pt.any():
             idx = np.flatnonzero(pt)
             ratio[idx[segments_occluded_numpy(bvh, c[li[idx]], p[pj[idx]])]] = 0.0
-        for k in np.unique(li[~pt]):
+        # luminaires with an intensity distribution (taken at their centre): all their
+        # pairs at once
+        ph = np.array([getattr(L, "photometry", None) is not None for L in block])[li]
+        if ph.any():
+            idx = np.flatnonzero(ph)
+            real = photometric_pairs(p[pj[idx]], n[pj[idx]], block, li[idx], bvh,
+                                     occlusion)
+            ratio[idx] = real / lam[idx]
+        for k in np.unique(li[~pt & ~ph]):       # disks: one by one
             sel = np.flatnonzero(li == k)
             real = direct_illuminance(p[pj[sel]], n[pj[sel]], [block[k]], bvh=bvh,
                                       occlusion=occlusion, backend="numpy")
             ratio[sel] = real / lam[sel]
         # the luminaires as receivers of the gather (reciprocity): exact near, blended
-        rows = np.unique(li)
-        F = _form_factors_numpy(c[rows], m[rows], np.full(len(rows), -1), ps, None, None)
-        f = F[np.searchsorted(rows, li), pj]
+        f = _pair_form_factors_numpy(c[li], m[li], ps, pj)
         out += np.bincount(pj, weights=ratio * (flux[li] * f / ps.area[pj] - lam),
                            minlength=ps.n)
     return out
@@ -506,7 +514,7 @@ class RadiosityModel:
                                      minlength=self.n_patches) * inv_area
                          for c in range(face_val.shape[1])], axis=1)
 
-    def patch_direct(self, luminaires, bvh=None, occlusion=True, backend=None):
+    def patch_direct(self, luminaires, bvh=None, occlusion=True, backend=None, progress=None):
         """Mean direct illuminance of each patch (P,) lux, from the luminaires themselves.
 
         Each patch's light is sampled at its representative point, except near a
@@ -519,22 +527,38 @@ class RadiosityModel:
         values put 1515 lm on the surfaces, representative points alone 2543 lm, this 2000.
 
         A luminaire with a ``room`` lights only the patches of that room (as the direct
-        light of :func:`~invrad_wb.core.forward.render.render`).
+        light of :func:`~invrad_wb.core.forward.render.render`). ``progress(fraction)``
+        is told the share of (luminaire, patch) pairs done.
         """
-        from invrad_wb.core.forward.direct import direct_illuminance
+        from invrad_wb.core.forward.direct import direct_illuminance, emitter_extent
+        from invrad_wb.core.geometry.bvh import cull_occluders
         backend = self.backend if backend is None else backend
         occlusion = bool(occlusion) and bvh is not None
         pts, nrm = self.patch_points()
         out = np.zeros(self.n_patches)
+        parts = []
         for room in self.rooms:
             lums = [L for L in luminaires if L.room is None or int(L.room) == room.room]
+            if lums and room.patches.n:
+                parts.append((room, lums))
+        work = np.cumsum([0] + [r.patches.n * len(l) for r, l in parts], dtype=np.float64)
+        work /= max(work[-1], 1.0)
+        for k, (room, lums) in enumerate(parts):
             sl, ps = room.sl, room.patches
-            if not lums or ps.n == 0:
-                continue
+            lo, hi = work[k], work[k + 1]
+            step = None if progress is None else (
+                lambda f, lo=lo, hi=hi: progress(lo + (hi - lo) * 0.8 * f))
             p, n = pts[sl] + nrm[sl] * 1e-4, nrm[sl]
-            out[sl] = direct_illuminance(p, n, lums, bvh=bvh, occlusion=occlusion,
-                                         backend=backend)
-            out[sl] += _near_field_correction(ps, p, n, lums, bvh, occlusion)
+            # the occluders that can shadow these patches from these luminaires (None:
+            # none can, a convex room); the same answers as the whole BVH
+            room_bvh = cull_occluders(bvh, emitter_extent(lums), p) if occlusion else None
+            out[sl] = direct_illuminance(p, n, lums, bvh=room_bvh,
+                                         occlusion=room_bvh is not None, backend=backend,
+                                         progress=step)
+            out[sl] += _near_field_correction(ps, p, n, lums, room_bvh,
+                                              room_bvh is not None)
+            if progress is not None:
+                progress(hi)
         return out
 
     def patch_points(self):

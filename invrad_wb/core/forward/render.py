@@ -20,6 +20,7 @@ from invrad_wb import constants as C
 from invrad_wb.core.geometry.bvh import BVH
 from invrad_wb.core.accel.device import check_backend
 from invrad_wb.core.forward.direct import direct_illuminance
+from invrad_wb.errors import Cancelled
 
 #: bytes per patch pair of a room's model: the float64 patch matrix, its visibility (bool)
 #: and the float64 blocks its construction sums (measured: bench/bench_memory.py)
@@ -82,13 +83,14 @@ def radiosity_memory(scene, patch_size=None):
     return total + chunk, rooms
 
 
-#: shadow rays (emitter samples x receiving points) above which a render is announced
-#: with its size before it starts: about ten seconds on a two-core CPU (PoCL)
+#: (emitter sample, receiving point) pairs above which a render is announced with its
+#: size before it starts: seconds on a two-core CPU (PoCL) in a convex room, about ten
+#: where every pair needs a shadow ray
 LARGE_RENDER_RAYS = 2e7
 
 
 def render_work(scene, luminaires, interreflection=True):
-    """(shadow rays, points) of :func:`render`: every emitter sample towards every vertex
+    """(pairs, points) of :func:`render`: every emitter sample towards every vertex
     and, with interreflections, every patch's sample point (the direct light's cost, which
     grows as luminaires x points)."""
     from invrad_wb.core.forward.direct import emitter_memory
@@ -104,13 +106,13 @@ def work_note(scene, luminaires, interreflection=True):
     rays, points = render_work(scene, luminaires, interreflection)
     if rays < LARGE_RENDER_RAYS:
         return None
-    return (f"{len(luminaires)} luminaire(s) x {points} points: about {rays:.2g} shadow rays;"
-            " this takes a while (fewer luminaires, a coarser mesh or an OpenCL GPU is"
-            " faster)")
+    return (f"{len(luminaires)} luminaire(s) x {points} points: about {rays:.2g}"
+            " (luminaire, point) pairs; this takes a while (fewer luminaires, a coarser"
+            " mesh or an OpenCL GPU is faster)")
 
 
 def render(scene, luminaires, interreflection=True, occlusion=True, backend="auto",
-           patch_size=None, return_parts=False):
+           patch_size=None, return_parts=False, progress=None):
     """Illuminance (lux) at each vertex of ``scene``.
 
     Parameters
@@ -126,6 +128,10 @@ def render(scene, luminaires, interreflection=True, occlusion=True, backend="aut
         Radiosity patch edge in metres (default: chosen per room).
     return_parts : bool
         Also return the direct and indirect parts.
+    progress : callable(fraction, message) -> bool, optional
+        Told how far the render is, by luminaire pairs done (direct light at the
+        vertices, then at the radiosity patches); return False to cancel (raises
+        :class:`~invrad_wb.errors.Cancelled`).
 
     Returns
     -------
@@ -138,17 +144,47 @@ def render(scene, luminaires, interreflection=True, occlusion=True, backend="aut
     """
     backend = check_backend(backend)
     bvh = scene_bvh(scene)
-    direct = _direct_by_room(scene, luminaires, bvh, occlusion, backend)
+    luminaires = list(luminaires)
+    split = 1.0
+    if interreflection and progress is not None:
+        # the direct light's share of the work: vertices against vertices and patches
+        _, points = render_work(scene, luminaires, True)
+        split = len(scene.vertices) / max(1, points)
+    direct = _direct_by_room(scene, luminaires, bvh, occlusion, backend,
+                             _stage(progress, 0.0, split,
+                                    f"direct light of {len(luminaires)} luminaire(s)"))
     indirect = np.zeros_like(direct)
     if interreflection:
         indirect = indirect_light(scene, direct, backend=backend, patch_size=patch_size,
-                                  occlusion=occlusion, luminaires=luminaires, bvh=bvh)
+                                  occlusion=occlusion, luminaires=luminaires, bvh=bvh,
+                                  progress=_stage(progress, split, 1.0, "interreflection"))
+    if progress is not None and progress(1.0, "rendered") is False:
+        raise Cancelled("cancelled: render")
     total = direct + indirect
     return (total, direct, indirect) if return_parts else total
 
 
+def _stage(progress, lo, hi, msg):
+    """``progress(fraction)`` for a part [lo, hi] of a render, saying ``msg`` (None
+    without a progress callback); a False from the callback raises Cancelled."""
+    if progress is None:
+        return None
+
+    def report(frac):
+        if progress(lo + (hi - lo) * min(max(float(frac), 0.0), 1.0), msg) is False:
+            raise Cancelled(f"cancelled: {msg}")
+    return report
+
+
+def _sub(progress, lo, hi):
+    """A part [lo, hi] of a stage's ``progress(fraction)`` (None stays None)."""
+    if progress is None:
+        return None
+    return lambda frac: progress(lo + (hi - lo) * frac)
+
+
 def indirect_light(scene, vertex_direct, backend="auto", patch_size=None, occlusion=True,
-                   by_room=None, luminaires=None, bvh=None):
+                   by_room=None, luminaires=None, bvh=None, progress=None):
     """Interreflected illuminance at the scene's vertices for their direct light.
 
     Parameters
@@ -166,6 +202,8 @@ def indirect_light(scene, vertex_direct, backend="auto", patch_size=None, occlus
         One model per room, each dropped after its room (bounded memory), instead of the
         scene's cached model. Default: when the whole model's estimate exceeds half the
         memory budget (:func:`radiosity_memory`).
+    progress : callable(fraction), optional
+        Told the fraction done (the patches' direct light, room by room).
 
     Returns
     -------
@@ -185,21 +223,25 @@ def indirect_light(scene, vertex_direct, backend="auto", patch_size=None, occlus
                     f" (about {p:.0f} patches of {edge:.2f} m"
                     f"{'' if by_room else f' in room {r}; {len(rooms)} room(s) in all'})",
                     "give a larger patch size, or no interreflections")
+    if progress is not None:
+        progress(0.0)
     if not by_room:
         model = RadiosityModel.for_scene(scene, backend=backend, patch_size=patch_size,
                                          occlusion=occlusion)
-        return _indirect_at_vertices(model, vertex_direct, luminaires, bvh, occlusion)
+        return _indirect_at_vertices(model, vertex_direct, luminaires, bvh, occlusion,
+                                     progress)
     vertex_direct = np.asarray(vertex_direct, dtype=np.float64)
     out = np.zeros_like(vertex_direct)
     # each room's faces as a scene of its own; its vertices carry their index in this one
     index = scene.with_vertex_lux(np.arange(len(scene.vertices), dtype=np.float64))
-    for r in scene.rooms:
+    for k, r in enumerate(scene.rooms):
         sub = index.face_subset(np.flatnonzero(scene.face_room == r))
         parent = sub.vertex_lux.astype(np.int64)
         model = RadiosityModel(sub, backend=backend, patch_size=patch_size,
                                occlusion=occlusion)
-        out[parent] = _indirect_at_vertices(model, vertex_direct[parent], luminaires, bvh,
-                                            occlusion)
+        out[parent] = _indirect_at_vertices(
+            model, vertex_direct[parent], luminaires, bvh, occlusion,
+            _sub(progress, k / len(scene.rooms), (k + 1) / len(scene.rooms)))
         del model, sub
         # a model and its gather operator refer to each other: without a collection here
         # each room's matrices stay until the cyclic collector runs (measured: +19 MB per
@@ -208,13 +250,18 @@ def indirect_light(scene, vertex_direct, backend="auto", patch_size=None, occlus
     return out
 
 
-def _indirect_at_vertices(model, vertex_direct, luminaires, bvh, occlusion):
+def _indirect_at_vertices(model, vertex_direct, luminaires, bvh, occlusion, progress=None):
     if luminaires is None:
-        return model.indirect_at_vertices(vertex_direct)
-    return model.vertex_gather()(model.solve(model.patch_direct(luminaires, bvh, occlusion)))
+        out = model.indirect_at_vertices(vertex_direct)
+    else:
+        out = model.vertex_gather()(model.solve(model.patch_direct(luminaires, bvh, occlusion,
+                                                                   progress=progress)))
+    if progress is not None:
+        progress(1.0)
+    return out
 
 
-def _direct_by_room(scene, luminaires, bvh, occlusion, backend):
+def _direct_by_room(scene, luminaires, bvh, occlusion, backend, progress=None):
     """Direct light at the scene's vertices; a luminaire with a room lights only the
     vertices of its room (as locate, design and the interreflection model see rooms).
 
@@ -232,20 +279,22 @@ def _direct_by_room(scene, luminaires, bvh, occlusion, backend):
     if (vr is None or not roomed or not len(used)
             or (np.all(vr == used[0]) and all(r == used[0] for r in roomed))):
         return direct_illuminance(scene.vertices, scene.vertex_normals, lums, bvh=bvh,
-                                  occlusion=occlusion, backend=backend)
+                                  occlusion=occlusion, backend=backend, progress=progress)
     out = np.zeros(len(scene.vertices))
     shared = [lum for lum in lums if lum.room is None]
     rest = np.flatnonzero(vr < 0)
-    if len(rest):
-        out[rest] = direct_illuminance(scene.vertices[rest], scene.vertex_normals[rest],
-                                       lums, bvh=bvh, occlusion=occlusion, backend=backend)
+    parts = [(rest, lums)] if len(rest) else []
     for r in np.unique(used):
-        idx = np.flatnonzero(vr == r)
         mine = [lum for lum in lums if lum.room is not None and int(lum.room) == r] + shared
         if mine:
-            out[idx] = direct_illuminance(scene.vertices[idx], scene.vertex_normals[idx],
-                                          mine, bvh=bvh, occlusion=occlusion,
-                                          backend=backend)
+            parts.append((np.flatnonzero(vr == r), mine))
+    # progress by (luminaire, vertex) pairs, part after part
+    work = np.cumsum([0] + [len(idx) * len(mine) for idx, mine in parts], dtype=np.float64)
+    work /= max(work[-1], 1.0)
+    for k, (idx, mine) in enumerate(parts):
+        out[idx] = direct_illuminance(scene.vertices[idx], scene.vertex_normals[idx], mine,
+                                      bvh=bvh, occlusion=occlusion, backend=backend,
+                                      progress=_sub(progress, work[k], work[k + 1]))
     return out
 
 

@@ -43,6 +43,7 @@ class BVH:
     def __init__(self, triangles):
         tri = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
         self.n_triangles = len(tri)
+        self.triangles = tri
         cent = tri.mean(axis=1)
         tmin, tmax = tri.min(axis=1), tri.max(axis=1)
         lo, hi, left, right, leaf, blocks = [], [], [], [], [], []
@@ -101,6 +102,85 @@ class BVH:
     @property
     def n_nodes(self):
         return len(self.lo)
+
+
+#: metres: a point this close to a triangle's plane counts as on it when culling occluders
+#: (:func:`cull_occluders`); float32 coordinates, which the kernels use, resolve about
+#: 1e-6 m at 10 m from their origin, so no kernel result depends on a smaller offset
+CULL_TOL_M = 1e-6
+
+
+def _support_points(x):
+    """Points of ``x`` (k, 3) whose convex hull is that of ``x`` (or contains it): the
+    hull's vertices, the set itself when small, else the corners of its bounding box (a
+    flat or straight set, where Qhull has no 3-d hull). Every linear function has its
+    extremes over ``x`` at these points (or beyond them, for the box)."""
+    x = np.unique(np.asarray(x, dtype=np.float64).reshape(-1, 3), axis=0)
+    if len(x) <= 32:
+        return x
+    try:
+        from scipy.spatial import ConvexHull
+        return x[ConvexHull(x).vertices]
+    except Exception:                       # QhullError: flat or straight input
+        lo, hi = x.min(0), x.max(0)
+        return np.array([[(lo, hi)[i][0], (lo, hi)[j][1], (lo, hi)[k][2]]
+                         for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+
+
+def occluder_mask(triangles, sources, receivers, tol=CULL_TOL_M):
+    """(m,) bool: triangles that can cross a segment from one of ``sources`` to one of
+    ``receivers``.
+
+    A triangle crosses a segment strictly between its ends only if its plane separates
+    them: one end in front of the plane, the other behind. Per triangle, the sources'
+    and the receivers' extreme signed distances to its plane (over their hulls'
+    vertices, :func:`_support_points`) say whether any pair is separated; a triangle that
+    separates no pair can shadow none of them. In a convex room lit from inside, every
+    point lies in front of (or on) every face: nothing is left to test.
+
+    Parameters
+    ----------
+    triangles : (m, 3, 3) float64, metres
+    sources, receivers : (k, 3) float64, metres (segment ends)
+    tol : float, metres: ends closer to a plane count as on it (:data:`CULL_TOL_M`)
+    """
+    tri = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+    out = np.zeros(len(tri), dtype=bool)
+    if not len(tri) or not len(sources) or not len(receivers):
+        return out
+    s, r = _support_points(sources), _support_points(receivers)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(n, axis=1)
+    real = length > 1e-20                  # degenerate triangles are never hit
+    n = n / np.where(real, length, 1.0)[:, None]
+    off = np.einsum("ij,ij->i", n, tri[:, 0])
+    step = max(1, 4_000_000 // (len(s) + len(r)))
+    for a in range(0, len(tri), step):
+        b = a + step
+        ds = s @ n[a:b].T - off[a:b]       # (|s|, chunk)
+        dr = r @ n[a:b].T - off[a:b]
+        out[a:b] = real[a:b] & (((ds.max(0) > tol) & (dr.min(0) < -tol))
+                                | ((ds.min(0) < -tol) & (dr.max(0) > tol)))
+    return out
+
+
+def cull_occluders(bvh, sources, receivers):
+    """The part of ``bvh`` that can shadow a segment from ``sources`` to ``receivers``
+    (:func:`occluder_mask`): ``bvh`` itself when most of it can, a BVH of those triangles,
+    or None when none can (no shadow test is needed: a convex room). Every segment gets
+    the same answer from the result as from ``bvh``.
+
+    Measured (bench/bench_render.py, 10,000 luminaires in a 6 x 4 x 3 m box): the
+    luminaires x points shadow rays were 59 of the render's 69 s; the box leaves none."""
+    if bvh is None or bvh.n_triangles == 0:
+        return None
+    mask = occluder_mask(bvh.triangles, sources, receivers)
+    k = int(mask.sum())
+    if k == 0:
+        return None
+    if k > bvh.n_triangles // 2:
+        return bvh
+    return BVH(bvh.triangles[mask])
 
 
 def _segment_params(p, q, eps):
