@@ -47,21 +47,35 @@ class Geometry:
     positions: np.ndarray   # (L, 3) metres
     normals: np.ndarray     # (L, 3) unit facing directions
     cls: np.ndarray         # (L,) int, 0 inner, 1 end columns
+    size: tuple = None      # (length, width) of the room's plan frame, metres
 
     @property
     def count(self):
         return len(self.positions)
 
     def describe(self):
-        def axis(f):
-            return f"{f[0]:.2f}" if f[0] == f[1] else f"{f[0]:.2f}-{f[1]:.2f}"
-        if self.fs == self.ft == (0.5, 0.5):
-            edge = "half spacing at the walls"
-        else:
-            edge = f"walls at {axis(self.fs)} / {axis(self.ft)} of the spacing"
+        """The layout as it stands in the room: the rows and columns kept (positions too
+        close to a wall or outside the outline are dropped), their spacing and the
+        distance of the outer ones from the walls, in metres."""
+        s = np.unique(np.round(self.plan[:, 0], 6))
+        t = np.unique(np.round(self.plan[:, 1], 6))
+        if len(s) * len(t) != self.count:          # an L or another clipped outline
+            return (f"{self.count} positions of a {self.ns} x {self.nt} grid clipped to the"
+                    " room's outline")
+
+        def axis(v, size):
+            step = f"{v[1] - v[0]:.2f} m apart, " if len(v) > 1 else ""
+            near, far = v[0], size - v[-1]
+            wall = (f"{near:.2f} m" if abs(near - far) < 0.005
+                    else f"{near:.2f} / {far:.2f} m")
+            return step + wall + " from the walls"
+        edge = ""
         if self.fs[0] != self.fs[1] or self.ft[0] != self.ft[1]:
-            edge += " (shifted away from light-sensitive surfaces)"
-        return f"{self.ns} x {self.nt} grid, {edge}"
+            edge = " (shifted away from light-sensitive surfaces)"
+        if self.size is None:
+            return f"{len(s)} x {len(t)} grid{edge}"
+        return (f"{len(s)} x {len(t)} grid: along the room {axis(s, self.size[0])}; across"
+                f" {axis(t, self.size[1])}{edge}")
 
     @property
     def edge_deviation(self):
@@ -173,5 +187,6 @@ def grid_geometries(droom, mounting, radius_m, wp_top_z, n_min, n_max,
         start += len(plan)
         ok = ok_u[k]
         if ok.any():
-            out.append(Geometry(ns, nt, fs, ft, plan[ok], pos_u[k[ok]], nrm_u[k[ok]], cls[ok]))
+            out.append(Geometry(ns, nt, fs, ft, plan[ok], pos_u[k[ok]], nrm_u[k[ok]], cls[ok],
+                                size=(ls, lt)))
     return out

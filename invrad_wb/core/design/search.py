@@ -40,9 +40,10 @@ UGR_FAST_MARGIN = 0.0
 def _spacing_log_ratio(g):
     """|log(spacing along s / spacing along t)| of a grid (0 = square); a single row or
     column counts the room's width as its spacing."""
-    ext = g.plan.max(axis=0) - g.plan.min(axis=0)
-    ss = ext[0] / (g.ns - 1) if g.ns > 1 else 2 * g.plan[0, 0]
-    st = ext[1] / (g.nt - 1) if g.nt > 1 else 2 * g.plan[0, 1]
+    # the rows and columns kept (a grid's outer ones may be dropped near the walls)
+    s, t = (np.unique(np.round(g.plan[:, k], 6)) for k in (0, 1))
+    ss = (s[-1] - s[0]) / (len(s) - 1) if len(s) > 1 else 2 * s[0]
+    st = (t[-1] - t[0]) / (len(t) - 1) if len(t) > 1 else 2 * t[0]
     return round(abs(math.log(max(ss, 1e-3) / max(st, 1e-3))), 3)
 
 
