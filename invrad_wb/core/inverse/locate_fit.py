@@ -50,6 +50,11 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
         lights, cost = fit.grid(lights, cost, cands, flux)
     if run.seeds:
         lights, cost = fit.seeded(lights, cost, cands, run.seeds)
+    # fluxes free: split, merge and remove luminaires while the data's noise level says
+    # they need it (close clusters, even arrays, luminaires that only fit the noise)
+    if run.free_flux and lights:
+        from invrad_wb.core.inverse.locate_count import CountSearch
+        lights, cost = CountSearch(fit, deadline).run(lights, cost)
     lights, cost = fit.spread(lights, cost)
     # final scores: how much worse the fit is without each luminaire
     prob = fit.prob
