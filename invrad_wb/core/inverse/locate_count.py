@@ -47,6 +47,9 @@ SPLIT_DIRECTIONS = (0.0, 45.0, 90.0, 135.0)
 #: pairs closer than this fraction of their mounting distance are tried as one luminaire
 MERGE_FRACTION = 0.5
 
+#: Levenberg-Marquardt steps of a refit after a change
+REFIT_STEPS = 100
+
 #: at most this many accepted changes per room (a bound on the time spent)
 MAX_CHANGES = 40
 
@@ -137,7 +140,12 @@ class CountSearch:
         return lights, cost
 
     def _refit(self, lights):
-        lights, cost = self.fit.opt(lights)
+        # close luminaires with free fluxes lie in a long flat valley (flux moves between
+        # them as they move): more steps than a fit of known fluxes needs
+        if self.fit.s.optimiser == "lm":
+            lights, cost = self.prob.levenberg_marquardt(lights, iterations=REFIT_STEPS)
+        else:
+            lights, cost = self.fit.opt(lights)
         lights, cost = self.fit.converge(lights, cost)
         return lights, cost, self.score(lights)
 

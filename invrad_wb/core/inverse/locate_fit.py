@@ -177,9 +177,9 @@ class _RoomFit:
         (where that is more than ``significant`` of its target); their peaks join the
         candidates of a selection that starts from ``lights``; kept if better."""
         run, s, prob = self.run, self.s, self.prob
-        pts = run.points
-        rest = pts.lux - prob.fixed_light(lights)
-        lux = np.where((pts.lux > 0) & (rest > significant * pts.lux), rest, 0.0)
+        target = prob.target          # the refinement's targets (at the points' corners)
+        rest = target - prob.fixed_light(lights)
+        lux = np.where((target > 0) & (rest > significant * target), rest, 0.0)
         if not np.any(lux > 0):
             return lights, cost
         ladder = {f: run.vote_fn(f / run.flux, lux=lux) for f in run.ladder_votes}
