@@ -75,7 +75,7 @@ class RoomRun:
                                       self.occluders, s, self.flux, backend, t, photometry)
         self.problem, self.indirect_model = _refine_problem(
             self.scene, self.points, self.canvas, self.occluders, s, self.flux, backend,
-            has_rho, t, photometry)
+            has_rho, t, photometry, at_vertices=self.free_flux)
         self.problem.free_flux = self.free_flux
         return self
 
