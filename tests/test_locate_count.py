@@ -29,3 +29,20 @@ def test_a_close_cluster_is_not_one_strong_luminaire():
                                                                 - t.position))
         assert near.flux_lm == pytest.approx(2000.0, rel=0.05)
     assert any("count_search" in e for e in res.rooms[0].trace)
+
+
+def test_a_room_that_cannot_be_explained_stops_early_and_says_so(monkeypatch):
+    # twice the true flux: no arrangement of such luminaires explains one 3000 lm light
+    # (a poor fit); with the time bound at 0 s the overlap votes and regular arrangements
+    # are skipped and the room says when it stopped; a good fit is never cut short
+    from invrad_wb import constants as C
+    from invrad_wb.core.synthetic.scenarios import known_scene
+    monkeypatch.setattr(C, "LOCATE_UNEXPLAINED_LIMIT_S", 0.0)
+    scene, true = known_scene("one_ceiling", reflectance=0.0, cell=0.2)
+    bad = locate(scene, 2.0 * true[0].flux_lm, votes_per_m2=30, dummy_planes=False)
+    run = bad.rooms[0]
+    assert run.fit.poor and run.stopped_after_s is not None and bad.luminaires
+    assert bad.to_dict()["rooms"][0]["stopped_after_s"] == run.stopped_after_s
+    assert not any("overlap_votes" in e or "grid_seed" in e for e in run.trace), run.trace
+    good = locate(scene, true[0].flux_lm, votes_per_m2=30, dummy_planes=False)
+    assert not good.rooms[0].fit.poor and good.rooms[0].stopped_after_s is None

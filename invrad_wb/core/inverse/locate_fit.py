@@ -1,7 +1,11 @@
 """The search of one room's luminaires from its peaks (:class:`_RoomFit`: greedy selection,
 swaps, residual and grid seeds, spreading crowded pairs) and the post-processing that
 runs it (:func:`_postprocess`)."""
+import time
+
 import numpy as np
+
+from invrad_wb import constants as C
 
 from invrad_wb.core.inverse.peaks import find_peaks
 from invrad_wb.core.inverse.refine import LOG_SCALE_LIMIT, Light, greedy_select, swap_search
@@ -28,6 +32,19 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
             L.score = L.peak_score / 255.0
         return
     fit = _RoomFit(run, s)
+    t_start = time.time()
+    run.stopped_after_s = None
+
+    def unexplained(lights):
+        """Past the time bound with a poor fit: the further searches are skipped."""
+        if run.stopped_after_s is not None:
+            return True
+        spent = time.time() - t_start
+        if spent > C.LOCATE_UNEXPLAINED_LIMIT_S and fit_quality(fit.prob, lights) > s.poor_fit:
+            run.stopped_after_s = round(spent, 1)
+            fit.trace.append({"stopped": "time bound on a poor fit", "seconds": spent})
+            return True
+        return False
     cands = [_light_from_peak(p, run.canvas, flux) for p in peaks]
     if s.aim == "free":
         from invrad_wb.core.inverse.aim import aimed_candidates
@@ -36,23 +53,25 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
     # light that several luminaires share: vote again with a fraction of each point's
     # light (thesis 5.2) and offer those peaks too
     if (run.vote_fn is not None and s.overlap_levels > 1 and not run.free_flux
-            and fit_quality(fit.prob, lights) > s.poor_fit):
+            and fit_quality(fit.prob, lights) > s.poor_fit and not unexplained(lights)):
         lights, cost = fit.overlap(lights, cost, cands, allow_votes)
     # fluxes free: a weak luminaire beside a strong one may have no clear peak on any
     # rung while the strong one's light is in the votes; vote again with what the
     # accepted luminaires leave unexplained
-    if run.free_flux and run.vote_fn is not None and allow_votes and lights:
+    if (run.free_flux and run.vote_fn is not None and allow_votes and lights
+            and not unexplained(lights)):
         lights, cost = fit.residual(lights, cost, cands)
     # still poor: light spread evenly by many luminaires (a uniform work plane) has no
     # accumulation points at all; seed the refinement with regular arrangements of n
     # luminaires on the ceiling and keep the best refined answer
-    if s.overlap_levels > 1 and fit_quality(fit.prob, lights) > s.poor_fit:
+    if (s.overlap_levels > 1 and fit_quality(fit.prob, lights) > s.poor_fit
+            and not unexplained(lights)):
         lights, cost = fit.grid(lights, cost, cands, flux)
     if run.seeds:
         lights, cost = fit.seeded(lights, cost, cands, run.seeds)
     # fluxes free: split, merge and remove luminaires while the data's noise level says
     # they need it (close clusters, even arrays, luminaires that only fit the noise)
-    if run.free_flux and lights:
+    if run.free_flux and lights and not unexplained(lights):
         from invrad_wb.core.inverse.locate_count import CountSearch
         lights, cost = CountSearch(fit, deadline).run(lights, cost)
     lights, cost = fit.spread(lights, cost)
