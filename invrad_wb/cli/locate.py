@@ -178,6 +178,6 @@ def _say_fit(result, names=None):
         if warn:
             print(f"invrad: {warn}", file=sys.stderr)
         if getattr(run, "stopped_after_s", None) is not None:
-            print(f"invrad: {name}: stopped searching after {run.stopped_after_s:.0f} s of"
+            print(f"invrad: {name}: stopped searching after {run.stopped_after_s:.0f} CPU s of"
                   " refinement: these luminaires cannot explain the targets well (see the"
                   " fit above); the best arrangement found so far is kept", file=sys.stderr)

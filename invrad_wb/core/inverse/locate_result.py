@@ -47,7 +47,7 @@ class RoomRun:
     own_scene: bool = False
     #: luminaires to start a refinement from as well (:meth:`_RoomFit.seeded`)
     seeds: list = field(default_factory=list)
-    #: seconds of refinement after which the searches stopped on a poor fit (None: ran
+    #: CPU seconds of refinement after which the searches stopped on a poor fit (None: ran
     #: through; :data:`invrad_wb.constants.LOCATE_UNEXPLAINED_LIMIT_S`)
     stopped_after_s: float = None
 
