@@ -255,3 +255,7 @@ def _say_fit(result, names=None):
         warn = poor_fit_warning(name, fq)
         if warn:
             print(f"invrad: {warn}", file=sys.stderr)
+        if getattr(run, "stopped_after_s", None) is not None:
+            print(f"invrad: {name}: stopped searching after {run.stopped_after_s:.0f} CPU s of"
+                  " refinement: these luminaires cannot explain the targets well (see the"
+                  " fit above); the best arrangement found so far is kept", file=sys.stderr)

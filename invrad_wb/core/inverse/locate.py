@@ -206,7 +206,7 @@ def _locate_room(sub, room, s, flux, backend, timings, report, photometry=None,
     else:
         votes = vote_fn(1)
     prob, indirect_model = _refine_problem(sub, pts, canvas, occ, s, flux, backend, has_rho,
-                                           timings, photometry)
+                                           timings, photometry, at_vertices=free)
     prob.free_flux = free
     run = RoomRun(room=room, scene=sub, points=pts, canvas=canvas, votes=votes,
                   problem=prob, occluders=occ, ambient_lux=ambient,

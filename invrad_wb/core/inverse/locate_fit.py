@@ -1,7 +1,11 @@
 """The search of one room's luminaires from its peaks (:class:`_RoomFit`: greedy selection,
 swaps, residual and grid seeds, spreading crowded pairs) and the post-processing that
 runs it (:func:`_postprocess`)."""
+import time
+
 import numpy as np
+
+from invrad_wb import constants as C
 
 from invrad_wb.core.inverse.peaks import find_peaks
 from invrad_wb.core.inverse.refine import LOG_SCALE_LIMIT, Light, greedy_select, swap_search
@@ -28,6 +32,20 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
             L.score = L.peak_score / 255.0
         return
     fit = _RoomFit(run, s)
+    # CPU seconds of this process: the same room stops at the same point on a busy machine
+    t_start = time.process_time()
+    run.stopped_after_s = None
+
+    def unexplained(lights):
+        """Past the time bound with a poor fit: the further searches are skipped."""
+        if run.stopped_after_s is not None:
+            return True
+        spent = time.process_time() - t_start
+        if spent > C.LOCATE_UNEXPLAINED_LIMIT_S and fit_quality(fit.prob, lights) > s.poor_fit:
+            run.stopped_after_s = round(spent, 1)
+            fit.trace.append({"stopped": "time bound on a poor fit", "seconds": spent})
+            return True
+        return False
     cands = [_light_from_peak(p, run.canvas, flux) for p in peaks]
     if s.aim == "free":
         from invrad_wb.core.inverse.aim import aimed_candidates
@@ -36,20 +54,27 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
     # light that several luminaires share: vote again with a fraction of each point's
     # light (thesis 5.2) and offer those peaks too
     if (run.vote_fn is not None and s.overlap_levels > 1 and not run.free_flux
-            and fit_quality(fit.prob, lights) > s.poor_fit):
+            and fit_quality(fit.prob, lights) > s.poor_fit and not unexplained(lights)):
         lights, cost = fit.overlap(lights, cost, cands, allow_votes)
     # fluxes free: a weak luminaire beside a strong one may have no clear peak on any
     # rung while the strong one's light is in the votes; vote again with what the
     # accepted luminaires leave unexplained
-    if run.free_flux and run.vote_fn is not None and allow_votes and lights:
+    if (run.free_flux and run.vote_fn is not None and allow_votes and lights
+            and not unexplained(lights)):
         lights, cost = fit.residual(lights, cost, cands)
     # still poor: light spread evenly by many luminaires (a uniform work plane) has no
     # accumulation points at all; seed the refinement with regular arrangements of n
     # luminaires on the ceiling and keep the best refined answer
-    if s.overlap_levels > 1 and fit_quality(fit.prob, lights) > s.poor_fit:
+    if (s.overlap_levels > 1 and fit_quality(fit.prob, lights) > s.poor_fit
+            and not unexplained(lights)):
         lights, cost = fit.grid(lights, cost, cands, flux)
     if run.seeds:
         lights, cost = fit.seeded(lights, cost, cands, run.seeds)
+    # fluxes free: split, merge and remove luminaires while the data's noise level says
+    # they need it (close clusters, even arrays, luminaires that only fit the noise)
+    if run.free_flux and lights and not unexplained(lights):
+        from invrad_wb.core.inverse.locate_count import CountSearch
+        lights, cost = CountSearch(fit, deadline).run(lights, cost)
     lights, cost = fit.spread(lights, cost)
     # final scores: how much worse the fit is without each luminaire
     prob = fit.prob
@@ -90,19 +115,25 @@ class _RoomFit:
         prob, s = self.prob, self.s
         lights, cost, self.trace = self._greedy(cands, progress=progress, deadline=deadline)
         cost0 = prob.cost([])
+        lights, cost = self.tidy(lights, cost)
+        # each luminaire's own interreflected light from the radiosity model replaces its
+        # estimate; refit, look for missing/surplus luminaires, until nothing moves
+        lights, cost = self.settle(lights, cost, cands)
+        # judged with the exact interreflection (the estimate's error alone kept the
+        # office example above the bar: 40 swap refits, none kept, half its time)
         if lights and cost > 1e-3 * cost0:
             # not the near-exact fit a set of the right luminaires gives: try swaps
             lights, cost, nswap = swap_search(prob, lights, cands, min_gain=s.min_gain,
-                                              optimiser=s.optimiser, screen=s.aim == "free")
+                                              optimiser=s.optimiser, screen=s.aim == "free",
+                                              deadline=deadline)
             self.trace.append({"swaps": nswap, "cost_after": cost})
             if nswap:
                 # swapped luminaires may have made others redundant (or two may coincide)
                 lights, cost, t2 = self._greedy([], initial=lights)
                 self.trace += t2
-        lights, cost = self.tidy(lights, cost)
-        # each luminaire's own interreflected light from the radiosity model replaces its
-        # estimate; refit, look for missing/surplus luminaires, until nothing moves
-        return self.settle(lights, cost, cands)
+                lights, cost = self.tidy(lights, cost)
+                lights, cost = self.settle(lights, cost, cands)
+        return lights, cost
 
     def tidy(self, lights, cost):
         """Snap mid-air luminaires to surfaces, prefer mounted ones, refit if any moved."""
@@ -172,9 +203,9 @@ class _RoomFit:
         (where that is more than ``significant`` of its target); their peaks join the
         candidates of a selection that starts from ``lights``; kept if better."""
         run, s, prob = self.run, self.s, self.prob
-        pts = run.points
-        rest = pts.lux - prob.fixed_light(lights)
-        lux = np.where((pts.lux > 0) & (rest > significant * pts.lux), rest, 0.0)
+        target = prob.target          # the refinement's targets (at the points' corners)
+        rest = target - prob.fixed_light(lights)
+        lux = np.where((target > 0) & (rest > significant * target), rest, 0.0)
         if not np.any(lux > 0):
             return lights, cost
         ladder = {f: run.vote_fn(f / run.flux, lux=lux) for f in run.ladder_votes}

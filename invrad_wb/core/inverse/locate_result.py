@@ -47,6 +47,9 @@ class RoomRun:
     own_scene: bool = False
     #: luminaires to start a refinement from as well (:meth:`_RoomFit.seeded`)
     seeds: list = field(default_factory=list)
+    #: CPU seconds of refinement after which the searches stopped on a poor fit (None: ran
+    #: through; :data:`invrad_wb.constants.LOCATE_UNEXPLAINED_LIMIT_S`)
+    stopped_after_s: float = None
 
     def __getstate__(self):
         state = dict(self.__dict__)
@@ -75,7 +78,7 @@ class RoomRun:
                                       self.occluders, s, self.flux, backend, t, photometry)
         self.problem, self.indirect_model = _refine_problem(
             self.scene, self.points, self.canvas, self.occluders, s, self.flux, backend,
-            has_rho, t, photometry)
+            has_rho, t, photometry, at_vertices=self.free_flux)
         self.problem.free_flux = self.free_flux
         return self
 
@@ -103,6 +106,7 @@ class LocateResult:
                            "maps": len(r.canvas.maps), "peaks": len(r.peaks),
                            "ambient_lux": r.ambient_lux, "cost": r.cost,
                            "fit": r.fit.to_dict() if getattr(r, "fit", None) else None,
+                           "stopped_after_s": getattr(r, "stopped_after_s", None),
                            "occluders": 0 if r.occluders is None else r.occluders.n_triangles}
                           for r in self.rooms]}
 

@@ -364,7 +364,9 @@ class RefineProblem:
         B = C @ self._nT - self._s_dot_m[None, :]
         r2 = dx * dx + dy * dy + dz * dz
         ok = (A > 1e-9) & (B > 1e-9) & V
-        Ac, Bc = np.where(ok, A, 1.0), np.where(ok, B, 1.0)
+        # a point exactly at a luminaire (a voting point on a vertex where a wall light
+        # sits) is not lit by it (A = 0): no 1 / 0 in the terms that np.where drops
+        Ac, Bc, r2 = np.where(ok, A, 1.0), np.where(ok, B, 1.0), np.where(ok, r2, 1.0)
         scale = np.array([L.flux_scale for L in lights])[:, None]
         E = np.where(ok, (scale * (self.flux / np.pi)) * Ac * Bc / (r2 * r2), 0.0)
         self.stats["evaluations"] += len(lights)

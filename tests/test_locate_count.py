@@ -1,0 +1,48 @@
+"""Locate without a flux where one luminaire of the summed flux nearly explains several
+(:mod:`invrad_wb.core.inverse.locate_count`): the count, positions and fluxes."""
+import numpy as np
+import pytest
+
+from invrad_wb.core.synthetic import generate as g
+from invrad_wb.core.model.luminaires import Luminaire
+from invrad_wb.core.forward.render import render
+from invrad_wb.core.inverse.locate import locate
+from invrad_wb.core.synthetic.scenarios import match
+
+
+def test_a_close_cluster_is_not_one_strong_luminaire():
+    # three 2000 lm downlights 0.75 m apart (0.3 x the 2.5 m mounting height), direct
+    # light, a coarse 0.25 m mesh and coarse votes: the votes see one accumulation point
+    # (before the count search: one or two luminaires of the summed flux); split and
+    # refitted at the targets' vertices they come out exact
+    scene = g.box_room((4.0, 4.0, 2.5), cell=0.25, reflectance=0.0)
+    r = 0.75 / np.sqrt(3.0)
+    true = [Luminaire([2.0 + r * np.cos(a), 2.0 + r * np.sin(a), 2.5], [0, 0, -1], 2000.0)
+            for a in 0.3 + np.arange(3) * 2 * np.pi / 3]
+    scene = scene.with_vertex_lux(render(scene, true, interreflection=False))
+    res = locate(scene, None, pixel_m=0.2, votes_per_m2=30, dummy_planes=False)
+    m = match(res.luminaires, true)
+    assert m["found"] == 3 == len(res.luminaires), (m, [l.to_dict() for l in res.luminaires])
+    assert m["max_error_cm"] < 2.0, m
+    for t in true:
+        near = min(res.luminaires, key=lambda l: np.linalg.norm(np.asarray(l.position)
+                                                                - t.position))
+        assert near.flux_lm == pytest.approx(2000.0, rel=0.05)
+    assert any("count_search" in e for e in res.rooms[0].trace)
+
+
+def test_a_room_that_cannot_be_explained_stops_early_and_says_so(monkeypatch):
+    # twice the true flux: no arrangement of such luminaires explains one 3000 lm light
+    # (a poor fit); with the time bound at 0 s the overlap votes and regular arrangements
+    # are skipped and the room says when it stopped; a good fit is never cut short
+    from invrad_wb import constants as C
+    from invrad_wb.core.synthetic.scenarios import known_scene
+    monkeypatch.setattr(C, "LOCATE_UNEXPLAINED_LIMIT_S", 0.0)
+    scene, true = known_scene("one_ceiling", reflectance=0.0, cell=0.2)
+    bad = locate(scene, 2.0 * true[0].flux_lm, votes_per_m2=30, dummy_planes=False)
+    run = bad.rooms[0]
+    assert run.fit.poor and run.stopped_after_s is not None and bad.luminaires
+    assert bad.to_dict()["rooms"][0]["stopped_after_s"] == run.stopped_after_s
+    assert not any("overlap_votes" in e or "grid_seed" in e for e in run.trace), run.trace
+    good = locate(scene, true[0].flux_lm, votes_per_m2=30, dummy_planes=False)
+    assert not good.rooms[0].fit.poor and good.rooms[0].stopped_after_s is None
