@@ -115,11 +115,20 @@ def draw_segments(ax, xy_pairs, **kw):
         ax.add_collection(LineCollection(np.asarray(xy_pairs), **kw))
 
 
+#: luminaires in a figure above which they are not labelled one by one (the labels would
+#: cover each other and the light; matplotlib drew 1000 labelled luminaires in 44 s)
+MAX_LABELLED = 60
+
+
 def luminaire_marks(ax, xy, labels=None, size=8.0):
-    """Luminaires as white rings with a black dot, labelled ("L1") beside them."""
+    """Luminaires as white rings with a black dot, labelled ("L1") beside them (up to
+    :data:`MAX_LABELLED` of them; more are drawn smaller and unlabelled)."""
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     if not len(xy):
         return
+    if len(xy) > MAX_LABELLED:
+        labels = None
+        size = min(size, 4.0)
     ax.plot(xy[:, 0], xy[:, 1], "o", ms=size, mfc="white", mec="black", mew=1.3, zorder=6)
     ax.plot(xy[:, 0], xy[:, 1], ".", ms=2.5, color="black", zorder=7)
     for (x, y), t in zip(xy, labels or []):

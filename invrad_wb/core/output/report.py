@@ -717,9 +717,14 @@ _CAPTIONS = {
                  " ±{limit} % at the ends.{extra}"}
 
 
+#: luminaire rows of a room's table in the HTML/PDF report; luminaires.csv has them all
+#: (10,000 rows made a 300-page PDF)
+MAX_TABLE_LUMINAIRES = 200
+
+
 def _room_context(rr, run, src):
     m, v = rr["metrics"], rr["verdict"]
-    keys, lums = _lum_rows(run, rr["luminaires"])
+    keys, lums = _lum_rows(run, rr["luminaires"][:MAX_TABLE_LUMINAIRES])
     shade = " Black: areas to keep dark (0 lx); grey: no target." \
         if m["n_shade_faces"] else " Grey: no target."
     top_plane = [p for p in rr["parts"] if p["kind"] == "work plane"]
@@ -733,7 +738,9 @@ def _room_context(rr, run, src):
             "flux": f"{rr['flux_lm']:.0f}", "rows": _metric_rows(m, v),
             "facts": _facts(m), "figures": figures,
             "parts": _unique_rows(rr["parts"]),
-            "lum_keys": keys, "lums": lums, "target_em": fmt_lux(m["target_em"]),
+            "lum_keys": keys, "lums": lums,
+            "more_lums": max(0, len(rr["luminaires"]) - len(lums)),
+            "target_em": fmt_lux(m["target_em"]),
             "em": fmt_lux(m["em"]), "target_u0": fmt_ratio(m["target_u0"]),
             "u0": fmt_ratio(m["u0"]), "shade_max": fmt_lux(m["shade_max_lux"]),
             "has_target": bool(m["n_faces"]), **_requirement_context(v)}
