@@ -1194,9 +1194,6 @@ def main_inside():
     # descriptor)
     stacks = open(os.path.join(os.environ[ENV_OUT], "crash_stacks.txt"), "w")
     faulthandler.enable(file=stacks, all_threads=True)
-    # and on demand: kill -USR1 <FreeCAD's pid> (a run that seems stuck)
-    import signal
-    faulthandler.register(signal.SIGUSR1, file=stacks, all_threads=True, chain=False)
     # a hang writes them too, shortly before the outer timeout kills FreeCAD
     hang = float(os.environ.get("INVRAD_SMOKE_HANG_S", "0") or 0)
     if hang > 0:
