@@ -343,7 +343,8 @@ class DocumentObserver:
     #: a room's properties that Locate and Design change with its contents (fixtures
     #: grouped in it, its IFC data, the areas FreeCAD recomputes), not its targets
     CONTENTS_PROPS = ("Group", "_GroupTouched", "IfcData", "IfcProperties",
-                      "ElevationWithFlooring", "VerticalArea", "HorizontalArea", "Area")
+                      "ElevationWithFlooring", "VerticalArea", "HorizontalArea", "Area",
+                      "PerimeterLength")
 
     def _contents_only(self, obj, prop):
         """Whether this change leaves the room's targets as they are: its contents, or

@@ -384,20 +384,32 @@ class Smoke:
         return view
 
     def upper_floor_shot(self, doc, view, name):
-        """FZK-Haus from above with the plan cut raised under the roof (the Galerie), then
-        back at the ground floor."""
-        import FreeCAD
+        """FZK-Haus from above without its roof (the Galerie), then back at the ground
+        floor's plan cut."""
         from invrad_wb.app import rooms
         gal = [sp for sp in rooms.find_spaces(doc) if rooms.room_name(sp) == "Galerie"]
         if not gal:
             return
-        z = gal[0].Shape.BoundBox.ZMin + 1800.0
-        view.toggleClippingPlane(0)
-        view.toggleClippingPlane(1, False, True, FreeCAD.Placement(FreeCAD.Vector(0, 0, z),
-                                                                   FreeCAD.Rotation()))
+        z0 = gal[0].Shape.BoundBox.ZMin
+        # the roof's slabs and rafters hidden: the Galerie's luminaires hang under its
+        # slopes, which a plan cut leaves over them
+        roof = []
+        for o in doc.Objects:
+            kind = str(getattr(o, "IfcType", "") or getattr(o, "Class", ""))
+            try:
+                high = o.Shape.BoundBox.ZMax > z0 + 1000.0
+            except Exception:
+                continue
+            if high and kind.replace("Ifc", "") in ("Slab", "Member", "Beam", "Roof") \
+                    and o.Visibility:
+                roof.append(o)
+                o.Visibility = False
+        view.toggleClippingPlane(0)          # no cut: the luminaires are up the slopes
         view.viewTop()
         self.frame(view)
         self.shot(name)
+        for o in roof:
+            o.Visibility = True
         view.toggleClippingPlane(0)
         self.plan_cut(doc)
 
@@ -1182,9 +1194,6 @@ def main_inside():
     # descriptor)
     stacks = open(os.path.join(os.environ[ENV_OUT], "crash_stacks.txt"), "w")
     faulthandler.enable(file=stacks, all_threads=True)
-    # and on demand: kill -USR1 <FreeCAD's pid> (a run that seems stuck)
-    import signal
-    faulthandler.register(signal.SIGUSR1, file=stacks, all_threads=True, chain=False)
     # a hang writes them too, shortly before the outer timeout kills FreeCAD
     hang = float(os.environ.get("INVRAD_SMOKE_HANG_S", "0") or 0)
     if hang > 0:

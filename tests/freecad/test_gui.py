@@ -607,6 +607,7 @@ class TestDocumentObserver(FreeCADTestCase):
         obs = commands.DocumentObserver()
         self.assertTrue(obs._contents_only(space, "Group"))
         self.assertTrue(obs._contents_only(space, "IfcData"))
+        self.assertTrue(obs._contents_only(space, "PerimeterLength"))   # FreeCAD 1.0
         target = next(o for o in self.doc.Objects
                       if document.object_type(o) == "InvRadTarget")
         self.assertFalse(obs._contents_only(target, "Group"))
