@@ -222,6 +222,11 @@ def radiance_judge(scene, room_req, spec, lums, work, phot_paths):
         e = mf * lux(wp, np.tile([0, 0, 1.0], (len(wp), 1)))
         out = {"em": float(e.mean()), "u0": float(e.min() / e.mean())}
         for name, (P, N, W) in surface_grids(scene, 0, droom).items():
+            if name == "ceiling":
+                # a ceiling point behind a luminaire's luminous area is the luminaire, not
+                # ceiling (Radiance's opaque light polygon leaves it dark)
+                free = ~covered(P, lums, spec, phot_paths)
+                P, N, W = P[free], N[free], W[free]
             s = mf * lux(P, N)
             m = float(np.sum(s * W) / W.sum())
             out[name] = (m, float(s.min()) / m)
@@ -235,6 +240,19 @@ def radiance_judge(scene, room_req, spec, lums, work, phot_paths):
             out["ugr"] = max(u) if u else None
         else:
             out["ugr"] = None
+    return out
+
+
+def covered(points, lums, spec, phot_paths):
+    """(k,) bool: points within the plan footprint of a luminaire's luminous area (its
+    IES width x length, x along C0), less than 5 cm above it."""
+    out = np.zeros(len(points), dtype=bool)
+    size = {t[0]: t[4] for t in TYPES}
+    for lum in lums:
+        w, ln = size[lum.extra["type"]]
+        d = points - lum.position
+        out |= ((np.abs(d[:, 0]) <= 0.5 * w) & (np.abs(d[:, 1]) <= 0.5 * ln)
+                & (np.abs(d[:, 2]) < 0.05))
     return out
 
 
