@@ -18,7 +18,25 @@ maintained (x MF); UGR by the CIE 117 formula at the standard observers with the
 background luminance from Radiance's interreflected light at the eye (total minus direct,
 x MF). Prints per room and method the watts, the figures, the verdict, and the totals.
 
-Run: ``.venv/bin/python bench/bench_design_radiance.py [room ...]``.
+Run: ``.venv/bin/python bench/bench_design_radiance.py [room ...]``. Radiance takes
+minutes per room (rtrace -ab 5 on a loaded 2-core machine: 5-10 min).
+
+Measured (2026-11-25, shared 2-core machine, only two rooms had time to run):
+
+* meeting room, grid: 30 x DL-1200N at 38 %, 114.9 W; Radiance Em 500 lx, U0 0.83, walls
+  173 lx / 0.61, ceiling 85 lx / 0.90, UGR 18.4 (limit 19): compliant.
+* meeting room, invrad: 6 x DL-1200N + 6 x PN-3600 at 48 %, 111.7 W (0.972 x grid);
+  invrad's own Em 501 / U0 0.70 / walls 196 / ceiling 89 / UGR 18.1; Radiance Em 492
+  (-1.8 %), U0 0.71, walls 193 / 0.39, UGR 18.4: fails Em by Radiance (dimmed to 500 lx
+  exactly; the two engines differ by 1.8 %). Its ceiling U0 0.00 then came from ceiling
+  points behind the panels (now left out of the judge's ceiling grid).
+* L corridor, grid (one grid over the L's bounding rectangle, not one per leg): none of
+  the catalogue's grids complies.
+* L corridor, invrad before luminaires kept their luminous half-size from the walls:
+  4 x PN-3600, 49.6 W; Radiance Em 91 lx for invrad's 104 (panels reaching through the
+  wall). After: 5 x PN-3600 at 36 %, 51.5 W; invrad Em 116 / U0 0.67 / walls 68 / ceiling
+  30 / UGR 12.1; Radiance Em 113 (-2.6 %), U0 0.67, walls 67 / 0.46, ceiling 30 / 0.73,
+  UGR 12.2: fails the ceiling's 30 lx by a fraction of a lux (dimmed to it exactly).
 """
 import math
 import os
