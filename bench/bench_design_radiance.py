@@ -37,6 +37,10 @@ Measured (2026-11-25, shared 2-core machine, only two rooms had time to run):
   wall). After: 5 x PN-3600 at 36 %, 51.5 W; invrad Em 116 / U0 0.67 / walls 68 / ceiling
   30 / UGR 12.1; Radiance Em 113 (-2.6 %), U0 0.67, walls 67 / 0.46, ceiling 30 / 0.73,
   UGR 12.2: fails the ceiling's 30 lx by a fraction of a lux (dimmed to it exactly).
+* meeting room, grid, after that change: the first grid the exact model passes in the fast
+  model's order of watts is now 6 x 5 PN-3600 at 33 %, 116.2 W (not the least watts: the
+  114.9 W DL-1200N grid above); Radiance Em 485 (-3 %), U0 0.68, walls 214 / 0.47, ceiling
+  93 / 0.77, UGR 16.8: fails Em by Radiance.
 """
 import math
 import os
