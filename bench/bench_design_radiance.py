@@ -41,6 +41,10 @@ Measured (2026-11-25, shared 2-core machine, only two rooms had time to run):
   model's order of watts is now 6 x 5 PN-3600 at 33 %, 116.2 W (not the least watts: the
   114.9 W DL-1200N grid above); Radiance Em 485 (-3 %), U0 0.68, walls 214 / 0.47, ceiling
   93 / 0.77, UGR 16.8: fails Em by Radiance.
+* meeting room, invrad, after that change: 6 x DL-1200N + 6 x PN-3600 at 46 %, 108.0 W
+  (0.930 x that grid, 0.940 x the 114.9 W grid); invrad's own Em 500 / U0 0.67 / walls
+  186 / ceiling 84 / UGR 18.4; Radiance Em 492 (-1.6 %), U0 0.67, walls 183 / 0.40,
+  ceiling 82 / 0.72, UGR 18.6: fails Em by Radiance (every other item met).
 """
 import math
 import os
