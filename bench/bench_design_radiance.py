@@ -18,7 +18,33 @@ maintained (x MF); UGR by the CIE 117 formula at the standard observers with the
 background luminance from Radiance's interreflected light at the eye (total minus direct,
 x MF). Prints per room and method the watts, the figures, the verdict, and the totals.
 
-Run: ``.venv/bin/python bench/bench_design_radiance.py [room ...]``.
+Run: ``.venv/bin/python bench/bench_design_radiance.py [room ...]``. Radiance takes
+minutes per room (rtrace -ab 5 on a loaded 2-core machine: 5-10 min).
+
+Measured (2026-11-25, shared 2-core machine, only two rooms had time to run):
+
+* meeting room, grid: 30 x DL-1200N at 38 %, 114.9 W; Radiance Em 500 lx, U0 0.83, walls
+  173 lx / 0.61, ceiling 85 lx / 0.90, UGR 18.4 (limit 19): compliant.
+* meeting room, invrad: 6 x DL-1200N + 6 x PN-3600 at 48 %, 111.7 W (0.972 x grid);
+  invrad's own Em 501 / U0 0.70 / walls 196 / ceiling 89 / UGR 18.1; Radiance Em 492
+  (-1.8 %), U0 0.71, walls 193 / 0.39, UGR 18.4: fails Em by Radiance (dimmed to 500 lx
+  exactly; the two engines differ by 1.8 %). Its ceiling U0 0.00 then came from ceiling
+  points behind the panels (now left out of the judge's ceiling grid).
+* L corridor, grid (one grid over the L's bounding rectangle, not one per leg): none of
+  the catalogue's grids complies.
+* L corridor, invrad before luminaires kept their luminous half-size from the walls:
+  4 x PN-3600, 49.6 W; Radiance Em 91 lx for invrad's 104 (panels reaching through the
+  wall). After: 5 x PN-3600 at 36 %, 51.5 W; invrad Em 116 / U0 0.67 / walls 68 / ceiling
+  30 / UGR 12.1; Radiance Em 113 (-2.6 %), U0 0.67, walls 67 / 0.46, ceiling 30 / 0.73,
+  UGR 12.2: fails the ceiling's 30 lx by a fraction of a lux (dimmed to it exactly).
+* meeting room, grid, after that change: the first grid the exact model passes in the fast
+  model's order of watts is now 6 x 5 PN-3600 at 33 %, 116.2 W (not the least watts: the
+  114.9 W DL-1200N grid above); Radiance Em 485 (-3 %), U0 0.68, walls 214 / 0.47, ceiling
+  93 / 0.77, UGR 16.8: fails Em by Radiance.
+* meeting room, invrad, after that change: 6 x DL-1200N + 6 x PN-3600 at 46 %, 108.0 W
+  (0.930 x that grid, 0.940 x the 114.9 W grid); invrad's own Em 500 / U0 0.67 / walls
+  186 / ceiling 84 / UGR 18.4; Radiance Em 492 (-1.6 %), U0 0.67, walls 183 / 0.40,
+  ceiling 82 / 0.72, UGR 18.6: fails Em by Radiance (every other item met).
 """
 import math
 import os
@@ -222,6 +248,11 @@ def radiance_judge(scene, room_req, spec, lums, work, phot_paths):
         e = mf * lux(wp, np.tile([0, 0, 1.0], (len(wp), 1)))
         out = {"em": float(e.mean()), "u0": float(e.min() / e.mean())}
         for name, (P, N, W) in surface_grids(scene, 0, droom).items():
+            if name == "ceiling":
+                # a ceiling point behind a luminaire's luminous area is the luminaire, not
+                # ceiling (Radiance's opaque light polygon leaves it dark)
+                free = ~covered(P, lums, spec, phot_paths)
+                P, N, W = P[free], N[free], W[free]
             s = mf * lux(P, N)
             m = float(np.sum(s * W) / W.sum())
             out[name] = (m, float(s.min()) / m)
@@ -235,6 +266,19 @@ def radiance_judge(scene, room_req, spec, lums, work, phot_paths):
             out["ugr"] = max(u) if u else None
         else:
             out["ugr"] = None
+    return out
+
+
+def covered(points, lums, spec, phot_paths):
+    """(k,) bool: points within the plan footprint of a luminaire's luminous area (its
+    IES width x length, x along C0), less than 5 cm above it."""
+    out = np.zeros(len(points), dtype=bool)
+    size = {t[0]: t[4] for t in TYPES}
+    for lum in lums:
+        w, ln = size[lum.extra["type"]]
+        d = points - lum.position
+        out |= ((np.abs(d[:, 0]) <= 0.5 * w) & (np.abs(d[:, 1]) <= 0.5 * ln)
+                & (np.abs(d[:, 2]) < 0.05))
     return out
 
 

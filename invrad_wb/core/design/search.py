@@ -157,7 +157,9 @@ class RoomSearch:
                         for e in self.entries]
         kw = {"shifted": shifted} if fractions is None else {"fractions": fractions,
                                                              "shifted": shifted}
-        radius = max(e.radius_m for e in self.entries)
+        # clear of the walls by the luminous opening's half size (a disc's radius, or a
+        # photometry file's luminous extent): no panel reaches through a wall
+        radius = max(self._half_size(e) for e in self.entries)
         self.geoms = grid_geometries(droom, room_spec.mounting, radius, wp_z,
                                      min(r[0] for r in self.n_range),
                                      min(max(r[1] for r in self.n_range), MAX_COUNT), **kw)
@@ -176,6 +178,18 @@ class RoomSearch:
         self._glare()
         self.eye_ind = {}          # entry name -> (O,) indirect lux per lm at the eyes
         self.checked = {}
+
+    def _half_size(self, e):
+        """Half the largest side of an entry's luminous opening (m; 0: a point); the grids
+        run along the room's axes, and so do a turned entry's sides."""
+        if e.radius_m > 0:
+            return e.radius_m
+        ph = self.phot.get(e.name)
+        ext = getattr(ph, "luminous_extent_m", None)
+        if ext:
+            return 0.5 * max(ext)
+        area = getattr(ph, "luminous_area_m2", None)
+        return 0.5 * math.sqrt(area) if area else 0.0
 
     def _optics(self, e):
         return (e.radius_m, e.photometry, e.orientation)

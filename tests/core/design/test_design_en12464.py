@@ -323,3 +323,27 @@ def test_a_linear_luminaire_is_laid_along_or_across_whichever_lights_the_room_be
     # the same light either way: the two designs are the same installation
     assert rd[True].watts == pytest.approx(rd[False].watts, rel=1e-6)
     assert rd[True].metrics.em == pytest.approx(rd[False].metrics.em, rel=1e-6)
+
+
+def test_no_luminous_opening_reaches_through_a_wall():
+    """A 0.6 m panel known only by its photometry file's luminous size keeps its centre
+    half its side clear of every wall in every layout the search tries (its light would
+    otherwise leave the room: Radiance found an L corridor's design 12 % short so)."""
+    from invrad_wb.core.design.evaluate import RoomModel
+    from invrad_wb.core.design.layouts import WALL_CLEARANCE_M
+    from invrad_wb.core.design.room import DesignRoom
+    from invrad_wb.core.design.search import RoomSearch
+    from invrad_wb.core.model.photometry import Photometry
+    sc = g.with_reflectances(g.l_room(size=(8.0, 6.0, 2.6), cut=(1.8, 1.8), cell=0.4))
+    spec = _spec({"work_plane": {"lux": 100, "u0": 0.4}},
+                 cat=[{"name": "PN", "flux_lm": 3600, "watts": 29.0}])
+    ph = Photometry.lambertian()
+    panel = Photometry(ph.table, 1.0, name="panel", luminous_area_m2=0.36,
+                       luminous_extent_m=(0.6, 0.6))
+    rs = spec.room_spec(0)
+    dr = DesignRoom(sc, 0)
+    pts, _ = dr.grid(0.75, 0.5)
+    search = RoomSearch(RoomModel(sc, dr, pts, 0.8, "numpy"), rs.work_plane, rs,
+                        spec.entries_for(rs, 2.6), {"PN": panel})
+    pos = np.concatenate([geo.positions for geo in search.geoms])
+    assert len(pos) and dr.wall_distance(pos[:, :2]).min() >= 0.3 + WALL_CLEARANCE_M - 1e-9
