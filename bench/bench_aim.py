@@ -46,6 +46,7 @@ from invrad_wb.core.forward.render import render  # noqa: E402
 from invrad_wb.core.inverse.locate import LocateSettings, locate  # noqa: E402
 from invrad_wb.core.model.aiming import aim_from_tilt_pan, aimed_c0, tilt_pan  # noqa: E402
 from invrad_wb.core.model.luminaires import Luminaire  # noqa: E402
+from invrad_wb.core.io.jsonout import write_luminaires_json  # noqa: E402
 from invrad_wb.core.model.photometry import read_photometry  # noqa: E402
 
 DOWN = np.array([0.0, 0.0, -1.0])
@@ -186,6 +187,9 @@ def main():
     ap.add_argument("--free-flux", action="store_true", help="no flux given to locate")
     ap.add_argument("--fixed", action="store_true", help="also time --aim fixed")
     ap.add_argument("--rooms", default=",".join(ROOMS))
+    ap.add_argument("--save", metavar="DIR",
+                    help="write each room's result (<room>_found.json, --aim free) and true"
+                         " luminaires (<room>_true.json) there, with the room's size")
     args = ap.parse_args()
     folder = tempfile.mkdtemp(prefix="invrad-bench-aim-")
     total_ok = total = 0
@@ -203,6 +207,12 @@ def main():
             stages = " ".join(f"{k} {v:.1f}" for k, v in res.timings.items()
                               if k != "total" and v >= 0.05)
             rows, spurious = evaluate(res.luminaires, lums, args.free_flux)
+            if args.save and mode == "free":
+                os.makedirs(args.save, exist_ok=True)
+                lo, hi = scene.vertices.min(axis=0), scene.vertices.max(axis=0)
+                for tag, ls in (("found", res.luminaires), ("true", lums)):
+                    write_luminaires_json(os.path.join(args.save, f"{name}_{tag}.json"), ls,
+                                          room=name, bounds=[lo.tolist(), hi.tolist()])
             print(f"{name:8s} aim {mode:5s} {'interrefl.' if inter else 'direct    '}"
                   f" {len(lums)} true, {len(res.luminaires)} found, spurious {spurious},"
                   f" {dt:6.1f} s ({cpu:.1f} s CPU, load {os.getloadavg()[0]:.1f};"
