@@ -37,6 +37,10 @@ Measured 2026-11-25 22:25-23:02, the lobby's re-seeding from the residual
   after:       gallery 5/5 12.1 s / 9.4 s (3.8), shop 4/4 27.7 s / 14.7 s (5.4), the
                same result JSON byte for byte; lobby 5/5 29.5 s / 22.8 s (4.6):
                <= 0.9 cm, <= 0.20 deg, 0 spurious.
+  another lobby (--seed 4 --rooms lobby; tilts 19-23 deg) still fails: before 0/5 (two
+               not found, 2 spurious) 72.5 s / 28.2 s (7.0), after 0/5 (one not found,
+               1 spurious; three wall-wash spots found facing straight down, 32-48 cm
+               off) 94.8 s / 38.7 s (6.1).
 """
 import argparse
 import math
