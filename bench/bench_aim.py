@@ -29,6 +29,18 @@ so wall is about 3 x CPU; same answers as above):
   after (988dc90): gallery 26.6 s / 8.4 s CPU, shop 44.9 s / 12.9 s CPU, lobby 58.0 s /
                16.7 s CPU (still 0/5, as above); free flux gallery 117.4 s / 38.9 s CPU
                (the free-flux vote ladder: 14 vote casts, 27-35 s).
+Measured 2026-11-25 22:25-23:02, the lobby's re-seeding from the residual
+(_RoomFit.aim_residual; wall / CPU seconds, load in brackets):
+  before:      gallery 5/5 32.4 s / 7.1 s (11.2), shop 4/4 58.1 s / 10.5 s (11.9),
+               lobby 0/5 75.2 s / 15.6 s (12.8): 7-33 cm, 3.5-8 deg, one not found,
+               one spurious;
+  after:       gallery 5/5 12.1 s / 9.4 s (3.8), shop 4/4 27.7 s / 14.7 s (5.4), the
+               same result JSON byte for byte; lobby 5/5 29.5 s / 22.8 s (4.6):
+               <= 0.9 cm, <= 0.20 deg, 0 spurious.
+  another lobby (--seed 4 --rooms lobby; tilts 19-23 deg) still fails: before 0/5 (two
+               not found, 2 spurious) 72.5 s / 28.2 s (7.0), after 0/5 (one not found,
+               1 spurious; three wall-wash spots found facing straight down, 32-48 cm
+               off) 94.8 s / 38.7 s (6.1).
 """
 import argparse
 import math
@@ -46,6 +58,7 @@ from invrad_wb.core.forward.render import render  # noqa: E402
 from invrad_wb.core.inverse.locate import LocateSettings, locate  # noqa: E402
 from invrad_wb.core.model.aiming import aim_from_tilt_pan, aimed_c0, tilt_pan  # noqa: E402
 from invrad_wb.core.model.luminaires import Luminaire  # noqa: E402
+from invrad_wb.core.io.jsonout import write_luminaires_json  # noqa: E402
 from invrad_wb.core.model.photometry import read_photometry  # noqa: E402
 
 DOWN = np.array([0.0, 0.0, -1.0])
@@ -186,6 +199,9 @@ def main():
     ap.add_argument("--free-flux", action="store_true", help="no flux given to locate")
     ap.add_argument("--fixed", action="store_true", help="also time --aim fixed")
     ap.add_argument("--rooms", default=",".join(ROOMS))
+    ap.add_argument("--save", metavar="DIR",
+                    help="write each room's result (<room>_found.json, --aim free) and true"
+                         " luminaires (<room>_true.json) there, with the room's size")
     args = ap.parse_args()
     folder = tempfile.mkdtemp(prefix="invrad-bench-aim-")
     total_ok = total = 0
@@ -203,6 +219,12 @@ def main():
             stages = " ".join(f"{k} {v:.1f}" for k, v in res.timings.items()
                               if k != "total" and v >= 0.05)
             rows, spurious = evaluate(res.luminaires, lums, args.free_flux)
+            if args.save and mode == "free":
+                os.makedirs(args.save, exist_ok=True)
+                lo, hi = scene.vertices.min(axis=0), scene.vertices.max(axis=0)
+                for tag, ls in (("found", res.luminaires), ("true", lums)):
+                    write_luminaires_json(os.path.join(args.save, f"{name}_{tag}.json"), ls,
+                                          room=name, bounds=[lo.tolist(), hi.tolist()])
             print(f"{name:8s} aim {mode:5s} {'interrefl.' if inter else 'direct    '}"
                   f" {len(lums)} true, {len(res.luminaires)} found, spurious {spurious},"
                   f" {dt:6.1f} s ({cpu:.1f} s CPU, load {os.getloadavg()[0]:.1f};"

@@ -50,6 +50,25 @@ class TestFixtures(FreeCADTestCase):
             np.testing.assert_allclose(back.position, lum.position, atol=1e-12)
             np.testing.assert_allclose(back.normal, lum.normal, atol=1e-9)
 
+    def test_aimed_fixture_tilted_along_its_aim_with_its_aim_point(self):
+        from invrad_wb.core.model.aiming import tilt_pan
+        pos = np.array([2.0, 1.5, 2.7])
+        target = np.array([2.6, 0.1, 1.4])          # on the inner face of the wall y = 0
+        aim = (target - pos) / np.linalg.norm(target - pos)
+        tilt, pan = tilt_pan(aim, [0, 0, -1])
+        lum = Luminaire(pos, aim, 900.0, extra={"mount_normal": [0, 0, -1],
+                                               "tilt_deg": tilt, "pan_deg": pan})
+        aimed, plain = fixtures.insert_fixtures(self.doc, [(self.space, [lum, down(1, 1)])])
+        d = aimed.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, -1))
+        off = np.degrees(np.arccos(np.clip(np.dot([d.x, d.y, d.z], aim), -1, 1)))
+        self.assertLess(off, 0.1)
+        self.assertAlmostEqual(aimed.Tilt, tilt, places=9)
+        self.assertAlmostEqual(aimed.Pan, pan, places=9)
+        self.assertGreater(tilt, 40.0)
+        a = aimed.AimPoint
+        np.testing.assert_allclose([a.x, a.y, a.z], target * 1000, atol=1.0)
+        self.assertNotIn("AimPoint", plain.PropertiesList)   # faces along its mount normal
+
     def test_body_hangs_from_the_ceiling_into_the_room(self):
         (fx,) = fixtures.insert_fixtures(self.doc, [(self.space, [down(2.0, 1.5)])])
         bb = fx.Shape.BoundBox

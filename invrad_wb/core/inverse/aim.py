@@ -106,6 +106,7 @@ class _Scorer:
     def __init__(self, prob, most=SCORE_POINTS):
         step = max(1, int(np.ceil(len(prob.positions) / most)))
         sl = slice(0, None, step)
+        self.sl = sl
         self.pos, self.nrm = prob.positions[sl], prob.normals[sl]
         self.target, self.log_target = prob.target[sl], prob.log_target[sl]
         self.base = prob.indirect[sl]
@@ -119,6 +120,12 @@ class _Scorer:
             else phot.table[0]
         self.cost0 = self.cost_of(np.zeros((1, len(self.pos))))[0]
         self.wT = self.w * self.target
+
+    def add_base(self, light):
+        """Score against the light (k,) of luminaires already accepted, added to the base
+        (the cost without a candidate becomes theirs)."""
+        self.base = self.base + light[self.sl]
+        self.cost0 = self.cost_of(np.zeros((1, len(self.pos))))[0]
 
     def direct(self, C, N, Mn):
         """(K, k) lux of luminaires of the problem's flux at ``C`` aimed ``N``, mounted
@@ -186,16 +193,23 @@ def _aimed_c0_many(Mn, N):
     return out
 
 
-def footprint_candidates(run, s):
+def footprint_candidates(run, s, lux=None, light=None, most=MAX_HOT_SPOTS):
     """Aimed candidates (list of :class:`Light`, best first) from the hot spots of a
-    room's targets (module docstring), each with its lone score in ``peak_score``."""
+    room's targets (module docstring), each with its lone score in ``peak_score``.
+
+    ``lux`` (k,): the hot spots of this light instead of the targets' (the light the
+    accepted luminaires leave unexplained); ``light`` (k,): the accepted luminaires' light,
+    which each candidate is then scored beside; ``most``: hot spots at most."""
     canvas = run.canvas
     pts = run.points
-    H, Hn = hot_spots(pts.positions, pts.normals, pts.lux)
+    H, Hn = hot_spots(pts.positions, pts.normals, pts.lux if lux is None else lux,
+                      most=most)
     P, Mn, K = apex_grid(canvas)
     if not len(H) or not len(P):
         return []
     scorer = _Scorer(run.problem)
+    if light is not None:
+        scorer.add_base(light)
     cost0 = scorer.cost0
     cos_max = np.cos(np.radians(s.max_tilt_deg))
     out = []
@@ -235,6 +249,17 @@ def footprint_candidates(run, s):
                    and L.normal @ U.normal > np.cos(np.radians(2.0)) for U in uniq):
             uniq.append(L)
     return uniq
+
+
+def lone_score(run, light, base):
+    """The score :func:`footprint_candidates` gives, beside the light ``base`` (k,), to
+    the luminaire ``light`` as it stands: the share of the cost it removes."""
+    scorer = _Scorer(run.problem)
+    scorer.add_base(base)
+    mount = light.mount if light.mount is not None else light.normal
+    c, _ = scorer.score(light.position[None], light.normal[None],
+                        np.asarray(mount, np.float64)[None], run.free_flux)
+    return float((scorer.cost0 - c[0]) / scorer.cost0)
 
 
 #: pattern search of :func:`_polish`: first and last step (metres), most iterations

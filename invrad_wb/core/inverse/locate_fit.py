@@ -68,6 +68,10 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
     if (s.overlap_levels > 1 and fit_quality(fit.prob, lights) > s.poor_fit
             and not unexplained(lights)):
         lights, cost = fit.grid(lights, cost, cands, flux)
+    # aimed beams that overlap (a wall wash) leave hot spots between the true axes: seed
+    # again from the light the accepted luminaires leave unexplained
+    if s.aim == "free" and lights and cost > 1e-3 * fit.prob.cost([]):
+        lights, cost = fit.aim_residual(lights, cost, cands)
     if run.seeds:
         lights, cost = fit.seeded(lights, cost, cands, run.seeds)
     # fluxes free: split, merge and remove luminaires while the data's noise level says
@@ -212,6 +216,72 @@ class _RoomFit:
         more = [_light_from_peak(p, run.canvas, run.flux)
                 for p in _ladder_peaks(run, s, ladder)]
         return self._reselect(lights, cost, more, cands, "residual_votes", initial=lights)
+
+    def aim_residual(self, lights, cost, cands, significant=0.2, tries=2, max_evals=24,
+                     spots=4):
+        """``--aim free``, the fit not near-exact: re-seed each luminaire from what the
+        others leave unexplained. Least needed first, luminaire i is taken out; the hot
+        spots (the ``spots`` brightest) of the light the rest leave unexplained where i
+        lit (both more than ``significant`` of a point's target) give footprint
+        candidates scored beside the rest (:func:`invrad_wb.core.inverse.aim.
+        footprint_candidates`: a global search over apexes and aim points, not a local
+        move); of the best ``tries``, those that score better than luminaire i where it
+        stands are refined alone beside the rest, and one that then lowers the cost is
+        refined jointly with them and replaces i if the cost falls by ``min_gain``.
+        Overlapping beams (a wall wash) put the first hot spots between the true axes;
+        with a neighbour's light fixed, the one left shows where its own beam is. After a
+        replacement: a selection from the candidates (a luminaire now missing or
+        redundant) and the interreflection settled."""
+        from invrad_wb.core.inverse.aim import footprint_candidates, lone_score
+        run, prob, s = self.run, self.prob, self.s
+        pts = run.points
+        evals = swaps = 0
+        improved = True
+        while improved and evals < max_evals:
+            improved = False
+            order = sorted(range(len(lights)), key=lambda i: lights[i].score or 0.0)
+            for i in order:
+                rest = lights[:i] + lights[i + 1:]
+                light = prob.fixed_light(rest)
+                left = pts.lux - prob.indirect - light
+                # where luminaire i lit: its light, not the others', is re-seeded
+                own = prob.fixed_light(lights[i:i + 1])
+                lux = np.where((pts.lux > 0) & (left > significant * pts.lux)
+                               & (own > significant * pts.lux), left, 0.0)
+                if not np.any(lux > 0):
+                    continue
+                # a candidate is refined only if, scored alone beside the rest, it explains
+                # more than luminaire i where it stands (cheap: no refinement, no
+                # interreflection; the right luminaire beats its re-seeds)
+                mine = lone_score(run, lights[i], light)
+                for cand in footprint_candidates(run, s, lux=lux, light=light,
+                                                 most=spots)[:tries]:
+                    if evals >= max_evals:
+                        break
+                    if not cand.peak_score > mine:
+                        continue
+                    evals += 1
+                    alone, c1 = self.opt([prob.with_indirect(cand)], fixed=light)
+                    if not c1 < cost:
+                        continue
+                    trial, c = self.opt(rest + alone)
+                    if c < cost * (1.0 - s.min_gain):
+                        lights, cost = trial, c
+                        swaps += 1
+                        improved = True
+                        break
+                if improved:
+                    break
+        self.trace.append({"aim_residual_swaps": swaps, "evals": evals, "cost_after": cost})
+        if swaps:
+            lights, cost, t2 = self._greedy(cands, initial=lights)
+            self.trace += t2
+            lights, cost = self.tidy(lights, cost)
+            lights, cost = self.settle(lights, cost, cands)
+            for i, L in enumerate(lights):
+                c_rest = prob.cost(lights[:i] + lights[i + 1:])
+                L.score = float((c_rest - cost) / max(c_rest, 1e-12))
+        return lights, cost
 
     def grid(self, lights, cost, cands, flux):
         """Regular ceiling arrangements of n luminaires of ``flux`` lm as seeds; the best

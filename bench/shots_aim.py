@@ -1,0 +1,159 @@
+#!/usr/bin/env python3
+"""Screenshots of aimed luminaires in FreeCAD (issue 23): a result JSON (``locate --aim
+free``, or bench/bench_aim.py --save's ``<room>_found.json``) inserted as light fixtures into
+a walled room of the result's size, seen in isometric, from the side and from above, with
+each fixture's beam axis drawn to where it meets the room.
+
+::
+
+    .venv/bin/python bench/shots_aim.py FOUND.json [--true TRUE.json] [--out DIR]
+        [--freecad freecad]
+
+re-launches itself as ``xvfb-run freecad bench/shots_aim.py`` and, inside the GUI, writes
+``<out>/<room>_<fc version>_{iso,side,top}.png`` and ``<out>/<room>_<fc version>.json``: per
+fixture the angle between its placement's light axis (local -Z) and the result's aim, the
+distance of its placement from the result's position, and, with ``--true``, the distance
+from the true luminaire and the angle to its aim, and where its beam axis meets the room.
+"""
+import json
+import os
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+ENV = "INVRAD_AIMSHOT"
+
+
+def relaunch(argv):
+    import argparse
+    import shutil
+    import subprocess
+    import sysconfig
+    import tempfile
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("found")
+    ap.add_argument("--true")
+    ap.add_argument("--out", default=os.path.join(ROOT, "out", "shots-aim"))
+    ap.add_argument("--freecad", default=os.environ.get("INVRAD_FREECAD", "freecad"))
+    ap.add_argument("--timeout", type=float, default=300.0)
+    args = ap.parse_args(argv)
+    exe, xvfb = shutil.which(args.freecad), shutil.which("xvfb-run")
+    if not exe or not xvfb:
+        print(f"shots_aim: needs {args.freecad} and xvfb-run on the PATH", file=sys.stderr)
+        return 2
+    os.makedirs(args.out, exist_ok=True)
+    home = tempfile.mkdtemp(prefix="invrad-fchome-")
+    paths = os.environ.get("PYTHONPATH", "").split(os.pathsep) + [
+        sysconfig.get_paths()["purelib"], ROOT]
+    paths = [p for i, p in enumerate(paths) if p and p not in paths[:i]]
+    env = dict(os.environ, FREECAD_USER_HOME=home, PYTHONPATH=os.pathsep.join(paths),
+               INVRAD_SITE_PACKAGES=os.pathsep.join(paths), QTWEBENGINE_DISABLE_SANDBOX="1")
+    env[ENV] = json.dumps({"found": os.path.abspath(args.found),
+                           "true": args.true and os.path.abspath(args.true),
+                           "out": os.path.abspath(args.out), "paths": paths})
+    env.pop("QT_QPA_PLATFORM", None)
+    try:
+        rc = subprocess.run([xvfb, "-a", "-s", "-screen 0 1280x800x24", exe,
+                             os.path.abspath(__file__)], env=env, timeout=args.timeout).returncode
+    finally:
+        shutil.rmtree(home, ignore_errors=True)
+    return rc
+
+
+def inside():
+    cfg = json.loads(os.environ[ENV])
+    for p in reversed(cfg["paths"]):
+        if p not in sys.path:
+            sys.path.insert(0, p)
+    import numpy as np
+    import FreeCAD
+    import FreeCADGui
+    sys.path.insert(0, os.path.join(ROOT, "tests", "freecad"))
+    from fctest import make_walled_room
+    from invrad_wb.app import fixtures
+    from invrad_wb.core.model.luminaires import luminaire_from_dict
+
+    def load(path):
+        with open(path) as fh:
+            data = json.load(fh)
+        # a bench's photometry lies in its temporary folder: the body is then the default
+        return data, [luminaire_from_dict({k: v for k, v in d.items() if k != "photometry"
+                                           or os.path.isfile(str(v))})
+                      for d in data["luminaires"]]
+
+    data, found = load(cfg["found"])
+    true = load(cfg["true"])[1] if cfg.get("true") else []
+    lo, hi = np.array(data["bounds"][0]), np.array(data["bounds"][1])
+    name = data.get("room", "room")
+    ver = "fc" + "".join(FreeCAD.Version()[:2])
+    doc = FreeCAD.newDocument("AimShots")
+    wall = 0.2
+    space = make_walled_room(doc, size=tuple(hi[:2] - lo[:2] + wall) + (hi[2] - lo[2],),
+                             wall=wall, origin=(lo[0] - wall / 2, lo[1] - wall / 2, lo[2]),
+                             label=name.capitalize())
+    objs = fixtures.insert_fixtures(doc, [(space, found)])
+    doc.recompute()
+    report = []
+    for obj, lum in zip(objs, found):
+        pl = obj.Placement
+        d = pl.Rotation.multVec(FreeCAD.Vector(0, 0, -1))
+        d = np.array([d.x, d.y, d.z])
+        row = {"label": obj.Label,
+               "axis_vs_aim_deg": float(np.degrees(np.arccos(np.clip(d @ lum.normal, -1, 1)))),
+               "base_vs_position_mm": float(np.linalg.norm(
+                   np.array([pl.Base.x, pl.Base.y, pl.Base.z]) - lum.position * 1000)),
+               "tilt_deg": getattr(obj, "Tilt", None), "pan_deg": getattr(obj, "Pan", None)}
+        if "AimPoint" in obj.PropertiesList:
+            a = obj.AimPoint
+            row["aim_point_m"] = [round(a.x / 1000, 3), round(a.y / 1000, 3),
+                                  round(a.z / 1000, 3)]
+        if true:
+            t = min(true, key=lambda t: np.linalg.norm(t.position - lum.position))
+            row["vs_true_cm"] = float(100 * np.linalg.norm(t.position - lum.position))
+            row["vs_true_deg"] = float(np.degrees(np.arccos(np.clip(t.normal @ d, -1, 1))))
+        vo = obj.ViewObject
+        row["beam_axis_drawn"] = any(vo.RootNode.getChild(i).getName() == "InvradBeamAxis"
+                                     for i in range(vo.RootNode.getNumChildren()))
+        report.append(row)
+    for obj in doc.Objects:
+        if obj.TypeId != "Part::Part2DObjectPython" and hasattr(obj, "IfcType") and \
+                obj.IfcType in ("Wall", "Slab") and obj.ViewObject is not None:
+            obj.ViewObject.Transparency = 75
+        elif obj.Name.startswith(("Wire", "Rectangle")) and obj.ViewObject is not None:
+            obj.ViewObject.Visibility = False
+    if space.ViewObject is not None:
+        space.ViewObject.Visibility = False
+    view = FreeCADGui.activeDocument().activeView()
+    shots = []
+    for tag, cam in (("iso", view.viewIsometric), ("side", view.viewRight),
+                     ("front", view.viewRear), ("top", view.viewTop)):
+        cam()
+        view.fitAll()
+        FreeCADGui.updateGui()
+        path = os.path.join(cfg["out"], f"{name}_{ver}_{tag}.png")
+        view.saveImage(path, 1200, 800, "White")
+        shots.append(path)
+    with open(os.path.join(cfg["out"], f"{name}_{ver}.json"), "w") as fh:
+        json.dump({"freecad": FreeCAD.Version()[:3], "fixtures": report, "shots": shots},
+                  fh, indent=1)
+
+
+def run_inside():
+    try:
+        inside()
+    except Exception:
+        import traceback
+        traceback.print_exc()
+    finally:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(0)
+
+
+if os.environ.get(ENV) and getattr(sys.modules.get("FreeCAD"), "GuiUp", 0):
+    # FreeCAD runs this file as a macro (not as __main__): the work starts once its event
+    # loop runs
+    from PySide import QtCore
+    QtCore.QTimer.singleShot(1000, run_inside)
+elif __name__ == "__main__":
+    sys.exit(relaunch(sys.argv[1:]))
