@@ -32,7 +32,11 @@ whose distance to the walls lies in ``[margin_m - BAND_M, margin_m)``. Its grid 
 the task area's, at most :data:`BAND_SPACING_M` so that the band holds at least two rows
 of cells. Required (Table 3): ``Em`` one step below the task's (:func:`surroundings_lux`)
 and ``U0 >= 0.40``. The band is evaluated by the design model as one more surface grid
-(name ``'surroundings'``, facing up), so the search designs for it as for the walls.
+(name ``'surroundings'``, facing up, gathered with the floor patch under each cell as the
+work plane is); every exact check of the search judges it and the dimming level serves
+its Em, as for the walls; the fast model's ranking leaves it out
+(:data:`~.search.EXACT_ONLY`: it follows the work plane, and its per-point corrected fast
+figures turned away layouts that comply).
 """
 import math
 

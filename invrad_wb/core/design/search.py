@@ -32,6 +32,11 @@ FAST_SLACK = 0.0
 _UF_LOW, _UF_HIGH = 0.35, 1.1
 #: luminaires per room at most
 MAX_COUNT = 400
+#: surface grids judged on the exact checks only, not by the fast model's ranking: the
+#: immediate surroundings lie next to the work plane and follow it; their fast figures,
+#: corrected per point by the last exact check, would turn away layouts that the exact
+#: check finds compliant (:mod:`.cylindrical`)
+EXACT_ONLY = ("surroundings",)
 #: UGR margin of the fast model's glare test (its background luminance is that of a
 #: reference layout; the exact check decides)
 UGR_FAST_MARGIN = 0.0
@@ -383,7 +388,8 @@ class RoomSearch:
         t["geom"] = t["geom"].astype(int)
         t["pair"] = t["pair"].astype(int)
         t["ok"] = complies(t["em"], t["u0"], t["shade"], self.req, self.rs.shade_limit_lux,
-                           FAST_SLACK, self._surf(t), self.surf_reqs)
+                           FAST_SLACK, self._surf(t),
+                           {k: v for k, v in self.surf_reqs.items() if k not in EXACT_ONLY})
         if self.ugr_max is not None:
             t["ok"] &= ~(t["ugr"] > self.ugr_max + UGR_FAST_MARGIN)   # NaN: none in view
         g = t["geom"]
