@@ -68,6 +68,9 @@ def _print_room(r):
           + "".join(f" {k} Em {m.surfaces[k][0]:.0f} lx (>= {s.lux:g})"
                     f" U0 {m.surfaces[k][2]:.2f} (>= {s.u0:g}),"
                     for k, s in r.surface_reqs.items() if k in m.surfaces)
+          + (f" Ez {r.cyl_figures['em_lux']:.0f} lx (>= {r.cylindrical['lux']:g})"
+             f" U0 {r.cyl_figures['u0']:.2f} (>= {r.cylindrical['u0']:g}),"
+             if r.cylindrical is not None and r.cyl_figures is not None else "")
           + (f" UGR {r.ugr:.1f}" + (f" (<= {r.ugr_limit:g})" if r.ugr_limit else "") + ","
              if r.ugr is not None else " UGR not computable,")
           + f" {r.watts:.1f} W drawn, {r.rated_watts:.1f} W installed"

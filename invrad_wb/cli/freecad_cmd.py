@@ -549,6 +549,10 @@ def _say_design(d, say):
         surf = "".join(f" {k} Em {v['em_lux']:.0f} lx (>= {v['required']['lux']:g})"
                        f" U0 {v['u0']:.2f} (>= {v['required']['u0']:g}),"
                        for k, v in r.get("surfaces", {}).items() if "required" in v)
+        cz = r.get("cylindrical") or {}
+        if cz.get("judged"):
+            surf += (f" Ez {cz['em_lux']:.0f} lx (>= {cz['required']['lux']:g})"
+                     f" U0 {cz['u0']:.2f} (>= {cz['required']['u0']:g}),")
         ugr = ("UGR not computable" if r.get("ugr") is None else f"UGR {r['ugr']:.1f}"
                + (f" (<= {r['ugr_limit']:g})" if r.get("ugr_limit") is not None else ""))
         pw = r.get("power", {})

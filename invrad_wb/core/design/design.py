@@ -50,7 +50,8 @@ class RoomDesign:
     surface_reqs: dict = field(default_factory=dict)   # 'walls'/'ceiling' -> requirement
     rated_watts: float = 0.0     # installed power: every luminaire at full output (W)
     operating_hours: float = None   # h/a, for the energy estimate
-    cylindrical: dict = None     # Ez asked for (not designed for: said in the notes)
+    cylindrical: dict = None     # Ez asked for ({'lux', 'u0', 'height_m'}) or None
+    cyl_figures: dict = None     # Ez achieved (cylindrical.figures) or None
     spots: list = field(default_factory=list)      # accent.SpotResult, spots and goals
     accent_watts: float = 0.0
 
@@ -96,6 +97,9 @@ class RoomDesign:
         if spots:
             out["spots"] = all(s.ok for s in spots)
         out.update(m.surface_ok(self.surface_reqs))
+        if self.cylindrical is not None and self.cyl_figures is not None:
+            from invrad_wb.core.design.cylindrical import complies as cyl_complies
+            out["Ez"] = cyl_complies(self.cyl_figures, self.cylindrical)
         if self.ugr_limit is not None and self.ugr is not None:
             out["UGR"] = self.ugr <= self.ugr_limit + 1e-9
         return out
@@ -149,7 +153,12 @@ class RoomDesign:
                        if k in self.surface_reqs else {})}
                 for k, v in m.surfaces.items()}
             if self.cylindrical is not None:
-                d["cylindrical"] = dict(self.cylindrical, judged=False)
+                d["cylindrical"] = {"required": dict(self.cylindrical),
+                                    "judged": self.cyl_figures is not None}
+                if self.cyl_figures is not None:
+                    d["cylindrical"].update({k: (None if v is None else round(v, 3))
+                                             for k, v in self.cyl_figures.items()})
+                    d["cylindrical"]["pass"] = bool(self.verdicts.get("Ez"))
             d["power"] = {
                 "designed_w": round(self.watts, 2), "rated_w": round(self.rated_watts, 2),
                 "rated_w_per_m2": round(self.w_per_m2, 3),
@@ -304,6 +313,13 @@ def _explain(rd, search, entries):
                             f" U0 {q.u0:g} required ({q.source}): no layout of the"
                             " catalogue's luminaires at the mounting allowed lights them"
                             " enough")
+    if rd.verdicts.get("Ez") is False:
+        f, q = rd.cyl_figures, rd.cylindrical
+        rd.notes.append(f"cylindrical illuminance Ez {f['em_lux']:.0f} lx, U0 {f['u0']:.2f}"
+                        f" at {q['height_m']:g} m for {q['lux']:g} lx, U0 {q['u0']:g}"
+                        " required: no layout of the catalogue's luminaires at the mounting"
+                        " allowed sends enough light sideways (wider beams, or wall lighting,"
+                        " raise Ez)")
     if m.shade_max > search.rs.shade_limit_lux:
         rd.notes.append(f"a point that must stay dark receives {m.shade_max:.1f} lx"
                         f" (limit {search.rs.shade_limit_lux:g} lx)")
@@ -338,15 +354,12 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
     req = rd.requirement = rs.work_plane
     points, _ = droom.grid(req.height_m, req.margin_m)
     surfaces = surface_grids(scene, room, droom, backend=backend)
+    rs = _with_surroundings(rs, droom, req, surfaces, rd)
     rd.surface_reqs = {k: v for k, v in rs.surfaces.items() if k in surfaces}
     rd.cylindrical = rs.cylindrical
-    if rs.cylindrical is not None:
-        rd.notes.append(f"cylindrical illuminance Ez {rs.cylindrical['lux']:g} lx"
-                        f" (U0 {rs.cylindrical['u0']:g}, {rs.cylindrical['height_m']:g} m"
-                        " above the floor) is required but not yet designed for nor"
-                        " computed: check it in a dedicated tool")
     model = RoomModel(scene, droom, points, spec.maintenance_factor, backend,
                       extra=_shade_points(scene, room), surfaces=surfaces)
+    cyl = _cylindrical_grid(model, droom, req, rs, rd)
     mount_h = (rs.mounting.height_m if rs.mounting.kind != "ceiling"
                else droom.top_z - droom.floor_z)
     entries = spec.entries_for(rs, mount_h)
@@ -361,6 +374,8 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
     general = [e for e in entries if not e.aimable] or entries
     search = RoomSearch(model, req, rs, general, photometry, mixed=mixed, dimming=dimming,
                         fractions=fractions)
+    if cyl is not None:
+        search.cylindrical, search.cyl_req = cyl, cyl.req
     if not search.geoms:
         rd.notes.append(f"no position in this room suits a {rs.mounting.kind} mounting")
         return rd
@@ -370,6 +385,12 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
     rd.grid_points = points
     rd._shade_limit = rs.shade_limit_lux
     _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search)
+    if cyl is not None:       # the whole installation's (accents included)
+        from invrad_wb.core.design.cylindrical import figures, modelling_note
+        rd.cyl_figures = figures(*cyl.evaluate(rd.luminaires))
+        note = modelling_note(rd.cyl_figures)
+        if note:
+            rd.notes.append(note)
     rd.ugr_limit = rs.ugr_max
     rd.ugr = _room_ugr(model, droom, rd.luminaires)
     _ugr_note(rd, droom)
@@ -472,6 +493,39 @@ def _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search=N
             rd.notes.append(f"{g.label()} ({g.n_vertices} target points, {g.area_m2:.1f} m2):"
                             f" {sp.achieved_mean:.0f} lx for {g.target_mean:.0f} lx on"
                             " average (a goal to approach, not judged)")
+
+
+def _with_surroundings(rs, droom, req, surfaces, rd):
+    """The room spec with its immediate surroundings' requirement (EN 12464-1:2021 Table 3)
+    where the task area has a band around it; its grid joins ``surfaces`` (evaluated and
+    searched like the walls)."""
+    from dataclasses import replace
+    from invrad_wb.core.design.cylindrical import (SURROUNDINGS_SOURCE, SURROUNDINGS_U0,
+                                                   surroundings_grid, surroundings_lux)
+    from invrad_wb.core.design.spec import SurfaceRequirement
+    band = surroundings_grid(droom, req.height_m, req.margin_m)
+    if band is None:
+        rd.notes.append("immediate surroundings: the task area has no border zone around"
+                        " it (margin 0): not computed")
+        return rs
+    surfaces["surroundings"] = band
+    q = SurfaceRequirement(surroundings_lux(req.lux), SURROUNDINGS_U0, SURROUNDINGS_SOURCE)
+    return replace(rs, surfaces={**rs.surfaces, "surroundings": q})
+
+
+def _cylindrical_grid(model, droom, req, rs, rd):
+    """The room's :class:`~.cylindrical.CylindricalGrid` where it asks for Ez, or None."""
+    if rs.cylindrical is None:
+        return None
+    from invrad_wb.core.design.cylindrical import CylindricalGrid
+    from invrad_wb.errors import SceneError
+    c = rs.cylindrical
+    try:
+        pts, _ = droom.grid(c["height_m"], req.margin_m)
+    except SceneError as e:
+        rd.notes.append(f"cylindrical illuminance Ez not computed: {e}")
+        return None
+    return CylindricalGrid(model, pts, c)
 
 
 def _entry_watts(entries, lum):

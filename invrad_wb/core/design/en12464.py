@@ -32,7 +32,7 @@ class RoomTypeRequirement:
     reference: str
     walls_lux: float = 50.0       # EN 12464-1:2021 5.2.3: every enclosed space
     ceiling_lux: float = 30.0
-    cylindrical_lux: float = None  # Ez where people meet and talk (not designed for yet)
+    cylindrical_lux: float = None  # Ez where people meet and talk (cylindrical.py)
 
 
 #: EN 12464-1:2021 clause 5.2.3: the least maintained mean illuminance (lx) and U0 on the

@@ -300,7 +300,10 @@ class RoomModel:
         floor = np.flatnonzero(m.face_normals[:, 2] > 0.99)
         idx, _ = locate_points(m.triangles[floor][..., :2], self.points[:, :2])
         patch = np.where(idx >= 0, self.rad.face_patch[floor[np.maximum(idx, 0)]], -1)
-        miss = np.flatnonzero((idx < 0) | (np.arange(len(patch)) >= self.n_wp))
+        plane = np.arange(len(patch)) < self.n_wp
+        if "surroundings" in self.layout.parts:    # work-plane cells too (cylindrical.py)
+            plane[self.layout.parts["surroundings"][0]] = True
+        miss = np.flatnonzero((idx < 0) | ~plane)
         if len(miss):
             patch[miss] = self.rad.face_patch[nearest_site(m.face_centroids,
                                                            self.points[miss])]

@@ -32,6 +32,11 @@ FAST_SLACK = 0.0
 _UF_LOW, _UF_HIGH = 0.35, 1.1
 #: luminaires per room at most
 MAX_COUNT = 400
+#: surface grids judged on the exact checks only, not by the fast model's ranking: the
+#: immediate surroundings lie next to the work plane and follow it; their fast figures,
+#: corrected per point by the last exact check, would turn away layouts that the exact
+#: check finds compliant (:mod:`.cylindrical`)
+EXACT_ONLY = ("surroundings",)
 #: UGR margin of the fast model's glare test (its background luminance is that of a
 #: reference layout; the exact check decides)
 UGR_FAST_MARGIN = 0.0
@@ -80,6 +85,15 @@ class Metrics:
     ugr: float = None
     #: (glare sums (O,), background lux (O,)) at full output, for re-dimming
     glare: tuple = field(repr=False, default=None)
+    #: maintained (Ez (k,), Eh (k,)) at the cylindrical-illuminance points, or None
+    #: (:mod:`.cylindrical`)
+    cyl: tuple = field(repr=False, default=None)
+
+    @property
+    def cylindrical(self):
+        """Figures of Ez (:func:`.cylindrical.figures`) or None."""
+        from invrad_wb.core.design.cylindrical import figures
+        return None if self.cyl is None else figures(*self.cyl)
 
     @classmethod
     def of(cls, lux, direct, layout):
@@ -133,6 +147,12 @@ class RoomSearch:
     dimming : bool, use the entries' dimming ranges
     fractions : edge fractions to try (layouts.EDGE_FRACTIONS; (0.5,) = classic grids)
     """
+
+    #: :class:`.cylindrical.CylindricalGrid` where the room asks for Ez (set by the
+    #: caller); judged on every exact check, not by the fast model
+    cylindrical = None
+    #: its requirement while searching (relaxed in later stages, see :func:`run_search`)
+    cyl_req = None
 
     def __init__(self, model, req, room_spec, entries, photometry=None, mixed=True,
                  dimming=True, fractions=None):
@@ -382,7 +402,8 @@ class RoomSearch:
         t["geom"] = t["geom"].astype(int)
         t["pair"] = t["pair"].astype(int)
         t["ok"] = complies(t["em"], t["u0"], t["shade"], self.req, self.rs.shade_limit_lux,
-                           FAST_SLACK, self._surf(t), self.surf_reqs)
+                           FAST_SLACK, self._surf(t),
+                           {k: v for k, v in self.surf_reqs.items() if k not in EXACT_ONLY})
         if self.ugr_max is not None:
             t["ok"] &= ~(t["ugr"] > self.ugr_max + UGR_FAST_MARGIN)   # NaN: none in view
         g = t["geom"]
@@ -446,6 +467,8 @@ class RoomSearch:
             if met.glare is not None:
                 u = ugr_from_sum(*met.glare)
                 met.ugr = None if np.isnan(u).all() else float(np.nanmax(u))
+            if self.cylindrical is not None:
+                met.cyl = self.cylindrical.evaluate(lums)
             self.checked[key] = met
         return self.checked[key]
 
@@ -457,12 +480,16 @@ def _finalise(search, cand, exact_full):
     need = search.req.lux / max(exact_full.em, 1e-12)
     for name, r in search.surf_reqs.items():
         need = max(need, r.lux / max(exact_full.surfaces[name][0], 1e-12))
+    if search.cyl_req is not None and exact_full.cyl is not None:
+        need = max(need, search.cyl_req["lux"] / max(float(np.mean(exact_full.cyl[0])), 1e-12))
     dim = float(np.clip(need * 1.001, dmin, 1.0))
     g = cand.geom
     n = np.bincount(g.cls, minlength=2)
     watts = dim * (n[0] * e0.watts + n[1] * e1.watts)
     met = Metrics.of(exact_full.lux * dim, exact_full.direct * dim, search.model.layout)
     met.glare = exact_full.glare
+    if exact_full.cyl is not None:      # light adds up: Ez and Eh scale with the output
+        met.cyl = (dim * exact_full.cyl[0], dim * exact_full.cyl[1])
     if exact_full.glare is not None:
         u = ugr_from_sum(dim ** 2 * exact_full.glare[0], dim * exact_full.glare[1])
         met.ugr = None if np.isnan(u).all() else float(np.nanmax(u))
@@ -478,6 +505,9 @@ def metrics_comply(met, search):
                   surf=surf, surf_reqs=search.surf_reqs)
     if search.ugr_max is not None and met.ugr is not None:
         ok = ok and met.ugr <= search.ugr_max + 1e-9
+    if search.cyl_req is not None and met.cyl is not None:
+        from invrad_wb.core.design.cylindrical import complies as cyl_complies
+        ok = ok and cyl_complies(met.cylindrical, search.cyl_req)
     return ok
 
 
@@ -490,27 +520,29 @@ def run_search(search):
     surface figure no layout reaches; its verdict is still taken on every requirement.
     """
     search._calibrate_all()
-    full = (search.ugr_max, dict(search.surf_reqs))
+    cyl = search.cylindrical.req if search.cylindrical is not None else None
+    full = (search.ugr_max, dict(search.surf_reqs), cyl)
     stages = [full]
     if full[0] is not None:
-        stages.append((None, full[1]))
-    if full[1]:
-        # the surfaces' uniformity is a matter of layout, their Em of output: keep the
-        # latter where the former cannot be met
+        stages.append((None, full[1], cyl))
+    if full[1] or cyl is not None:
+        # the surfaces' (and Ez's) uniformity is a matter of layout, their Em of output:
+        # keep the latter where the former cannot be met
         stages.append((None, {k: SurfaceRequirement(r.lux, 0.0, r.source)
-                              for k, r in full[1].items()}))
-        stages.append((None, {}))
+                              for k, r in full[1].items()},
+                       None if cyl is None else dict(cyl, u0=0.0)))
+        stages.append((None, {}, None))
     first = None
     try:
-        for ugr_max, surf in stages:
-            search.ugr_max, search.surf_reqs = ugr_max, surf
+        for ugr_max, surf, cyl_req in stages:
+            search.ugr_max, search.surf_reqs, search.cyl_req = ugr_max, surf, cyl_req
             best, closest = _search_once(search)
             if first is None:
                 first = closest
             if best is not None:
                 break
     finally:
-        search.ugr_max, search.surf_reqs = full
+        search.ugr_max, search.surf_reqs, search.cyl_req = full
     if best is None and first is None:
         return None, None, len(search.checked)
     cand, met = best if best is not None else first[:2]
@@ -553,10 +585,20 @@ def _search_once(search):
                            met.surfaces[k][2] / max(r.u0, 1e-9))
                        for k, r in search.surf_reqs.items()]
                     + ([10.0 ** (-(met.ugr - search.ugr_max) / 8.0)]
-                       if search.ugr_max is not None and met.ugr is not None else []))
+                       if search.ugr_max is not None and met.ugr is not None else [])
+                    + _cyl_score(met, search))
         if not cand.ok and (closest is None or score > closest[2]):
             closest = (cand, met, score)
     return best, closest
+
+
+def _cyl_score(met, search):
+    """[score] of the Ez figures against the search's current Ez requirement, or []."""
+    q = search.cyl_req
+    if q is None or met.cyl is None:
+        return []
+    f = met.cylindrical
+    return [min(f["em_lux"] / max(q["lux"], 1e-9), f["u0"] / max(q["u0"], 1e-9))]
 
 
 def _fast_args(search, cand):

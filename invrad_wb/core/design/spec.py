@@ -27,8 +27,8 @@ lumen depreciation, luminaire and room soiling). A room with a ``room_type`` but
 The walls and the ceiling of every room are held to at least the EN 12464-1:2021 5.2.3
 minimums (walls 50 lx, ceiling 30 lx, U0 0.10 each; 75 / 50 lx in offices and education);
 ``"walls"`` / ``"ceiling"`` may ask for more, never for less. ``"ugr_max"`` is the UGR limit
-(default: the room type's). ``"cylindrical"`` (Ez where people meet and talk) is accepted and
-reported as required but is not designed for nor computed yet. ``"operating_hours"`` (per
+(default: the room type's). ``"cylindrical"`` (Ez where people meet and talk) is computed and
+judged (:mod:`.cylindrical`). ``"operating_hours"`` (per
 room or for the whole spec, h/a) gives the energy estimate.
 A catalogue entry with ``"aimable": true`` (and ``"max_tilt_deg"``, default
 :data:`DEFAULT_MAX_TILT_DEG`) is an adjustable spot: it lights painted spots as an aimed
@@ -193,8 +193,8 @@ class RoomSpec:
     ugr_max: Optional[float] = None
     #: {'walls': SurfaceRequirement, 'ceiling': SurfaceRequirement}
     surfaces: dict = field(default_factory=lambda: surface_requirements({}))
-    #: cylindrical illuminance Ez asked for (lux, u0, height_m) or None: stated in the
-    #: report, not designed for yet
+    #: cylindrical illuminance Ez asked for (lux, u0, height_m) or None (judged:
+    #: :mod:`.cylindrical`)
     cylindrical: Optional[dict] = None
     #: annual operating hours (for the energy estimate) or None
     operating_hours: Optional[float] = None

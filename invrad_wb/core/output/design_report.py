@@ -308,9 +308,19 @@ def summary_rows(r):
              "required": f"Em >= {q.lux:g} lx, U0 >= {q.u0:.2f}",
              "achieved": f"Em {m.em:.0f} lx, U0 {m.u0:.2f}",
              "verdict": "pass" if v["Em"] and v["U0"] else "FAIL", "source": q.source},
-            {"item": "immediate surroundings", "required": "-",
-             "achieved": "not computed", "verdict": "-",
-             "source": "the task area is the whole room less its border zone"}]
+            ]
+    sq = r.surface_reqs.get("surroundings")
+    if sq is not None and "surroundings" in m.surfaces:
+        em, _, u0 = m.surfaces["surroundings"]
+        rows.append({"item": "immediate surroundings",
+                     "required": f"Em >= {sq.lux:g} lx, U0 >= {sq.u0:.2f}",
+                     "achieved": f"Em {em:.0f} lx, U0 {u0:.2f}",
+                     "verdict": "pass" if v.get("surroundings") else "FAIL",
+                     "source": sq.source})
+    else:
+        rows.append({"item": "immediate surroundings", "required": "-",
+                     "achieved": "not computed", "verdict": "-",
+                     "source": "the task area has no border zone around it"})
     for part in ("walls", "ceiling"):
         sq = r.surface_reqs.get(part)
         if sq is None:
@@ -321,11 +331,16 @@ def summary_rows(r):
                      "verdict": "pass" if v.get(part) else "FAIL", "source": sq.source})
     if r.cylindrical is not None:
         c = r.cylindrical
+        f = r.cyl_figures
+        mod = ("" if f is None or f["modelling"] is None
+               else f"; modelling Ez/Eh {f['modelling']:.2f} (0.30-0.60 recommended)")
         rows.append({"item": "cylindrical illuminance Ez",
                      "required": f"Ez >= {c['lux']:g} lx, U0 >= {c['u0']:.2f}"
                                  f" at {c['height_m']:g} m",
-                     "achieved": "not computed", "verdict": "-",
-                     "source": "not designed for yet"})
+                     "achieved": ("not computed" if f is None else
+                                  f"Ez {f['em_lux']:.0f} lx, U0 {f['u0']:.2f}{mod}"),
+                     "verdict": ("-" if "Ez" not in v else "pass" if v["Ez"] else "FAIL"),
+                     "source": "spec or room type (EN 12464-1:2021 4.6.2)"})
     ugr = "not computable" if r.ugr is None else ("< 10" if r.ugr < 10 else f"{r.ugr:.1f}")
     rows.append({"item": "UGR (CIE 117, worst standard observer)",
                  "required": "-" if r.ugr_limit is None else f"<= {r.ugr_limit:g}",
