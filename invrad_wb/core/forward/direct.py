@@ -33,6 +33,12 @@ def _geometry(points, normals, c, n, flux):
 PHOTOMETRIC_BLOCK_PAIRS = 1 << 16
 
 
+#: shadow rays of :func:`photometric_numpy` traced at once (the lit pairs of several blocks
+#: gathered: one OpenCL launch per block of 65,536 pairs spent more on the launch than on
+#: the rays); about 100 bytes a ray while they wait
+SHADOW_BATCH_PAIRS = 1 << 19
+
+
 def photometric_numpy(points, normals, luminaires, bvh=None, occlusion=True,
                       occluded=segments_occluded_numpy):
     """Direct illuminance of luminaires with an intensity distribution (numpy), lux:
@@ -59,6 +65,15 @@ def photometric_numpy(points, normals, luminaires, bvh=None, occlusion=True,
             cones[id(lum.photometry)] = _cone_cos(lum.photometry)
     cone = np.array([cones[id(lum.photometry)] for lum in lums])
     per = max(1, PHOTOMETRIC_BLOCK_PAIRS // len(points))
+    shadows = occlusion and bvh is not None
+    pending = []                              # lit pairs waiting for their shadow rays
+
+    def trace():
+        pj, lk, g = (np.concatenate(x) for x in zip(*pending))
+        pending.clear()
+        g[occluded(bvh, pos[lk], points[pj])] = 0.0
+        return np.bincount(pj, weights=g, minlength=len(points))
+
     for b0 in range(0, len(lums), per):
         b1 = min(len(lums), b0 + per)
         # the pairs in front of the point and inside the luminaire's cone of light, found
@@ -71,9 +86,16 @@ def photometric_numpy(points, normals, luminaires, bvh=None, occlusion=True,
                    & (np.einsum("bni,bi->bn", r, axis[b0:b1]) * inv >= cone[b0:b1, None]))
         li, pj = np.nonzero(lit)
         if len(li):
-            g = photometric_pairs(points[pj], normals[pj], lums[b0:b1], li, bvh, occlusion,
-                                  occluded)
-            out += np.bincount(pj, weights=g, minlength=len(points))
+            g = photometric_pairs(points[pj], normals[pj], lums[b0:b1], li, occlusion=False)
+            if not shadows:
+                out += np.bincount(pj, weights=g, minlength=len(points))
+                continue
+            keep = g > 0                      # outside the distribution's cone: no ray
+            pending.append((pj[keep], li[keep] + b0, g[keep]))
+            if sum(len(x[0]) for x in pending) >= SHADOW_BATCH_PAIRS:
+                out += trace()
+    if pending:
+        out += trace()
     return out
 
 
