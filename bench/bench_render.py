@@ -5,6 +5,11 @@ interreflection, OpenCL vs numpy, in one run (machines are noisy: compare ratios
 Lambertian and with a 40-degree intensity distribution, and in the room with a pillar
 (render with interreflections, the default backend).
 
+Measured (2 shared cores under load ~8, PoCL CPU; 10,000 luminaires, 40 degrees, same
+scenes, render only): box 30.1 s wall / 18.2 s CPU -> 23.8 s / 11.8 s, pillar 125.2 s /
+61.8 s -> 32.0 s / 16.0 s, after the photometric shadow rays went to the segment kernel
+in batches and the cone prefilter to matrix products (lux equal within 2e-12).
+
 Usage: python bench/bench_render.py [--cell 0.08] [--repeat 3] [--many 10000]
 """
 import argparse

@@ -162,26 +162,30 @@ def _frame(ax, point_sets, bar=True):
 
 def unfolded_marks(view, lay, max_dist=0.35):
     """Where the room's luminaires appear on the unfolded planes: those mounted on (within
-    ``max_dist`` of) a real plane, at their foot point on it. Returns ((k, 2) metres,
-    labels)."""
+    ``max_dist`` of) a real plane, at their foot point on it (the nearest such plane; the
+    first tile on a tie). Returns ((k, 2) metres, labels).
+
+    One pass per plane over all luminaires at once (a loop per luminaire and plane took
+    5.5 s of a verify with 10,000 luminaires)."""
     s = view.scene
-    xy, labels = [], []
-    for pos, lab in zip(view.lum_xyz, view.lum_labels):
-        best = None
-        for k, (A, b) in lay.tiles.items():
-            p = s.planes[k]
-            if p.is_virtual:
-                continue
-            d = float(p.signed_distance(pos[None])[0])
-            if -0.01 <= d <= max_dist and (best is None or d < best[0]):
-                foot = pos - d * p.normal
-                uv = p.to_plane_coords(foot[None])[0]
-                if np.all(uv >= -1e-6) and np.all(uv <= p.size + 1e-6):
-                    best = (d, A @ foot + b)
-        if best is not None:
-            xy.append(best[1])
-            labels.append(lab)
-    return np.array(xy).reshape(-1, 2), labels
+    pos = np.asarray(view.lum_xyz, dtype=np.float64).reshape(-1, 3)
+    n = len(pos)
+    best_d = np.full(n, np.inf)
+    best_xy = np.zeros((n, 2))
+    for k, (A, b) in lay.tiles.items():
+        p = s.planes[k]
+        if p.is_virtual or not n:
+            continue
+        d = p.signed_distance(pos)
+        foot = pos - d[:, None] * p.normal
+        uv = p.to_plane_coords(foot)
+        ok = ((d >= -0.01) & (d <= max_dist) & (d < best_d)
+              & np.all(uv >= -1e-6, axis=1) & np.all(uv <= np.asarray(p.size) + 1e-6, axis=1))
+        best_d[ok] = d[ok]
+        best_xy[ok] = foot[ok] @ np.asarray(A).T + b
+    hit = np.isfinite(best_d)
+    labels = [lab for lab, h in zip(view.lum_labels, hit) if h]
+    return best_xy[hit].reshape(-1, 2), labels
 
 
 def _extent(view, lay):

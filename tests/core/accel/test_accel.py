@@ -21,8 +21,15 @@ from repo_paths import ROOT
 
 def _direct():
     s = g.pillar_room(cell=0.2)
+    from invrad_wb.core.model.photometry import Photometry
+    gam = np.arange(181.0)
+    narrow = Photometry(np.tile(np.where(gam < 40, np.cos(np.radians(gam)), 0.0), (361, 1)),
+                        name="40 degrees")
+    # lambertian (the direct kernel) and with a distribution (numpy lookups, shadow rays
+    # through the segment kernel); both cast the pillar's shadow
     lums = [Luminaire([1.5, 2.0, 2.99], [0, 0, -1], 3000, 0.25),
-            Luminaire([0.01, 1.0, 2.0], [1, 0, 0], 1500)]
+            Luminaire([0.01, 1.0, 2.0], [1, 0, 0], 1500),
+            Luminaire([4.5, 1.0, 2.9], [-0.6, 0.5, -0.6], 2000, photometry=narrow)]
     args = (s.vertices, s.vertex_normals, lums)
     kw = {"bvh": BVH(s.triangles)}
 

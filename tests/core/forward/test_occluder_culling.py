@@ -95,6 +95,7 @@ def test_photometric_blocks_equal_one_pair_at_a_time(monkeypatch):
     lums.append(Luminaire([0.3, 2.0, 1.5], [1, 0, -0.3], 900.0, photometry=asym,
                           c0=[0, 1, 0]))                                   # aimed
     monkeypatch.setattr(D, "PHOTOMETRIC_BLOCK_PAIRS", 3 * len(s.vertices))  # several blocks
+    monkeypatch.setattr(D, "SHADOW_BATCH_PAIRS", 500)  # shadow rays of several blocks at once
     bvh = BVH(s.triangles)
     want = _photometric_reference(s.vertices, s.vertex_normals, lums, bvh)
     got = D.photometric_numpy(s.vertices, s.vertex_normals, lums, bvh)
