@@ -360,12 +360,24 @@ def test_a_device_or_pipe_is_refused_as_an_output_and_left_as_it_is(tmp_path):
     assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
 
 
+@pytest.fixture
+def usual_stop_handlers():
+    """SIGINT with Python's own handler and SIGHUP with its default, as in a terminal,
+    whatever the test runner inherited (a shell starts a background job with SIGINT
+    ignored, and an ignored signal is rightly left ignored by invrad)."""
+    old = {signal.SIGINT: signal.signal(signal.SIGINT, signal.default_int_handler),
+           signal.SIGHUP: signal.signal(signal.SIGHUP, signal.SIG_DFL)}
+    yield
+    for sig, handler in old.items():
+        signal.signal(sig, handler)
+
+
 def _sig_bits(status, field):
     line = next(l for l in status.splitlines() if l.startswith(field + ":"))
     return int(line.split()[1], 16)
 
 
-def test_workers_start_with_ctrl_c_held_and_then_ignore_it():
+def test_workers_start_with_ctrl_c_held_and_then_ignore_it(usual_stop_handlers):
     """A worker spawned while the parent starts its pool inherits SIGINT and SIGHUP blocked
     (a Ctrl-C to the process group while it still imported ``site`` killed it with "Fatal
     Python error: init_import_site"), and its set-up ignores them, then unblocks them;
@@ -437,7 +449,7 @@ def test_a_direct_freecad_cmd_run_is_guarded_too(tmp_path, sig, status):
     assert not (tmp_path / "out.FCStd").exists() and not (tmp_path / "report").exists()
 
 
-def test_a_stop_signal_that_another_thread_takes_waits_for_the_pool_too():
+def test_a_stop_signal_that_another_thread_takes_waits_for_the_pool_too(usual_stop_handlers):
     """A signal for the process reaches any thread that does not block it (an OpenCL
     runtime's), and Python runs its handler in the main thread all the same: while the
     pool starts, it must be held, not raised (a KeyboardInterrupt inside the pool's
