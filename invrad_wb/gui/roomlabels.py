@@ -135,10 +135,13 @@ def label_clearance(anchors, z, points, box, eyes=(TOP_EYE, ISO_EYE)):
     for eye in eyes:
         r, u = screen_axes(eye)
         sa = np.column_stack([a3 @ r, a3 @ u + up])
-        sp = np.column_stack([pts @ r, pts @ u])
-        gap = np.maximum(np.abs(sa[:, None, 0] - sp[None, :, 0]) - hx,
-                         np.abs(sa[:, None, 1] - sp[None, :, 1]) - hy)
-        best = np.minimum(best, gap.min(axis=1))
+        sp = np.unique(np.round(np.column_stack([pts @ r, pts @ u]), 2), axis=0)
+        block = max(1, 2_000_000 // len(sp))          # a few MB at a time
+        for i in range(0, len(sa), block):
+            s = sa[i:i + block]
+            gap = np.maximum(np.abs(s[:, None, 0] - sp[None, :, 0]) - hx,
+                             np.abs(s[:, None, 1] - sp[None, :, 1]) - hy)
+            best[i:i + block] = np.minimum(best[i:i + block], gap.min(axis=1))
     return best
 
 
@@ -279,8 +282,8 @@ def _obstacle_xyz(space, edges, z0, z1):
                     or bb.ZMax < 1000.0 * z0 or bb.ZMin > 1000.0 * z1
                     or bb.XLength > 0.9 * (hi[0] - lo[0]) and bb.YLength > 0.9 * (hi[1] - lo[1])):
                 continue
-            xyz = np.array([[v.Point.x, v.Point.y, v.Point.z] for v in shape.Vertexes
-                            if 1000.0 * z0 - 1.0 <= v.Point.z <= 1000.0 * z1]) / 1000.0
+            xyz = _shape_points(shape)
+            xyz = xyz[(xyz[:, 2] >= 1000.0 * z0 - 1.0) & (xyz[:, 2] <= 1000.0 * z1)] / 1000.0
         except Exception:          # an object without readable geometry is no obstacle
             continue
         if len(xyz):
@@ -290,6 +293,19 @@ def _obstacle_xyz(space, edges, z0, z1):
         xyz = xyz[(xyz[:, 2] >= z0 - 1e-3) & (xyz[:, 2] <= z1)]
         out += list(xyz[_inside(edges, xyz[:, :2])])
     return out
+
+
+def _shape_points(shape, step_mm=100.0):
+    """(k, 3) points (mm) along a shape's edges every ``step_mm`` and its vertices: a
+    cylinder's outline, not only its two seam vertices."""
+    pts = [[v.Point.x, v.Point.y, v.Point.z] for v in shape.Vertexes]
+    for e in shape.Edges:
+        try:
+            n = max(int(np.ceil(e.Length / step_mm)), 1)
+            pts += [[p.x, p.y, p.z] for p in e.discretize(Number=n + 1)]
+        except Exception:          # an edge that cannot be sampled keeps its vertices
+            continue
+    return np.asarray(pts, dtype=np.float64).reshape(-1, 3)
 
 
 #: IFC classes that stand in a room and that a name must not cover (NativeIFC draws
