@@ -35,7 +35,6 @@ def test_name_clear_of_fixture_discs_a_stair_and_walls_from_above_and_isometric(
     # an L-shaped room (6 x 4 m less a 2 x 2 m corner), ceiling 2.7 m, name at 2.4 m;
     # downlights of 0.3 m radius on the ceiling where a centred name would be, a pendant
     # hanging 1 m, and a stair drum standing in the room
-    edges = np.concatenate([_rect_edges(0, 0, 6, 4)])
     outline = np.array([[0, 0], [6, 0], [6, 2], [4, 2], [4, 4], [0, 4]], dtype=float)
     edges = np.stack([outline, np.roll(outline, -1, axis=0)], axis=1)
     z, top = 2.4, 2.7
@@ -70,13 +69,18 @@ def test_name_of_an_empty_room_in_its_middle():
     np.testing.assert_allclose(c, [3.0, 2.0], atol=0.11)
 
 
-def test_a_disc_beside_the_middle_pushes_the_name_off_its_outline():
-    # one downlight of radius 0.4 m just right of the middle: a point-only rule (its
-    # centre) lets the name's box reach over the disc's rim; the body's outline does not
-    edges = _rect_edges(0, 0, 6, 4)
-    light = np.array([[3.9, 2.0, 2.68]])
-    char_m, n = 0.09, 6
-    c = rl.place_label(edges, 2.4, 2.7, light, [0.4], char_m, n, eyes=(rl.TOP_EYE,))
+def test_a_large_disc_pushes_the_name_off_its_rim():
+    # a corridor 4 x 1 m with a large panel (radius 0.9 m) at x = 1 and a small
+    # downlight at x = 3: midway between their centres (what keeping clear of points
+    # alone gives) the name covers the large one's rim; its outline keeps it clear
+    edges = _rect_edges(0, 0, 4, 1)
+    lights = np.array([[1.0, 0.5, 2.68], [3.0, 0.5, 2.68]])
+    radii = [0.9, 0.05]
+    char_m, n = 0.09, 4
     box = rl.text_box(char_m, n)
-    rim = rl._disc_points(light, [0.4])
-    assert not _box_hits(c, 2.4, rim, box, rl.TOP_EYE).any(), c
+    rims = rl._disc_points(lights, radii)
+    c = rl.place_label(edges, 2.4, 2.7, lights, radii, char_m, n, eyes=(rl.TOP_EYE,))
+    assert not _box_hits(c, 2.4, rims, box, rl.TOP_EYE).any(), c
+    # the same placement told only the centres lands on the large disc
+    c0 = rl.place_label(edges, 2.4, 2.7, lights, [0.0, 0.0], char_m, n, eyes=(rl.TOP_EYE,))
+    assert _box_hits(c0, 2.4, rims, box, rl.TOP_EYE).any(), c0
