@@ -656,8 +656,9 @@ def room_verdicts(building, target, achieved, kinds=None, requirements=None, flu
 def describe_rooms(summary):
     """Lines for a person, per located room: its luminaires, the mean achieved against the
     target lux, and its verdict (met or not, the layout, why not, the advice); the
-    ``freecad`` command prints them, the GUI shows them after Locate."""
-    lines = []
+    ``freecad`` command prints them, the GUI shows them after Locate. The note that glare
+    is rated for point sources is said once, after the rooms (:func:`point_source_note`)."""
+    lines, small = [], []
     for room in summary["rooms"]:
         n = sum(1 for l in summary["luminaires"] if l["room_name"] == room["room"])
         line = f"room {room['room']}: {n} luminaire(s)"
@@ -675,13 +676,40 @@ def describe_rooms(summary):
             lines.append(f"  {'met' if v['met'] else 'NOT met'}: {v['words']}")
             if v.get("layout"):
                 lines.append(f"    {v['layout']} ({v.get('mounting', 'ceiling')})")
-            lines += [f"    {note}" for note in v.get("notes", ())]
+            lines += [f"    {note}" for note in v.get("notes", ())
+                      if not collect_small_sources(note, small)]
             lines += [f"    {why}" for why in v.get("why_not", ())]
             if v.get("advice"):
                 lines.append(f"    {v['advice']}")
             if v.get("warning"):
                 lines.append(f"  {v['warning']}")
+    if small:
+        lines.append(point_source_note(small))
     return lines
+
+
+def small_source_types(note):
+    """The luminaire types named by a room's note that its UGR rates them as small (point)
+    sources (the design's wording, one such note per room), or None for any other note."""
+    head, sep, _ = note.partition(" give no luminous area")
+    if not sep or not head.startswith("UGR: "):
+        return None
+    return [t.strip() for t in head[len("UGR: "):].split(",") if t.strip()]
+
+
+def collect_small_sources(note, small):
+    """Add a point-source note's luminaire types to ``small``; True if it was one."""
+    types = small_source_types(note)
+    if types is None:
+        return False
+    small += [t for t in types if t not in small]
+    return True
+
+
+def point_source_note(types):
+    """Once for all rooms, in plain words: glare rated with the luminaires as points."""
+    return (f"Glare (UGR) is rated for point sources ({', '.join(types)}: no luminous size"
+            " given), which gives an upper bound")
 
 
 def _write_json(path, data):

@@ -45,7 +45,6 @@ def room_labels(building, height_m=None):
     ceiling (at least :data:`LABEL_MIN_HEIGHT_M` above its floor), or ``height_m`` above
     its floor: seen from above at an angle the name then stands in the room's open top,
     not on the wall in front of it."""
-    from invrad_wb.core.output.design_report import label_point
     # the names are screen text (about 7 x 13 px a character); seen whole, a building of
     # extent X metres spans about 500 px: a character is about X / 70 m wide
     allv = building.scene.vertices
@@ -72,18 +71,109 @@ def room_labels(building, height_m=None):
             z = max(lo[2] + LABEL_MIN_HEIGHT_M, ceiling_z - LABEL_BELOW_CEILING_M)
         edges = _outline_edges(corners) if m.floor_triangles.any() else []
         if len(edges):
-            half = (0.5 * char_m * max(len(name), 1) + 0.1, char_m + 0.1)
-            things = np.asarray(
-                _fixture_points(p.space, ceiling_z)
-                + _obstacle_xyz(p.space, edges, lo[2], lo[2] + LABEL_CLEAR_HEIGHT_M),
-                dtype=np.float64).reshape(-1, 3)
-            # the walls count as points too, in label boxes: a long name keeps further
-            # from the walls beside it than from those above and below it
-            avoid = (_edge_points(edges, 0.5 * char_m) + list(things[:, :2])
-                     + list(iso_shadow(things, z)))
-            c = label_point(edges, avoid, half_size=half)
+            fx, fr = _fixture_points(p.space, ceiling_z)
+            obst = _obstacle_xyz(p.space, edges, lo[2], lo[2] + LABEL_CLEAR_HEIGHT_M)
+            things = np.asarray(fx + obst, dtype=np.float64).reshape(-1, 3)
+            radii = np.asarray(fr + [0.0] * len(obst), dtype=np.float64)
+            c = place_label(edges, z, ceiling_z, things, radii, char_m, len(name))
         out.append((name, (1000.0 * c[0], 1000.0 * c[1], 1000.0 * z)))
     return out
+
+
+#: The eye of a view from above (plans, Std_ViewTop).
+TOP_EYE = (0.0, 0.0, 1.0)
+#: What a name keeps clear of beyond the things themselves (metres): a fixture's body
+#: outline, a wall's face.
+LABEL_MARGIN_M = 0.1
+
+
+def screen_axes(eye):
+    """(right, up) unit vectors (3,) of an orthographic view from ``eye`` whose screen is
+    upright (world Z up on screen; seen from straight above, X right and Y up)."""
+    e = np.asarray(eye, dtype=np.float64)
+    e = e / np.linalg.norm(e)
+    right = np.cross((0.0, 0.0, 1.0), e)
+    if np.linalg.norm(right) < 1e-9:                 # from straight above (or below)
+        return np.array([1.0, 0.0, 0.0]), np.array([0.0, np.sign(e[2]) or 1.0, 0.0])
+    right /= np.linalg.norm(right)
+    return right, np.cross(e, right)
+
+
+def text_box(char_m, n_chars):
+    """A name's box on screen around its anchor, metres: (half width, half height,
+    upward offset of its middle). FreeCAD draws it centred across and standing on the
+    anchor (SoText2, CENTER): a character about ``char_m`` wide and 1.9 as tall."""
+    h = 1.9 * char_m
+    return 0.5 * char_m * max(n_chars, 1), 0.55 * h, 0.3 * h
+
+
+def _disc_points(things, radii, k=16):
+    """Each thing (k, 3) with radius > 0 replaced by ``k`` points on its horizontal
+    circle (a fixture's body, as any view shows its outline), others kept."""
+    things = np.asarray(things, dtype=np.float64).reshape(-1, 3)
+    radii = np.asarray(radii, dtype=np.float64).reshape(-1)
+    pts = [things[radii <= 0]]
+    a = np.linspace(0.0, 2.0 * np.pi, k, endpoint=False)
+    ring = np.stack([np.cos(a), np.sin(a), np.zeros_like(a)], axis=1)
+    for c, r in zip(things[radii > 0], radii[radii > 0]):
+        pts.append(c + r * ring)
+        pts.append(c[None])
+    return np.concatenate(pts) if pts else np.zeros((0, 3))
+
+
+def label_clearance(anchors, z, points, box, eyes=(TOP_EYE, ISO_EYE)):
+    """(g,) metres on screen between each anchor's name box (anchors (g, 2) in plan at
+    height ``z``, ``box`` from :func:`text_box`) and the nearest of ``points`` (k, 3),
+    the least over the views from ``eyes``; negative where the box covers a point."""
+    anchors = np.asarray(anchors, dtype=np.float64).reshape(-1, 2)
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    best = np.full(len(anchors), np.inf)
+    if not len(pts):
+        return best
+    hx, hy, up = box
+    a3 = np.column_stack([anchors, np.full(len(anchors), float(z))])
+    for eye in eyes:
+        r, u = screen_axes(eye)
+        sa = np.column_stack([a3 @ r, a3 @ u + up])
+        sp = np.unique(np.round(np.column_stack([pts @ r, pts @ u]), 2), axis=0)
+        block = max(1, 2_000_000 // len(sp))          # a few MB at a time
+        for i in range(0, len(sa), block):
+            s = sa[i:i + block]
+            gap = np.maximum(np.abs(s[:, None, 0] - sp[None, :, 0]) - hx,
+                             np.abs(s[:, None, 1] - sp[None, :, 1]) - hy)
+            best[i:i + block] = np.minimum(best[i:i + block], gap.min(axis=1))
+    return best
+
+
+def place_label(edges, z, wall_top, things, radii, char_m, n_chars,
+                eyes=(TOP_EYE, ISO_EYE), n=31):
+    """Where a room's name is anchored (plan point (2,), metres, at height ``z``): inside
+    the floor's outline ``edges`` (e, 2, 2), its box (:func:`text_box`) as far as possible
+    from the walls (the outline's faces from ``z`` up to ``wall_top``) and from ``things``
+    (k, 3): fixtures' discs of ``radii`` (k,) and points (radius 0: rods, stairs,
+    furniture), as seen in every view from ``eyes`` (from above and FreeCAD's
+    isometric); of the points with nearly the best clearance, the one nearest the middle.
+    """
+    from invrad_wb.core.output.design_report import _inside
+    edges = np.asarray(edges, dtype=np.float64).reshape(-1, 2, 2)
+    lo, hi = edges.reshape(-1, 2).min(axis=0), edges.reshape(-1, 2).max(axis=0)
+    g = np.stack(np.meshgrid(np.linspace(lo[0], hi[0], n), np.linspace(lo[1], hi[1], n)),
+                 -1).reshape(-1, 2)
+    g = g[_inside(edges, g)]
+    if len(g) == 0:
+        return edges.reshape(-1, 2).mean(axis=0)
+    box = text_box(char_m, n_chars)
+    box = (box[0] + LABEL_MARGIN_M, box[1] + LABEL_MARGIN_M, box[2])
+    wall = np.asarray(_edge_points(edges, 0.5 * char_m), dtype=np.float64).reshape(-1, 2)
+    walls = np.concatenate([np.column_stack([wall, np.full(len(wall), h)])
+                            for h in (float(z), max(float(wall_top), float(z)))])
+    pts = np.concatenate([walls, _disc_points(things, radii)])
+    d = label_clearance(g, z, pts, box, eyes)
+    step = float(np.min((hi - lo) / (n - 1)))
+    near_best = d >= d.max() - 0.25 * step
+    mid = 0.5 * (lo + hi)
+    k = np.flatnonzero(near_best)
+    return g[k[int(np.argmin(np.linalg.norm(g[k] - mid, axis=1)))]]
 
 
 def iso_shadow(points, z, eye=ISO_EYE):
@@ -192,8 +282,8 @@ def _obstacle_xyz(space, edges, z0, z1):
                     or bb.ZMax < 1000.0 * z0 or bb.ZMin > 1000.0 * z1
                     or bb.XLength > 0.9 * (hi[0] - lo[0]) and bb.YLength > 0.9 * (hi[1] - lo[1])):
                 continue
-            xyz = np.array([[v.Point.x, v.Point.y, v.Point.z] for v in shape.Vertexes
-                            if 1000.0 * z0 - 1.0 <= v.Point.z <= 1000.0 * z1]) / 1000.0
+            xyz = _shape_points(shape)
+            xyz = xyz[(xyz[:, 2] >= 1000.0 * z0 - 1.0) & (xyz[:, 2] <= 1000.0 * z1)] / 1000.0
         except Exception:          # an object without readable geometry is no obstacle
             continue
         if len(xyz):
@@ -203,6 +293,19 @@ def _obstacle_xyz(space, edges, z0, z1):
         xyz = xyz[(xyz[:, 2] >= z0 - 1e-3) & (xyz[:, 2] <= z1)]
         out += list(xyz[_inside(edges, xyz[:, :2])])
     return out
+
+
+def _shape_points(shape, step_mm=100.0):
+    """(k, 3) points (mm) along a shape's edges every ``step_mm`` and its vertices: a
+    cylinder's outline, not only its two seam vertices."""
+    pts = [[v.Point.x, v.Point.y, v.Point.z] for v in shape.Vertexes]
+    for e in shape.Edges:
+        try:
+            n = max(int(np.ceil(e.Length / step_mm)), 1)
+            pts += [[p.x, p.y, p.z] for p in e.discretize(Number=n + 1)]
+        except Exception:          # an edge that cannot be sampled keeps its vertices
+            continue
+    return np.asarray(pts, dtype=np.float64).reshape(-1, 3)
 
 
 #: IFC classes that stand in a room and that a name must not cover (NativeIFC draws
@@ -262,16 +365,26 @@ def _outline_edges(tri):
 
 
 def _fixture_points(space, ceiling_z):
-    """Points (metres) of the light fixtures in a Space: each luminaire, and for a
-    pendant its rod up to ``ceiling_z`` every :data:`ROD_STEP_M` (none if unreadable)."""
+    """Points (metres) of the light fixtures in a Space and their plan radii (metres):
+    each luminaire with the radius of its body (a panel's half diagonal), and for a
+    pendant its rod up to ``ceiling_z`` every :data:`ROD_STEP_M` (radius 0); none if
+    unreadable."""
     try:
         from invrad_wb.app import fixtures
-        pos = [np.asarray(fixtures.fixture_luminaire(o).position, dtype=np.float64)
-               for o in fixtures.room_fixtures(space, generated_only=False)]
+        from invrad_wb.app.fixturebody import fixture_size
+        lums = [fixtures.fixture_luminaire(o)
+                for o in fixtures.room_fixtures(space, generated_only=False)]
     except Exception:
-        return []
-    out = []
-    for x, y, z in pos:
+        return [], []
+    out, radii = [], []
+    for lum in lums:
+        x, y, z = np.asarray(lum.position, dtype=np.float64)
+        try:
+            size = fixture_size(lum)
+            r = size[1] if size[0] == "disc" else 0.5 * float(np.hypot(size[1], size[2]))
+        except Exception:
+            r = 0.0
         n = max(int(np.ceil((ceiling_z - z) / ROD_STEP_M)), 0)
         out += [(x, y, z + k * (ceiling_z - z) / max(n, 1)) for k in range(n + 1)]
-    return out
+        radii += [float(r)] + [0.0] * n
+    return out, radii

@@ -229,7 +229,9 @@ def describe_design(res):
              f" {len(res.building.rooms)} room(s);"
              f" {'every requirement met' if d.get('compliant') else 'NOT every requirement met'};"
              f" report: {res.summary.get('report', '')}"]
+    from invrad_wb.app.pipeline import collect_small_sources, point_source_note
     nan = float("nan")
+    small = []                  # luminaire types rated as point sources, said once
     for r in d.get("rooms", []):
         name = r.get("name") or r.get("room")
         req = r.get("requirement") or {}
@@ -238,7 +240,10 @@ def describe_design(res):
                      f" {req.get('lux', nan):.0f}, U0 {r.get('u0', nan):.2f} for"
                      f" {req.get('u0', nan):.2f}; {r.get('watts', 0):.1f} W"
                      f" ({r.get('w_per_m2', 0):.1f} W/m2)")
-        lines += [f"    {n}" for n in r.get("notes") or []]
+        lines += [f"    {n}" for n in r.get("notes") or []
+                  if not collect_small_sources(n, small)]
+    if small:
+        lines.append(point_source_note(small))
     return lines
 
 
