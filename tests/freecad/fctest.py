@@ -1,4 +1,5 @@
 """Base TestCase and model builders for the FreeCAD tests (run under freecadcmd)."""
+import contextlib
 import importlib.util
 import os
 import shutil
@@ -12,6 +13,9 @@ import FreeCAD
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
+EXAMPLES = os.path.join(ROOT, "examples")
+
+
 def _find_fzk():
     """The FZK-Haus sample: $INVRAD_FZK_IFC, ../shared/data, or the copy in tests/data."""
     for path in (os.environ.get("INVRAD_FZK_IFC"),
@@ -38,6 +42,17 @@ needs_locate = unittest.skipUnless(has_module("invrad_wb.core.inverse.locate"),
 needs_radiosity = unittest.skipUnless(has_module("invrad_wb.core.forward.radiosity"),
                                       "needs the radiosity model (invrad_wb.core.forward.radiosity)")
 needs_fzk = unittest.skipUnless(os.path.isfile(FZK), f"sample building {FZK} not found")
+
+
+@contextlib.contextmanager
+def fzk_document():
+    """The FZK-Haus imported into a new document (``ifcrooms.import_ifc``), closed after."""
+    from invrad_wb.app import ifcrooms
+    doc = ifcrooms.import_ifc(FZK).doc
+    try:
+        yield doc
+    finally:
+        FreeCAD.closeDocument(doc.Name)
 
 
 class FreeCADTestCase(unittest.TestCase):

@@ -6,26 +6,19 @@ import os
 import tempfile
 import time
 
-import FreeCAD
-
-from fctest import FZK, FreeCADTestCase, needs_fzk
-from invrad_wb.app import design as app_design, ifcexport, ifcrooms, pipeline, targets
+from fctest import EXAMPLES, FreeCADTestCase, fzk_document, needs_fzk
+from invrad_wb.app import design as app_design, ifcexport, pipeline, targets
 from invrad_wb.app.fixtures import all_fixtures
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-SPEC = os.path.join(ROOT, "examples", "fzk_design.json")
+SPEC = os.path.join(EXAMPLES, "fzk_design.json")
 
 
 @needs_fzk
 class TestDesignFZK(FreeCADTestCase):
 
     def test_fzk_design_meets_every_requirement_with_typed_fixtures(self):
-        imp = ifcrooms.import_ifc(FZK)
-        doc = imp.doc
-        try:
+        with fzk_document() as doc:
             self._run(doc)
-        finally:
-            FreeCAD.closeDocument(doc.Name)
 
     def _run(self, doc):
         spec = app_design.spec_from_targets_file(SPEC)

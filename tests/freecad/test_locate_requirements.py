@@ -8,25 +8,18 @@ import time
 
 import numpy as np
 
-import FreeCAD
+from fctest import EXAMPLES, FreeCADTestCase, fzk_document, needs_fzk
+from invrad_wb.app import pipeline, targets
 
-from fctest import FZK, FreeCADTestCase, needs_fzk
-from invrad_wb.app import ifcrooms, pipeline, targets
-
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-TARGETS = os.path.join(ROOT, "examples", "fzk_targets.json")
+TARGETS = os.path.join(EXAMPLES, "fzk_targets.json")
 
 
 @needs_fzk
 class TestLocateRequirementsFZK(FreeCADTestCase):
 
     def test_fzk_targets_give_regular_ceiling_rows_that_meet_each_level(self):
-        imp = ifcrooms.import_ifc(FZK)
-        doc = imp.doc
-        try:
+        with fzk_document() as doc:
             self._run(doc)
-        finally:
-            FreeCAD.closeDocument(doc.Name)
 
     def _run(self, doc):
         opts = targets.apply_targets_file(doc, TARGETS)
