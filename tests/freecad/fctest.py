@@ -87,6 +87,16 @@ class FreeCADTestCase(unittest.TestCase):
             self.fail(f"document changed: added {added}, removed {removed}, changed"
                       f" {changed} {detail}")
 
+    def assertRoomMeetsDesign(self, room, work_plane):
+        """A design summary's room meets every EN 12464-1 item asked (work plane level and
+        U0, walls, ceiling) and shows its UGR; ``work_plane`` is the requirement's item."""
+        self.assertTrue(room["compliant"], (room["pass"], room["notes"]))
+        self.assertTrue(all(room["pass"].values()), room["pass"])
+        self.assertEqual(set(room["surfaces"]), {"walls", "ceiling"})
+        self.assertGreaterEqual(room["em_lux"], work_plane["lux"] - 0.5)
+        self.assertGreaterEqual(room["u0"], work_plane["u0"] - 0.005)
+        self.assertIsNotNone(room["ugr"])
+
     def assertRaisesMessage(self, exc_type, *fragments):
         """Context manager: raises ``exc_type`` whose message contains every fragment."""
         test = self
