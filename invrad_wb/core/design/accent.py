@@ -134,6 +134,20 @@ def within(achieved_mean, target_mean, tol=SPOT_TOLERANCE):
     return abs(achieved_mean - target_mean) <= tol * target_mean + 1e-9
 
 
+def accent_wanted(goal, base):
+    """Whether ``goal`` wants an accent over the general lighting's lux ``base`` at its
+    points: ``(True, None)`` when a spot is short of its level; ``(False, None)`` when it is
+    no spot or already within tolerance; ``(False, note)`` when the general lighting alone
+    is brighter than asked (an accent cannot take light away)."""
+    mean = float(np.mean(base))
+    if goal.kind != "spot" or within(mean, goal.target_mean):
+        return False, None
+    if mean > goal.target_mean:
+        return False, (f"the general lighting alone gives {mean:.0f} lx for"
+                       f" {goal.target_mean:.0f} lx")
+    return True, None
+
+
 @dataclass
 class SpotResult:
     goal: Goal
@@ -234,11 +248,10 @@ def light_spots(model, droom, rs, entries, photometry, general, goals, wp_top_z,
     notes, accent_of = {}, {}
     for i, goal in enumerate(goals):
         base = lux[ends[i]:ends[i + 1]]
-        if goal.kind != "spot" or within(float(np.mean(base)), goal.target_mean):
-            continue
-        if np.mean(base) > goal.target_mean:
-            notes[i] = (f"{goal.label()}: the general lighting alone gives"
-                        f" {np.mean(base):.0f} lx for {goal.target_mean:.0f} lx")
+        wanted, note = accent_wanted(goal, base)
+        if not wanted:
+            if note:
+                notes[i] = f"{goal.label()}: {note}"
             continue
         others = np.array([lum.position for lum in general + accents]).reshape(-1, 3)
         free = np.ones(len(positions), bool)

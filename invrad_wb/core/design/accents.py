@@ -38,7 +38,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from invrad_wb.constants import SPOT_TOLERANCE
-from invrad_wb.core.design.accent import ACCENT_MIN_GAP_M, SPOT_CORE, SpotResult, within
+from invrad_wb.core.design.accent import (ACCENT_MIN_GAP_M, SPOT_CORE, SpotResult,
+                                          accent_wanted, within)
 from invrad_wb.core.design.evaluate import luminaires_of
 from invrad_wb.core.design.layouts import mount
 from invrad_wb.core.model.aiming import aimed_c0, tilt_pan
@@ -558,11 +559,10 @@ def light_spots_aimed(scene, model, droom, rs, entries, photometry, general, goa
     accents, notes, groups = [], {}, {}
     for i, goal in enumerate(goals):
         base = part(lux, i)
-        if goal.kind != "spot" or within(float(np.mean(base)), goal.target_mean):
-            continue
-        if np.mean(base) > goal.target_mean:
-            notes[i] = (f"the general lighting alone gives {np.mean(base):.0f} lx for"
-                        f" {goal.target_mean:.0f} lx")
+        wanted, note = accent_wanted(goal, base)
+        if not wanted:
+            if note:
+                notes[i] = note
             continue
         others = np.array([lum.position for lum in general + accents]).reshape(-1, 3)
         sh = None
