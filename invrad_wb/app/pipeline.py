@@ -609,7 +609,7 @@ def room_verdicts(building, target, achieved, kinds=None, requirements=None, flu
     fixtures in the document, however they came there) leaves out what is said of how
     Locate treated the room.
     """
-    from invrad_wb.core.design.requirements import judge
+    from invrad_wb.core.design.requirements import verdict_summary
     from invrad_wb.core.output.fitquality import fit_quality, poor_fit_warning
     if kinds is None:
         kinds = classify_targets(building)
@@ -622,18 +622,11 @@ def room_verdicts(building, target, achieved, kinds=None, requirements=None, flu
         name = room_name(p.space)
         rt = kinds.get(p.room_id)
         if rt is not None and rt.requirement:
-            v = judge(scene, p.room_id, rt, achieved, name)
-            d = {"targets": "requirement", **v.to_dict(), "words": f"{name}: {v.words()}"}
+            d = verdict_summary(scene, p.room_id, rt, achieved, name, requirements,
+                                "these targets are requirements: Design (a catalogue of"
+                                " luminaires, dimming) finds the layout of least power that"
+                                " meets them")
             rd = designed.get(p.room_id)
-            if rd is not None and rd.candidate is not None:
-                d["layout"] = rd.candidate.geom.describe()
-                d["mounting"] = requirements.mountings[p.room_id].kind
-                d["notes"] = [n for n in rd.notes if "nothing designed" not in n]
-            if not v.met:
-                d["why_not"] = v.why_not()
-                d["advice"] = ("these targets are requirements: Design (a catalogue of"
-                               " luminaires, dimming) finds the layout of least power that"
-                               " meets them")
             if rd is None and flux is None and located:
                 d.setdefault("why_not", []).append(
                     "no luminaire flux given: the targets were fitted point by point; give"

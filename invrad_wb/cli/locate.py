@@ -190,7 +190,7 @@ def _locate_requirements(scene, kinds, args, settings, phot, workers, names, pro
     requirement room)."""
     from dataclasses import asdict
     import time
-    from invrad_wb.core.design.requirements import design_requirements, judge
+    from invrad_wb.core.design.requirements import design_requirements, verdict_summary
     from invrad_wb.core.forward.render import render
     from invrad_wb.core.inverse.locate import LocateResult, locate
     names = names or {}
@@ -212,20 +212,10 @@ def _locate_requirements(scene, kinds, args, settings, phot, workers, names, pro
         if not rt.requirement:
             continue
         name = names.get(r) or f"room {r}"
-        v = judge(scene, r, rt, achieved, name)
-        d = {"room": int(r), "targets": "requirement", **v.to_dict(),
-             "words": f"{name}: {v.words()}"}
-        rd = req.rooms.get(r)
-        if rd is not None and rd.candidate is not None:
-            d["layout"] = rd.candidate.geom.describe()
-            d["mounting"] = req.mountings[r].kind
-            d["notes"] = [n for n in rd.notes if "nothing designed" not in n]
-        if not v.met:
-            d["why_not"] = v.why_not()
-            d["advice"] = ("these targets are requirements: `python -m invrad_wb design`"
-                           " (a catalogue of luminaires, dimming) finds the layout of least"
-                           " power that meets them")
-        verdicts.append(d)
+        verdicts.append({"room": int(r), **verdict_summary(
+            scene, r, rt, achieved, name, req,
+            "these targets are requirements: `python -m invrad_wb design` (a catalogue of"
+            " luminaires, dimming) finds the layout of least power that meets them")})
     result.timings["requirements"] = round(req.seconds, 4)
     result.timings["total"] = time.perf_counter() - t0
     return result, verdicts

@@ -331,3 +331,21 @@ def judge(scene, room, rt, achieved, name=None):
     inside = droom.wall_distance(scene.vertices[v, :2]) >= rt.margin_m - 1e-6
     v = v[inside] if inside.any() else v
     return requirement_verdict(rt.level_lux, achieved[v], rt.u0, rt.u0_source)
+
+
+def verdict_summary(scene, room, rt, achieved, name, result, advice):
+    """A requirement room's verdict as a dict (Locate's and the CLI's summaries): the
+    :func:`judge` verdict, its words, the layout, mounting and notes of the room's design in
+    ``result`` (a :class:`RequirementsResult`, or None) and, where not met, why not and the
+    ``advice`` (which words name Design depends on who asks)."""
+    v = judge(scene, room, rt, achieved, name)
+    d = {"targets": "requirement", **v.to_dict(), "words": f"{name}: {v.words()}"}
+    rd = None if result is None else result.rooms.get(room)
+    if rd is not None and rd.candidate is not None:
+        d["layout"] = rd.candidate.geom.describe()
+        d["mounting"] = result.mountings[room].kind
+        d["notes"] = [n for n in rd.notes if "nothing designed" not in n]
+    if not v.met:
+        d["why_not"] = v.why_not()
+        d["advice"] = advice
+    return d
