@@ -154,12 +154,9 @@ def place_label(edges, z, wall_top, things, radii, char_m, n_chars,
     furniture), as seen in every view from ``eyes`` (from above and FreeCAD's
     isometric); of the points with nearly the best clearance, the one nearest the middle.
     """
-    from invrad_wb.core.output.design_report import _inside
+    from invrad_wb.core.geometry.outline import outline_raster
     edges = np.asarray(edges, dtype=np.float64).reshape(-1, 2, 2)
-    lo, hi = edges.reshape(-1, 2).min(axis=0), edges.reshape(-1, 2).max(axis=0)
-    g = np.stack(np.meshgrid(np.linspace(lo[0], hi[0], n), np.linspace(lo[1], hi[1], n)),
-                 -1).reshape(-1, 2)
-    g = g[_inside(edges, g)]
+    g, lo, hi = outline_raster(edges, n)
     if len(g) == 0:
         return edges.reshape(-1, 2).mean(axis=0)
     box = text_box(char_m, n_chars)
@@ -261,7 +258,7 @@ def _obstacle_xyz(space, edges, z0, z1):
     outline ``edges``. The building's envelope (walls, slabs, doors, windows, the rooms
     themselves) and the light fixtures (counted apart) are not obstacles."""
     from invrad_wb.app.document import object_type
-    from invrad_wb.core.output.design_report import _inside
+    from invrad_wb.core.geometry.outline import inside_outline
     doc = getattr(space, "Document", None)
     if doc is None:
         return []
@@ -287,11 +284,11 @@ def _obstacle_xyz(space, edges, z0, z1):
         except Exception:          # an object without readable geometry is no obstacle
             continue
         if len(xyz):
-            out += list(xyz[_inside(edges, xyz[:, :2])])
+            out += list(xyz[inside_outline(edges, xyz[:, :2])])
     xyz = _native_obstacles(space)
     if len(xyz):
         xyz = xyz[(xyz[:, 2] >= z0 - 1e-3) & (xyz[:, 2] <= z1)]
-        out += list(xyz[_inside(edges, xyz[:, :2])])
+        out += list(xyz[inside_outline(edges, xyz[:, :2])])
     return out
 
 

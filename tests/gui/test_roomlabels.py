@@ -48,8 +48,8 @@ def test_name_clear_of_fixture_discs_a_stair_and_walls_from_above_and_isometric(
     radii = np.concatenate([np.full(len(lights), 0.3), np.zeros(len(rods) + len(stair))])
     char_m, name = 6.0 / 70.0, "Schlafzimmer"
     c = rl.place_label(edges, z, top, things, radii, char_m, len(name))
-    from invrad_wb.core.output.design_report import _inside
-    assert _inside(edges, np.asarray(c)[None])[0], c
+    from invrad_wb.core.geometry.outline import inside_outline
+    assert inside_outline(edges, np.asarray(c)[None])[0], c
     box = rl.text_box(char_m, len(name))
     discs = rl._disc_points(lights, np.full(len(lights), 0.3))
     wall = np.array(rl._edge_points(edges, 0.02))

@@ -20,6 +20,7 @@ import os
 
 import numpy as np
 
+from invrad_wb.core.geometry.outline import inside_outline, outline_raster
 from invrad_wb.core.io.atomic import atomic_dir
 from invrad_wb.constants import SPOT_TOLERANCE, SURFACE_REFERENCE
 from invrad_wb.core.output import document
@@ -116,7 +117,7 @@ def _false_colour(ax, pts, lux, lux_max, required, edges=None):
                             axis=1))
     mask = longest > 1.5 * np.sqrt(2.0) * cell
     if edges is not None:
-        mask |= ~_inside(np.asarray(edges, dtype=float)[:, :, :2], corner.mean(axis=1))
+        mask |= ~inside_outline(np.asarray(edges, dtype=float)[:, :, :2], corner.mean(axis=1))
     if not mask.all():
         tri.set_mask(mask)
     m = ax.tripcolor(tri, lux, shading="gouraud", cmap="viridis", vmin=0, vmax=lux_max)
@@ -127,25 +128,13 @@ def _false_colour(ax, pts, lux, lux_max, required, edges=None):
     return m
 
 
-def _inside(edges, p):
-    a, b = edges[:, 0], edges[:, 1]
-    y = p[:, 1:2]
-    crosses = (a[:, 1] > y) != (b[:, 1] > y)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x_at = a[:, 0] + (y - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
-    return (np.count_nonzero(crosses & (p[:, :1] < x_at), axis=1) % 2) == 1
-
-
 def label_point(edges, avoid, n=25, half_size=None):
     """A point inside a room's outline as far as possible from its walls and from the
     points ``avoid`` (luminaires): where its label overlaps neither (pole of
     inaccessibility on an n x n raster; odd n puts the middle on it). ``half_size`` (hx, hy), metres: the label's half
     width and height; the distance to a point then counts in label boxes (a wide label
     keeps further from points beside it than from points above it)."""
-    lo, hi = edges.reshape(-1, 2).min(axis=0), edges.reshape(-1, 2).max(axis=0)
-    g = np.stack(np.meshgrid(np.linspace(lo[0], hi[0], n), np.linspace(lo[1], hi[1], n)),
-                 -1).reshape(-1, 2)
-    g = g[_inside(edges, g)]
+    g, lo, hi = outline_raster(edges, n)
     if len(g) == 0:
         return edges.reshape(-1, 2).mean(axis=0)
     a, b = edges[:, 0], edges[:, 1]
