@@ -97,46 +97,54 @@ def spot_at(rng, hit, h, toward, tilts=(15.0, 60.0), pan_jitter=30.0, size=None)
     return None, None
 
 
-def place(rng, lums, apex, a, flux, phot, min_apart=0.7):
-    if apex is None or any(np.linalg.norm(apex - l.position) < min_apart for l in lums):
-        return False
-    lums.append(Luminaire(apex, a, flux, photometry=phot, c0=aimed_c0(DOWN, a)))
-    return True
+class Lights:
+    """A room's luminaires, all of one flux and photometry: aimed spots and downlights."""
+
+    def __init__(self, rng, size, flux, phot):
+        self.rng, self.size, self.flux, self.phot = rng, size, flux, phot
+        self.lums = []
+
+    def place(self, apex, a, min_apart=0.7):
+        if apex is None or any(np.linalg.norm(apex - l.position) < min_apart
+                               for l in self.lums):
+            return False
+        self.lums.append(Luminaire(apex, a, self.flux, photometry=self.phot,
+                                   c0=aimed_c0(DOWN, a)))
+        return True
+
+    def aim(self, draw_hit, toward, tries=50, **spot):
+        """One ceiling spot at a hit point ``draw_hit()`` draws (up to ``tries`` draws,
+        until one lands on the ceiling clear of the others); see :func:`spot_at`."""
+        for _ in range(tries):
+            if self.place(*spot_at(self.rng, draw_hit(), self.size[2], toward,
+                                   size=self.size, **spot)):
+                return
+
+    def down(self, *positions):
+        self.lums += [Luminaire(p, DOWN, self.flux, photometry=self.phot) for p in positions]
 
 
 def gallery(rng, folder):
     size = (7.0, 4.0, 3.0)
-    scene = g.box_room(size, cell=0.1, reflectance=0.0)
     phot = cos_n_ies(folder, 40)
-    flux = 800.0
-    lums = []
+    lights = Lights(rng, size, 800.0, phot)
     for x in (1.5, 3.5, 5.5):                     # three paintings on the wall y = 0
-        for _ in range(50):
-            hit = [x + rng.uniform(-0.3, 0.3), 0.0, rng.uniform(1.2, 2.0)]
-            if place(rng, lums, *spot_at(rng, hit, size[2], (0, -1), size=size), flux, phot):
-                break
-    for p in ([2.5, 2.8, 3.0], [4.6, 2.9, 3.0]):
-        lums.append(Luminaire(p, DOWN, flux, photometry=phot))
-    return scene, lums, phot, False
+        lights.aim(lambda: [x + rng.uniform(-0.3, 0.3), 0.0, rng.uniform(1.2, 2.0)], (0, -1))
+    lights.down([2.5, 2.8, 3.0], [4.6, 2.9, 3.0])
+    return g.box_room(size, cell=0.1, reflectance=0.0), lights.lums, phot, False
 
 
 def shop(rng, folder):
     size = (6.0, 5.0, 3.0)
     tables = [((1.2, 1.2, 0.0), (2.2, 2.0, 0.8)), ((3.8, 2.8, 0.0), (4.8, 3.6, 0.8))]
-    scene = _with_tables(size, tables)
     phot = cos_n_ies(folder, 4)
-    flux = 1500.0
-    lums = []
+    lights = Lights(rng, size, 1500.0, phot)
     for lo, hi in tables:
-        for _ in range(50):
-            hit = [rng.uniform(lo[0] + 0.3, hi[0] - 0.3), rng.uniform(lo[1] + 0.2, hi[1] - 0.2),
-                   hi[2]]
-            if place(rng, lums, *spot_at(rng, hit, size[2], None, tilts=(15.0, 40.0),
-                                         size=size), flux, phot):
-                break
-    for p in ([1.0, 4.0, 3.0], [5.0, 1.0, 3.0]):
-        lums.append(Luminaire(p, DOWN, flux, photometry=phot))
-    return scene, lums, phot, True
+        lights.aim(lambda: [rng.uniform(lo[0] + 0.3, hi[0] - 0.3),
+                            rng.uniform(lo[1] + 0.2, hi[1] - 0.2), hi[2]], None,
+                   tilts=(15.0, 40.0))
+    lights.down([1.0, 4.0, 3.0], [5.0, 1.0, 3.0])
+    return _with_tables(size, tables), lights.lums, phot, True
 
 
 def _with_tables(size, tables):
@@ -152,22 +160,14 @@ def _with_tables(size, tables):
 
 def lobby(rng, folder):
     size = (8.0, 5.0, 3.5)
-    scene = g.box_room(size, cell=0.1, reflectance=0.5)
     phot = cos_n_ies(folder, 10)
-    flux = 1200.0
-    lums = []
+    lights = Lights(rng, size, 1200.0, phot)
     for x in (2.0, 4.0, 6.0):                     # washing the wall y = 5
-        for _ in range(50):
-            hit = [x + rng.uniform(-0.3, 0.3), 5.0, rng.uniform(1.0, 2.2)]
-            if place(rng, lums, *spot_at(rng, hit, size[2], (0, 1), size=size), flux, phot):
-                break
-    for _ in range(50):                            # one on the floor
-        hit = [rng.uniform(2.0, 6.0), rng.uniform(1.0, 2.5), 0.0]
-        if place(rng, lums, *spot_at(rng, hit, size[2], None, tilts=(15.0, 30.0), size=size),
-                 flux, phot):
-            break
-    lums.append(Luminaire([4.0, 1.0, 3.5], DOWN, flux, photometry=phot))
-    return scene, lums, phot, True
+        lights.aim(lambda: [x + rng.uniform(-0.3, 0.3), 5.0, rng.uniform(1.0, 2.2)], (0, 1))
+    lights.aim(lambda: [rng.uniform(2.0, 6.0), rng.uniform(1.0, 2.5), 0.0], None,  # floor
+               tilts=(15.0, 30.0))
+    lights.down([4.0, 1.0, 3.5])
+    return g.box_room(size, cell=0.1, reflectance=0.5), lights.lums, phot, True
 
 
 ROOMS = {"gallery": gallery, "shop": shop, "lobby": lobby}
