@@ -11,6 +11,7 @@ import numpy as np
 
 from invrad_wb.errors import SceneError
 from invrad_wb.core.design import en12464
+from invrad_wb.core.geometry.outline import inside_outline
 from invrad_wb.core.geometry.raster import locate_points
 from invrad_wb.core.model.targets import (WORK_PLANE_HEADROOM_M, boundary_edges,
                                           distance_to_segments)
@@ -123,13 +124,7 @@ class DesignRoom:
     # ------------------------------------------------------------------ queries
     def inside(self, xy):
         """(k,) bool: plan points (world XY) inside the floor outline (even-odd rule)."""
-        xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        a, b = self._edges[:, 0], self._edges[:, 1]
-        y = xy[:, 1:2]
-        crosses = (a[:, 1] > y) != (b[:, 1] > y)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            x_at = a[:, 0] + (y - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
-        return (np.count_nonzero(crosses & (xy[:, :1] < x_at), axis=1) % 2) == 1
+        return inside_outline(self._edges, np.asarray(xy, dtype=np.float64).reshape(-1, 2))
 
     def wall_distance(self, xy):
         """(k,) distance of plan points (world XY) to the floor's outline; negative outside."""
