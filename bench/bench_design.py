@@ -33,14 +33,21 @@ from invrad_wb.core.design.spec import spec_from_dict  # noqa: E402
 from invrad_wb.core.synthetic.design_rooms import ROOMS, spec_dict  # noqa: E402
 
 
-def independent_check(scene, spec, lums):
-    """Metrics of luminaires by a fresh exact solve (no state shared with the search) and
-    the verdict on the work plane, walls and ceiling."""
+def room_model(scene, spec):
+    """Room 0's spec, :class:`DesignRoom` and exact :class:`RoomModel` (the work plane's
+    calculation grid, walls and ceiling), as the design engine builds them."""
     rs = spec.room_spec(0)
     droom = DesignRoom(scene, 0)
     pts, _ = droom.grid(rs.work_plane.height_m, rs.work_plane.margin_m)
     model = RoomModel(scene, droom, pts, spec.maintenance_factor,
                       surfaces=surface_grids(scene, 0, droom))
+    return rs, droom, model
+
+
+def independent_check(scene, spec, lums):
+    """Metrics of luminaires by a fresh exact solve (no state shared with the search) and
+    the verdict on the work plane, walls and ceiling."""
+    rs, _, model = room_model(scene, spec)
     lux, direct = model.exact(lums)
     met = Metrics.of(lux, direct, model.layout)
     ok = (met.em >= rs.work_plane.lux - 1e-6 and met.u0 >= rs.work_plane.u0 - 1e-6
@@ -49,11 +56,7 @@ def independent_check(scene, spec, lums):
 
 
 def grid_reference(scene, spec):
-    rs = spec.room_spec(0)
-    droom = DesignRoom(scene, 0)
-    pts, _ = droom.grid(rs.work_plane.height_m, rs.work_plane.margin_m)
-    model = RoomModel(scene, droom, pts, spec.maintenance_factor,
-                      surfaces=surface_grids(scene, 0, droom))
+    rs, droom, model = room_model(scene, spec)
     search = RoomSearch(model, rs.work_plane, rs,
                         spec.entries_for(rs, droom.top_z - droom.floor_z), mixed=False,
                         dimming=False, fractions=(0.5,))

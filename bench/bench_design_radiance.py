@@ -59,8 +59,9 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
+from bench_design import room_model  # noqa: E402
 from invrad_wb.core.design.design import design_room  # noqa: E402
-from invrad_wb.core.design.evaluate import RoomModel, surface_grids  # noqa: E402
+from invrad_wb.core.design.evaluate import surface_grids  # noqa: E402
 from invrad_wb.core.design.room import DesignRoom  # noqa: E402
 from invrad_wb.core.design.search import (RoomSearch, _finalise,  # noqa: E402
                                           metrics_comply)
@@ -160,11 +161,7 @@ def room_spec(cat, room):
 def grid_reference(scene, spec, phot):
     """Every type, every ns x nt grid with half spacing at the walls, dimmed evenly where
     the type allows; the first in order of watts that the exact model finds compliant."""
-    rs = spec.room_spec(0)
-    droom = DesignRoom(scene, 0)
-    pts, _ = droom.grid(rs.work_plane.height_m, rs.work_plane.margin_m)
-    model = RoomModel(scene, droom, pts, spec.maintenance_factor,
-                      surfaces=surface_grids(scene, 0, droom))
+    rs, droom, model = room_model(scene, spec)
     search = RoomSearch(model, rs.work_plane, rs,
                         spec.entries_for(rs, droom.top_z - droom.floor_z), phot,
                         mixed=False, dimming=True, fractions=(0.5,))
