@@ -19,31 +19,29 @@ PY = [sys.executable, "-m", "invrad_wb"]
 
 
 # --------------------------------------------------------------------------- helpers
-@pytest.fixture(scope="module")
-def scenes(tmp_path_factory):
-    """Two small four-room scenes in a folder (a batch), and one's known luminaires."""
-    d = tmp_path_factory.mktemp("scenes")
+def _example_batch(tmp_path_factory, name, example, cell):
+    """A batch folder holding the example scene ``example`` twice (a.ply, b.ply), and the
+    file of its known luminaires."""
+    d = tmp_path_factory.mktemp(name)
     batch = d / "batch"
     batch.mkdir()
     truth = d / "truth.json"
-    subprocess.run(PY + ["example", "four_rooms", "-o", str(batch / "a.ply"), "--cell", "0.4",
+    subprocess.run(PY + ["example", example, "-o", str(batch / "a.ply"), "--cell", cell,
                          "--truth", str(truth)], cwd=ROOT, check=True, capture_output=True)
     (batch / "b.ply").write_bytes((batch / "a.ply").read_bytes())
     return batch, truth
 
 
 @pytest.fixture(scope="module")
+def scenes(tmp_path_factory):
+    """Two small four-room scenes in a folder (a batch), and one's known luminaires."""
+    return _example_batch(tmp_path_factory, "scenes", "four_rooms", "0.4")
+
+
+@pytest.fixture(scope="module")
 def small(tmp_path_factory):
     """A one-room scene (twice, in a batch folder) and its known luminaire."""
-    d = tmp_path_factory.mktemp("small")
-    batch = d / "batch"
-    batch.mkdir()
-    truth = d / "truth.json"
-    subprocess.run(PY + ["example", "one_ceiling", "-o", str(batch / "a.ply"), "--cell",
-                         "0.5", "--truth", str(truth)], cwd=ROOT, check=True,
-                   capture_output=True)
-    (batch / "b.ply").write_bytes((batch / "a.ply").read_bytes())
-    return batch, truth
+    return _example_batch(tmp_path_factory, "small", "one_ceiling", "0.5")
 
 
 def _tree(path):
