@@ -186,6 +186,12 @@ def face_of_kind(space, kind):
     return faces_by_kind(space, kind)[0]
 
 
+def down(x, y, z=2.7, flux=2000.0):
+    """A luminaire at (x, y, z), metres, aimed straight down."""
+    from invrad_wb.core.model.luminaires import Luminaire
+    return Luminaire([x, y, z], [0, 0, -1], flux)
+
+
 class FakeLocateResult:
     def __init__(self, luminaires):
         self.luminaires = luminaires

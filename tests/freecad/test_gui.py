@@ -17,7 +17,7 @@ import numpy as np
 
 import FreeCAD
 
-from fctest import (ROOT, FreeCADTestCase, make_box_space, make_walled_room,
+from fctest import (ROOT, FreeCADTestCase, down, make_box_space, make_walled_room,
                     needs_locate)
 from invrad_wb.app import document, fixtures, pipeline, results, targets
 from invrad_wb.app.pipeline import PipelineSettings
@@ -666,10 +666,6 @@ class TestSelection(FreeCADTestCase):
         self.assertEqual(selection.rooms([(t, [])]), [store])
         self.assertEqual(selection.rooms([(fx, []), (self.space, ["Face2"]), (t, [])]),
                          [self.space, store])
-
-
-def down(x, y, z=2.7, flux=2000.0):
-    return Luminaire([x, y, z], [0, 0, -1], flux)
 
 
 class TestResults(FreeCADTestCase):

@@ -7,17 +7,12 @@ import numpy as np
 
 import FreeCAD
 
-from fctest import (FreeCADTestCase, fake_locate, make_box_space, make_walled_room,
-                    needs_locate)
+from fctest import (FreeCADTestCase, down, fake_locate, make_box_space,
+                    make_walled_room, needs_locate)
 from invrad_wb.app import document, fixtures, pipeline, rooms, targets
 from invrad_wb.app.pipeline import PipelineSettings
 from invrad_wb.core.model import targets as CT
-from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.errors import Cancelled, InvradError, SceneError, SettingsError
-
-
-def down(x, y, z=2.7, flux=2000.0):
-    return Luminaire([x, y, z], [0, 0, -1], flux)
 
 
 class TestPipelineMechanics(FreeCADTestCase):
