@@ -148,6 +148,27 @@ class TestNativeFZK(FreeCADTestCase):
         self.doc.undo()
         self.assertEqual(invrad_lights(self.ifc), [])
 
+    def _run_and_save(self, settings, what, name):
+        """One pipeline run (``what`` in the printed time): one undo step, a fixture per
+        luminaire, in every FZK room and no other; the project saved to ``name`` and read
+        back has an InvRad light per fixture. Returns (result, fixtures, the saved file
+        read with ifcopenshell, its InvRad lights)."""
+        undo0 = self.doc.UndoCount
+        t0 = time.perf_counter()
+        res = pipeline.run(self.doc, settings)
+        print(f"  NativeIFC FZK {what}: {time.perf_counter() - t0:.1f} s,"
+              f" {len(res.luminaires)} luminaires")
+        self.assertEqual(self.doc.UndoCount - undo0, 1)
+        fx = fixtures.all_fixtures(self.doc)
+        self.assertEqual(len(fx), len(res.luminaires))
+        self.assertEqual({rooms.room_name(fixtures.fixture_room(f)) for f in fx}, FZK_ROOMS)
+        out = self.path(name)
+        nativeifc.save(self.proj, out)
+        ifc = read(out)
+        lights = invrad_lights(ifc)
+        self.assertEqual(len(lights), len(fx))
+        return res, fx, ifc, lights
+
     def test_locate_on_every_room_is_saved_in_the_spaces_and_undone(self):
         # issue 9's check: Locate on all 7 rooms of the NativeIFC FZK-Haus, the saved IFC
         # read back with ifcopenshell has every fixture in its IfcSpace, undo restores
@@ -155,23 +176,11 @@ class TestNativeFZK(FreeCADTestCase):
         targets.apply_targets_file(self.doc, TARGETS)
         before = snapshot(self.doc)
         n_entities = len(list(self.ifc))
-        undo0 = self.doc.UndoCount
-        t0 = time.perf_counter()
         # direct light only, as in the two-room test: the check is where the fixtures go
         # and the undo, not the light (interreflection doubled the time)
-        res = pipeline.run(self.doc, pipeline.PipelineSettings(
-            flux_lm=2000.0, resolution_m=0.4, interreflection=False))
-        print(f"  NativeIFC FZK locate, all rooms: {time.perf_counter() - t0:.1f} s,"
-              f" {len(res.luminaires)} luminaires")
-        self.assertEqual(self.doc.UndoCount - undo0, 1)
-        fx = fixtures.all_fixtures(self.doc)
-        self.assertEqual(len(fx), len(res.luminaires))
-        self.assertEqual({rooms.room_name(fixtures.fixture_room(f)) for f in fx}, FZK_ROOMS)
-        out = self.path("located.ifc")
-        nativeifc.save(self.proj, out)
-        ifc = read(out)
-        lights = invrad_lights(ifc)
-        self.assertEqual(len(lights), len(fx))
+        lights = self._run_and_save(pipeline.PipelineSettings(
+            flux_lm=2000.0, resolution_m=0.4, interreflection=False), "locate, all rooms",
+            "located.ifc")[3]
         per_room = {}
         for e in lights:
             c = E.get_container(e)
@@ -189,21 +198,9 @@ class TestNativeFZK(FreeCADTestCase):
         targets.apply_targets_file(self.doc, DESIGN)
         before = snapshot(self.doc)
         n_entities = len(list(self.ifc))
-        undo0 = self.doc.UndoCount
-        t0 = time.perf_counter()
-        res = pipeline.run(self.doc, pipeline.PipelineSettings(flux_lm=None, design=spec))
-        print(f"  NativeIFC FZK design: {time.perf_counter() - t0:.1f} s,"
-              f" {len(res.luminaires)} luminaires")
-        self.assertEqual(self.doc.UndoCount - undo0, 1)
-        fx = fixtures.all_fixtures(self.doc)
-        self.assertEqual(len(fx), len(res.luminaires))
-        self.assertEqual({rooms.room_name(fixtures.fixture_room(f)) for f in fx}, FZK_ROOMS)
+        res, fx, ifc, lights = self._run_and_save(
+            pipeline.PipelineSettings(flux_lm=None, design=spec), "design", "out.ifc")
         # the saved IFC has them in their spaces, with flux and a Body; the requirements too
-        out = self.path("out.ifc")
-        nativeifc.save(self.proj, out)
-        ifc = read(out)
-        lights = invrad_lights(ifc)
-        self.assertEqual(len(lights), len(fx))
         names = {s.GlobalId: (s.LongName or s.Name) for s in ifc.by_type("IfcSpace")}
         req = json.load(open(DESIGN, encoding="utf-8"))["rooms"]
         for e in lights:
