@@ -8,7 +8,8 @@ import numpy as np
 from invrad_wb import constants as C
 
 from invrad_wb.core.inverse.peaks import find_peaks
-from invrad_wb.core.inverse.refine import LOG_SCALE_LIMIT, Light, greedy_select, swap_search
+from invrad_wb.core.inverse.refine import (LOG_SCALE_LIMIT, Light, greedy_select, joint_swap,
+                                           swap_search)
 from invrad_wb.core.inverse.locate_placement import (_light_from_peak, _prefer_mounted,
                                                      _snap_to_surfaces)
 from invrad_wb.core.inverse.locate_problem import FREE_FLUX_MIN_GAIN_TOTAL, _ladder_peaks
@@ -264,11 +265,9 @@ class _RoomFit:
                     alone, c1 = self.opt([prob.with_indirect(cand)], fixed=light)
                     if not c1 < cost:
                         continue
-                    trial, c = self.opt(rest + alone)
-                    if c < cost * (1.0 - s.min_gain):
-                        lights, cost = trial, c
-                        swaps += 1
-                        improved = True
+                    kept = joint_swap(self.opt, rest + alone, cost, s.min_gain)
+                    if kept is not None:
+                        (lights, cost), swaps, improved = kept, swaps + 1, True
                         break
                 if improved:
                     break

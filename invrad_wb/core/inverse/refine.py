@@ -714,6 +714,14 @@ def _score(problem, lights, cost):
         L.score = float((c_rest - cost) / max(c_rest, 1e-12))
 
 
+def joint_swap(opt, trial, cost, min_gain):
+    """A swap's acceptance: the set ``trial`` (the rest and a replacement) refined jointly
+    by ``opt``; (lights, cost) when that lowers ``cost`` by more than the share
+    ``min_gain``, else None."""
+    lights, c = opt(trial)
+    return (lights, c) if c < cost * (1.0 - min_gain) else None
+
+
 def swap_search(problem, lights, candidates, min_gain=0.05, merge_distance=0.25, tries=8,
                 max_evals=40, optimiser="lm", deadline=None, screen=False):
     """Escape a poor greedy answer: replace one luminaire by another candidate.
@@ -767,11 +775,9 @@ def swap_search(problem, lights, candidates, min_gain=0.05, merge_distance=0.25,
                         continue
                     evals += 1
                     new = alone[0]
-                trial, c = opt(rest + [new])
-                if c < cost * (1.0 - min_gain):
-                    lights, cost = trial, c
-                    swaps += 1
-                    improved = True
+                kept = joint_swap(opt, rest + [new], cost, min_gain)
+                if kept is not None:
+                    (lights, cost), swaps, improved = kept, swaps + 1, True
                     break
             if improved:
                 break
