@@ -48,7 +48,7 @@ class TestDesignFZK(FreeCADTestCase):
                 # every EN 12464-1 item asked: work plane, walls, ceiling; UGR shown
                 self.assertTrue(r["compliant"], (r["pass"], r["notes"]))
                 self.assertTrue(all(r["pass"].values()), r["pass"])
-                self.assertEqual(set(r["surfaces"]), {"walls", "ceiling"})
+                self.assertEqual(set(r["surfaces"]), {"walls", "ceiling", "surroundings"})
                 self.assertGreaterEqual(r["em_lux"], q["lux"] - 0.5)
                 self.assertGreaterEqual(r["u0"], q["u0"] - 0.005)
                 self.assertIsNotNone(r["ugr"])

@@ -239,7 +239,7 @@ class TestNativeFZK(FreeCADTestCase):
                 q = req[name]["work_plane"]
                 self.assertTrue(r["compliant"], (r["pass"], r["notes"]))
                 self.assertTrue(all(r["pass"].values()), r["pass"])
-                self.assertEqual(set(r["surfaces"]), {"walls", "ceiling"})
+                self.assertEqual(set(r["surfaces"]), {"walls", "ceiling", "surroundings"})
                 self.assertGreaterEqual(r["em_lux"], q["lux"] - 0.5)
                 self.assertGreaterEqual(r["u0"], q["u0"] - 0.005)
                 self.assertIsNotNone(r["ugr"])
