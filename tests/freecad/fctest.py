@@ -92,7 +92,7 @@ class FreeCADTestCase(unittest.TestCase):
         U0, walls, ceiling) and shows its UGR; ``work_plane`` is the requirement's item."""
         self.assertTrue(room["compliant"], (room["pass"], room["notes"]))
         self.assertTrue(all(room["pass"].values()), room["pass"])
-        self.assertEqual(set(room["surfaces"]), {"walls", "ceiling"})
+        self.assertEqual(set(room["surfaces"]), {"walls", "ceiling", "surroundings"})
         self.assertGreaterEqual(room["em_lux"], work_plane["lux"] - 0.5)
         self.assertGreaterEqual(room["u0"], work_plane["u0"] - 0.005)
         self.assertIsNotNone(room["ugr"])

@@ -361,8 +361,11 @@ class TestDisplayNumpy(FreeCADTestCase):
         self.assertEqual(int((groups == groups.max()).sum()), p.n_work_plane)
         ((name, (x, y, z)),) = display.room_labels(b)
         self.assertEqual(name, "Office")
-        # 0.3 m below the 2.7 m ceiling: in the room's open top seen from above
-        np.testing.assert_allclose((x, y, z), (2000.0, 1500.0, 2400.0), atol=1e-6)
+        # 0.3 m below the 2.7 m ceiling, in the room's open top seen from above; the name's
+        # box is kept clear of the walls in the top and the isometric view at once, which
+        # in an empty 4 x 3 m room leaves it near the middle
+        self.assertAlmostEqual(z, 2400.0, places=6)
+        self.assertLess(np.hypot(x - 2000.0, y - 1500.0), 250.0)
 
 
     def test_boundary_edges_per_group(self):

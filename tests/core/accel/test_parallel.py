@@ -201,7 +201,9 @@ def test_cli_workers_same_json_and_cancel_writes_nothing(tmp_path, four_rooms):
     assert not (tmp_path / "r.json").exists()
     # interrupted while the workers run (Ctrl-C reaches the whole process group): exit
     # 130, no result file, no worker left
+    # (Python's own SIGINT handler, as in a terminal: a background job inherits it ignored)
     code = ("import sys, signal, threading, os\n"
+            "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
             "from invrad_wb.cli import main\n"
             "threading.Timer(3.0, lambda: os.kill(os.getpid(), signal.SIGINT)).start()\n"
             "sys.exit(main(sys.argv[1:]))\n")
