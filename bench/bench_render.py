@@ -8,9 +8,15 @@ Lambertian and with a 40-degree intensity distribution, and in the room with a p
 Measured (2 shared cores under load ~8, PoCL CPU; 10,000 luminaires, 40 degrees, same
 scenes, render only): box 30.1 s wall / 18.2 s CPU -> 23.8 s / 11.8 s, pillar 125.2 s /
 61.8 s -> 32.0 s / 16.0 s, after the photometric shadow rays went to the segment kernel
-in batches and the cone prefilter to matrix products (lux equal within 2e-12).
+in batches and the cone prefilter to matrix products (lux equal within 2e-12). Then the
+photometric direct light went into one OpenCL kernel (kernels/photometric.cl: cone test,
+table lookup, shadow ray; 2 shared cores, load 8-11, runs alternated old/new, wall / CPU
+s): box 78.3 / 12.9 and 54.1 / 15.2 -> 21.3 / 4.7 and 20.1 / 5.0, pillar 81.5 / 19.3 and
+85.6 / 18.3 -> 38.1 / 7.3 and 19.3 / 6.2 (mean lux 219.7231 both; pillar 210.6482 ->
+210.6483, float32).
 
 Usage: python bench/bench_render.py [--cell 0.08] [--repeat 3] [--many 10000]
+       [--only-many] [--photometric]
 """
 import argparse
 import os
@@ -44,14 +50,16 @@ def main():
     ap.add_argument("--many", type=int, default=10000,
                     help="luminaires of the many-luminaire figures (0: none)")
     ap.add_argument("--only-many", action="store_true", help="only those figures")
+    ap.add_argument("--photometric", action="store_true",
+                    help="of those, only the 40-degree distribution")
     args = ap.parse_args()
     if not args.only_many:
         few(args)
     if args.many:
-        many(args.many)
+        many(args.many, args.photometric)
 
 
-def many(n):
+def many(n, photometric_only=False):
     """Render ``n`` luminaires (the cost that grows as luminaires x points)."""
     from invrad_wb.core.model.photometry import Photometry
     rng = np.random.default_rng(0)
@@ -61,18 +69,20 @@ def many(n):
                         name="40 degrees")
     print(f"\n{n} luminaires 5 cm under the ceiling, 6 x 4 x 3 m, mesh 10 cm, with"
           " interreflection")
-    print(f"{'room':8s} {'distribution':14s} {'seconds':>8s} {'vertices':>9s}  mean lux")
+    print(f"{'room':8s} {'distribution':14s} {'seconds':>8s} {'CPU s':>8s} {'vertices':>9s}"
+          "  mean lux")
     for room, scene in (("box", g.box_room((6, 4, 3), cell=0.1, reflectance=0.5)),
                         ("pillar", g.pillar_room(cell=0.1, reflectance=0.5))):
-        for name, phot in (("lambertian", None), ("40 degrees", narrow)):
+        for name, phot in (("lambertian", None), ("40 degrees", narrow))[photometric_only:]:
             lums = [Luminaire([x, y, 2.95], [0, 0, -1], 12000.0 / n, photometry=phot)
                     for x, y in xy]
             scene.__dict__.pop("_bvh", None)
             scene.__dict__.pop("_radiosity", None)
-            t = time.perf_counter()
+            t, cpu = time.perf_counter(), time.process_time()
             lux = render(scene, lums)
             print(f"{room:8s} {name:14s} {time.perf_counter() - t:8.2f}"
-                  f" {len(scene.vertices):9d}  {lux.mean():8.2f}", flush=True)
+                  f" {time.process_time() - cpu:8.2f} {len(scene.vertices):9d}"
+                  f"  {lux.mean():8.4f}", flush=True)
 
 
 def few(args):

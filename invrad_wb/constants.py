@@ -71,6 +71,8 @@ RADIOSITY_NEAR_BLEND = 0.5
 #: runs long enough to trip a GPU driver's watchdog).
 CL_CHUNK_RECEIVERS = 1 << 18
 CL_CHUNK_SEGMENTS = 1 << 20
+#: Photometric direct light: (point, luminaire) pairs per launch (kernels/photometric.cl)
+CL_CHUNK_PHOTOMETRIC_PAIRS = 1 << 24
 #: Exact votes: (16-pixel blocks x voting points) per launch.
 CL_CHUNK_VOTE_PAIRS = 1 << 27
 CL_CHUNK_ELLIPSES = 1 << 16

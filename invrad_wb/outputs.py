@@ -15,8 +15,12 @@ removes what a failed run created there and nothing that existed before.
 """
 import os
 
+from invrad_wb.core.io.atomic import FULL_BYTES
 from invrad_wb.errors import InvradError
 from invrad_wb.runguard import declare
+
+#: bytes written to a probe file in an output's folder before a run (a block)
+PROBE_BYTES = 4096
 
 
 def resolve(path):
@@ -72,11 +76,31 @@ def _check_parent(path, folder, what):
     if not os.access(probe, os.W_OK):
         raise InvradError(f"{path}: {what}: the folder {probe} is not writable")
     # permission bits do not tell everything (root, read-only mounts, /proc): try it
+    import errno
     import tempfile
     try:
         fd, tmp = tempfile.mkstemp(prefix=".invrad-probe-", dir=probe)
-        os.close(fd)
-        os.unlink(tmp)
     except OSError as exc:
         raise InvradError(f"{path}: {what}: cannot write in the folder {probe}"
                           f" ({exc.strerror or exc})") from None
+    # a full disk or a spent quota still lets a file be made (an inode, no block): write
+    # a block, and ask for the free space, before the run rather than at its last write
+    # (the same line as a write that fails then: runguard.output_error)
+    try:
+        try:
+            os.write(fd, b"\0" * PROBE_BYTES)
+            try:
+                os.fsync(fd)
+            except OSError as exc:        # a file system without fsync is no full disk
+                if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EIO):
+                    raise
+        finally:
+            os.close(fd)
+            os.unlink(tmp)
+        st = os.statvfs(probe)
+        # (a file system that counts no blocks at all, /proc-like, says nothing here)
+        if st.f_blocks and st.f_bavail * st.f_frsize < FULL_BYTES:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    except OSError as exc:
+        raise InvradError(f"{path}: cannot write the output:"
+                          f" {exc.strerror or os.strerror(exc.errno or errno.EIO)}") from None

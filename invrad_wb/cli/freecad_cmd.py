@@ -136,6 +136,7 @@ class _DeprecatedAlias(argparse.Action):
         warnings.warn(f"{option_string} is deprecated here, use {self.new} (same value, metres)",
                       FutureWarning, stacklevel=2)
         setattr(namespace, self.dest, values)
+        setattr(namespace, "typed_" + self.dest, option_string)   # for its errors
 
 
 # --------------------------------------------------------------------------- parent side
@@ -160,7 +161,16 @@ def main(args):
     src, ext, _, _ = _checked_paths(opts)   # before FreeCAD starts: a bad path costs no run
     if opts.get("flux") is not None:
         from invrad_wb.core.inverse.locate import check_flux
-        check_flux(opts["flux"])
+        try:
+            check_flux(opts["flux"])
+        except SettingsError as exc:          # the option the user typed
+            raise SettingsError(f"--{exc}")
+    if opts.get("mesh_size") is not None:
+        from invrad_wb.app.settings import MIN_RESOLUTION_M
+        m = opts["mesh_size"]
+        if not (m == m and abs(m) != float("inf") and m >= MIN_RESOLUTION_M):
+            raise SettingsError(f"{opts.get('typed_mesh_size', '--mesh-size')} must be a"
+                                f" finite length of at least {MIN_RESOLUTION_M} m, got {m!r}")
     if opts.get("settings"):
         read_settings_file(opts["settings"])
     if ext == ".ifc" and not in_freecad():
@@ -336,7 +346,7 @@ def run_job(opts, out=None):
         base_dir=os.path.dirname(opts["targets"]) if opts.get("targets") else
         os.path.dirname(src), design=spec, workers=workers_arg(opts.get("workers", "1")),
         zones=not opts.get("no_zones"))
-    if mesh_size:
+    if mesh_size is not None:
         settings.resolution_m = float(mesh_size)
     result = pipeline.run(doc, settings, progress=progress)
     _say_result(result.summary, say)
@@ -409,7 +419,8 @@ def _run_options(opts, design=False):
               " of each luminaire are fitted")
     else:
         flux = check_flux(flux)
-    mesh_size = opts.get("mesh_size") or from_file.get("resolution_m")
+    mesh_size = (opts["mesh_size"] if opts.get("mesh_size") is not None
+                 else from_file.get("resolution_m"))
     locate_settings = None
     if opts.get("settings"):
         locate_settings = read_settings_file(opts["settings"])

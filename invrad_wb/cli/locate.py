@@ -11,7 +11,7 @@ from invrad_wb.cli.common import (batch_scenes, bool_arg, photometry_arg, run_ba
                                   scene_args, strict_json, warn_suspicious_targets,
                                   with_photometry)
 from invrad_wb.core.model.targets import no_luminaire_reason, require_targets
-from invrad_wb.errors import InvradError
+from invrad_wb.errors import InvradError, SettingsError
 from invrad_wb.outputs import check_file, check_folder
 from invrad_wb.progress import CliProgress, add_parallel_args, floor_note, workers_arg
 
@@ -20,49 +20,63 @@ def add_parser(sub):
     p = sub.add_parser("locate", help="find luminaire positions for the scene's targets")
     scene_args(p, many=True)
     p.add_argument("--flux", type=float,
-                   help="flux of one luminaire, lm (default: the --photometry file's; without"
-                        " either, each luminaire's flux is fitted)")
+            help="flux of one luminaire, lm (default: the --photometry file's; without"
+                 " either, each luminaire's flux is fitted)")
     p.add_argument("-o", "--output", required=True,
-                   help="RESULT.json (with several scenes: a folder)")
+            help="RESULT.json (with several scenes: a folder)")
     p.add_argument("--vote-maps", help="folder for vote-map images (several scenes: one"
                                        " subfolder each)")
     p.add_argument("--settings", help="JSON file with locate settings")
     p.add_argument("-v", "--verbose", action="store_true", help="one line per step")
     add_parallel_args(p)
     g = p.add_argument_group("locate settings (defaults need only the flux)")
-    g.add_argument("--vote-model", dest="vote_model", choices=("exact", "ellipse"))
-    g.add_argument("--resolution", dest="pixel_m", type=float, metavar="M",
-                   help="vote-map resolution, metres per pixel (0.1); not the room mesh"
-                        " size, which is `freecad --mesh-size`")
-    g.add_argument("--votes-per-m2", dest="votes_per_m2", type=float)
-    g.add_argument("--weighting", choices=("illumination", "distance", "both", "none"))
-    g.add_argument("--vote-strength", dest="vote_strength", type=float)
-    g.add_argument("--occlusion", type=bool_arg, help="auto/true/false")
-    g.add_argument("--dummy-planes", dest="dummy_planes", type=bool_arg)
-    g.add_argument("--dummy-spacing", dest="dummy_spacing_m", type=float)
-    g.add_argument("--dummy-count", dest="dummy_count", type=int)
-    g.add_argument("--two-sided-dummies", dest="two_sided_dummies", type=bool_arg)
-    g.add_argument("--all-planes", dest="all_planes", type=bool_arg)
-    g.add_argument("--threshold", type=float, help="0-254 (24)")
-    g.add_argument("--neighbourhood", dest="neighbourhood_m", type=float, help="metres (0.3)")
-    g.add_argument("--refine", type=bool_arg, help="joint refinement (true)")
-    g.add_argument("--optimiser", choices=("lm", "es"))
-    g.add_argument("--indirect", choices=("radiosity", "ambient", "none"))
-    g.add_argument("--aim", choices=("fixed", "free"),
-                   help="fixed: luminaires face along their surface's normal (default);"
-                        " free: fit each mounted luminaire's aim too (adjustable spots)")
-    g.add_argument("--max-tilt", dest="max_tilt_deg", type=float, metavar="DEG",
-                   help="with --aim free: largest tilt from the surface's normal (70)")
-    p.set_defaults(func=run)
+    options = {}                         # setting -> the option that gives it
+
+    def setting(name, **kw):
+        options[g.add_argument(name, **kw).dest] = name
+
+    setting("--vote-model", dest="vote_model", choices=("exact", "ellipse"))
+    setting("--resolution", dest="pixel_m", type=float, metavar="M",
+            help="vote-map resolution, metres per pixel (0.1); not the room mesh"
+                 " size, which is `freecad --mesh-size`")
+    setting("--votes-per-m2", dest="votes_per_m2", type=float)
+    setting("--weighting", choices=("illumination", "distance", "both", "none"))
+    setting("--vote-strength", dest="vote_strength", type=float)
+    setting("--occlusion", type=bool_arg, help="auto/true/false")
+    setting("--dummy-planes", dest="dummy_planes", type=bool_arg)
+    setting("--dummy-spacing", dest="dummy_spacing_m", type=float)
+    setting("--dummy-count", dest="dummy_count", type=int)
+    setting("--two-sided-dummies", dest="two_sided_dummies", type=bool_arg)
+    setting("--all-planes", dest="all_planes", type=bool_arg)
+    setting("--threshold", type=float, help="0-254 (24)")
+    setting("--neighbourhood", dest="neighbourhood_m", type=float, help="metres (0.3)")
+    setting("--refine", type=bool_arg, help="joint refinement (true)")
+    setting("--optimiser", choices=("lm", "es"))
+    setting("--indirect", choices=("radiosity", "ambient", "none"))
+    setting("--aim", choices=("fixed", "free"),
+            help="fixed: luminaires face along their surface's normal (default);"
+                 " free: fit each mounted luminaire's aim too (adjustable spots)")
+    setting("--max-tilt", dest="max_tilt_deg", type=float, metavar="DEG",
+            help="with --aim free: largest tilt from the surface's normal (70)")
+    p.set_defaults(func=run, setting_options=options)
 
 
 def _settings_from_args(args):
     from invrad_wb.core.inverse.locate import LocateSettings
     s = LocateSettings()
+    given = {}
     for f in fields(LocateSettings):
         v = getattr(args, f.name, None)
         if v is not None:
             setattr(s, f.name, v)
+            given[f.name] = getattr(args, "setting_options", {}).get(f.name, f.name)
+    try:
+        s.check()
+    except SettingsError as exc:         # name the option the user typed, not the field
+        name = str(exc).split(" ", 1)[0]
+        if name in given:
+            raise SettingsError(given[name] + str(exc)[len(name):])
+        raise
     if getattr(args, "settings", None):
         try:
             with open(args.settings, "r", encoding="utf-8") as fh:
@@ -83,6 +97,12 @@ def run(args):
     scenes = args.scene
     batch = len(scenes) > 1 or os.path.isdir(scenes[0])
     settings = _settings_from_args(args)
+    if args.flux is not None:
+        from invrad_wb.core.inverse.locate import check_flux
+        try:
+            check_flux(args.flux)
+        except SettingsError as exc:
+            raise SettingsError(f"--{exc}")
     phot = photometry_arg(args)
     workers = workers_arg(args.workers)
     if args.flux is None and phot is not None and phot.flux_lm:

@@ -240,12 +240,13 @@ def test_a_full_disk_is_one_line_and_removes_what_the_run_created(small, tmp_pat
         (fs / "old_report" / "index.html").write_text("<p>earlier</p>\n")
         _fill(fs)
         before = _tree(fs)
-        # vote maps into a new folder; the result would replace an earlier file
+        # vote maps into a new folder; the result would replace an earlier file: the
+        # first output checked (-o) is refused before any work
         p = _run("locate", scene, "--flux", "3000", "-o", earlier, "--vote-maps",
                  fs / "votes")
         line = _one_line(p.stderr)
         assert p.returncode == 2, p.stderr
-        assert line.startswith(f"invrad: error: {fs / 'votes'}: cannot write the output")
+        assert line.startswith(f"invrad: error: {earlier}: cannot write the output")
         assert "No space left on device" in line and ".invrad-" not in line
         assert _tree(fs) == before and sorted(os.listdir(fs)) == ["filler", "old_report",
                                                                    "r.json"]
@@ -262,6 +263,17 @@ def test_a_full_disk_is_one_line_and_removes_what_the_run_created(small, tmp_pat
         assert "Traceback" not in p.stderr and "internal error" not in p.stderr
         assert _tree(fs) == before and sorted(os.listdir(fs)) == ["filler", "old_report",
                                                                    "r.json"]
+        # a design is refused before any work: before its scene is even read (a scene
+        # that is no PLY would be the error otherwise)
+        broken = tmp_path / "broken.ply"
+        broken.write_text("not a mesh\n")
+        spec = os.path.join(ROOT, "examples", "office_design.json")
+        p = _run("design", broken, "--spec", spec, "-o", fs / "d.json")
+        line = _one_line(p.stderr)
+        assert p.returncode == 2, p.stderr
+        assert line == f"invrad: error: {fs / 'd.json'}: cannot write the output: No space" \
+                       " left on device"
+        assert _tree(fs) == before
 
 
 def test_a_read_only_file_system_is_refused_before_work(small, tmp_path):
@@ -287,7 +299,11 @@ def test_an_io_error_while_writing_names_the_output_not_a_temporary_file(small, 
     from invrad_wb.core.io import atomic
     batch, _ = small
 
+    fsync = os.fsync
+
     def failing_fsync(fd):
+        if ".invrad-probe-" in os.readlink(f"/proc/self/fd/{fd}"):
+            return fsync(fd)          # the output check's probe passes
         raise OSError(errno.EIO, os.strerror(errno.EIO))
     monkeypatch.setattr(atomic.os, "fsync", failing_fsync)
     out = tmp_path / "new" / "r.json"

@@ -352,9 +352,29 @@ def test_a_killed_verify_leaves_no_hidden_folder_after_the_next_run(tmp_path):
     assert not [n for n in os.listdir(rep) if n.startswith(".invrad-")], os.listdir(rep)
 
 
+@pytest.mark.parametrize("option, value, words", [
+    ("--resolution", "0", "--resolution must be a positive number, got 0.0"),
+    ("--dummy-spacing", "-1", "--dummy-spacing must be a positive number"),
+    ("--threshold", "300", "--threshold must be in [0, 254]"),
+    ("--max-tilt", "95", "--max-tilt must be in [0, 90) degrees"),
+    ("--dummy-count", "-3", "--dummy-count must be >= 0"),
+    ("--flux", "0", "--flux must be a positive number of lumens"),
+])
+def test_a_bad_locate_option_is_named_as_typed(tmp_path, capsys, option, value, words):
+    # the option the user gave, not the setting's field name (--resolution, not pixel_m)
+    from invrad_wb import cli
+    rc = cli.main(["locate", OFFICE, "--flux", "3000", option, value, "-o",
+                   str(tmp_path / "r.json")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1, err
+    assert err[0].startswith(f"invrad: error: {words}") and not os.listdir(tmp_path)
+
+
 @pytest.mark.parametrize("case, words", [
     ("settings", ["s.json", "threshold must be a number"]),
-    ("flux", ["flux must be a positive number"]),
+    ("flux", ["--flux must be a positive number"]),
+    ("mesh size", ["--mesh-size must be a finite length of at least 0.01 m, got 0.0"]),
+    ("resolution", ["--resolution must be a finite length of at least 0.01 m, got 0.0"]),
     ("garbage", ["in.ifc", "not a readable IFC file"]),
     ("no rooms", ["in.ifc", "no rooms (IfcSpace)"]),
 ])
@@ -376,11 +396,18 @@ def test_freecad_command_checks_settings_flux_and_the_ifc_before_freecad_starts(
         extra = ["--settings", "s.json"]
     elif case == "flux":
         extra = ["--flux", "-3"]
+    elif case == "mesh size":
+        extra = ["--mesh-size", "0"]          # not taken for 'not given'
+    elif case == "resolution":
+        extra = ["--resolution", "0"]         # the old spelling: named as typed
     # a freecadcmd that fails the test if it is ever started
     fake = tmp_path / "freecadcmd"
     fake.write_text("#!/bin/sh\necho started >&2\nexit 9\n")
     fake.chmod(0o755)
     cp = run("freecad", "in.ifc", "--out", "out.ifc", "--report", "rep", "--freecadcmd",
              str(fake), *extra, cwd=tmp_path)
+    if case == "resolution":                  # the old spelling is also warned about
+        warning, cp.stderr = cp.stderr.split("\n", 1)
+        assert warning.startswith("invrad: warning: --resolution is deprecated"), warning
     one_line_error(cp, *words)
     assert "started" not in cp.stderr and not (tmp_path / "rep").exists()

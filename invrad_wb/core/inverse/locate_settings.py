@@ -132,6 +132,9 @@ class LocateSettings:
         if self.votes_per_m2 is not None and not (np.isfinite(self.votes_per_m2)
                                                   and self.votes_per_m2 > 0):
             raise SettingsError(f"votes_per_m2 must be > 0, got {self.votes_per_m2!r}")
+        if self.dummy_count is not None and self.dummy_count < 0:
+            raise SettingsError(f"dummy_count must be >= 0 (0: no dummy planes), got"
+                                f" {self.dummy_count!r}")
         if not 0 <= self.threshold <= 254:
             raise SettingsError(f"threshold must be in [0, 254], got {self.threshold!r}")
         if not (np.isfinite(self.neighbourhood_m) and self.neighbourhood_m >= 0):

@@ -25,8 +25,8 @@ def _direct():
     gam = np.arange(181.0)
     narrow = Photometry(np.tile(np.where(gam < 40, np.cos(np.radians(gam)), 0.0), (361, 1)),
                         name="40 degrees")
-    # lambertian (the direct kernel) and with a distribution (numpy lookups, shadow rays
-    # through the segment kernel); both cast the pillar's shadow
+    # lambertian (the direct kernel) and with a distribution (the photometric kernel);
+    # both cast the pillar's shadow
     lums = [Luminaire([1.5, 2.0, 2.99], [0, 0, -1], 3000, 0.25),
             Luminaire([0.01, 1.0, 2.0], [1, 0, 0], 1500),
             Luminaire([4.5, 1.0, 2.9], [-0.6, 0.5, -0.6], 2000, photometry=narrow)]
@@ -37,6 +37,31 @@ def _direct():
         assert (a == 0).sum() > 100                            # shadows exist
         assert np.sum(np.abs(a - b) > 1e-3 * a.max() + 1e-3) <= 3   # grazing rays
     return args, kw, same
+
+
+def _photometric():
+    s = g.pillar_room(cell=0.2)
+    from invrad_wb.core.model.photometry import Photometry
+    gam, c = np.arange(181.0), np.radians(np.arange(361.0))
+    # the same in every C plane (the kernel skips the C angle) and one that is not (twice
+    # as bright along C = 0 as across it: the luminaire's C = 0 axis, its own c0 where
+    # it has one, must turn it)
+    narrow = Photometry(np.tile(np.where(gam < 40, np.cos(np.radians(gam)), 0.0), (361, 1)),
+                        name="40 degrees")
+    oval = Photometry(np.outer(1.0 + 0.8 * np.cos(c), np.maximum(np.cos(np.radians(gam)), 0.0)
+                               + 0.1 * (gam < 100)), name="oval")
+    lums = [Luminaire([4.5, 1.0, 2.9], [-0.6, 0.5, -0.6], 2000, photometry=narrow),
+            Luminaire([1.5, 2.0, 2.9], [0, 0, -1], 3000, 0.25, photometry=oval),
+            Luminaire([0.2, 3.0, 1.5], [1, -0.2, 0.1], 1000, photometry=oval, c0=[0, 0, 1]),
+            Luminaire([3.0, 0.1, 2.0], [0.3, 1, 0.5], 1500, photometry=oval, c0=[1, 0, 0.3])]
+    args = (s.vertices, s.vertex_normals, lums)
+
+    def same(a, b):
+        assert (a == 0).sum() > 3 and a.max() > 100               # dark corners, lit spots
+        # float32: a few 1e-4 relative; a grazing shadow ray may flip at a few points
+        assert np.sum(np.abs(a - b) > 1e-3 * a.max() + 1e-3) <= max(3, len(a) // 500)
+        assert abs(a.sum() - b.sum()) < 1e-3 * a.sum()
+    return args, {"bvh": BVH(s.triangles)}, same
 
 
 def _occlusion():
@@ -107,7 +132,8 @@ def _votes():
 
 
 #: one small deterministic case per registered pair: () -> (args, kwargs, same(numpy, opencl))
-CASES = {"direct_illuminance": _direct, "segments_occluded": _occlusion,
+CASES = {"direct_illuminance": _direct, "photometric_illuminance": _photometric,
+         "segments_occluded": _occlusion,
          "form_factors": _form_factors, "patch_form_factors": _patch_form_factors,
          "votes_exact": _votes, "votes_ellipse": _votes}
 
