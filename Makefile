@@ -2,8 +2,9 @@
 #   make demo   set up (first time: Debian packages + venv) and locate the luminaires of the
 #               bundled example, with vote maps and a verification report under out/
 #   make test   set up and run every test: pytest on the core, then FreeCAD's under freecadcmd
-#               on the host's FreeCAD 0.20 and on FreeCAD 1.0 (a cached Debian trixie root;
-#               INVRAD_NO_FREECAD1=1 skips it)
+#               on the host's FreeCAD 0.20 and, beside them (.ci/test.sh: its log printed at
+#               the end), on FreeCAD 1.0 (a cached Debian trixie root; INVRAD_NO_FREECAD1=1
+#               skips it)
 # Other targets: make setup, make bench, make gui-smoke (GUI under Xvfb, screenshots),
 # make report-pages (the demo's report pages and vote maps as PNG),
 # make examples (regenerate examples/), make clean.
@@ -41,7 +42,10 @@ report-pages: demo
 	cp $(OUT)/office/votes/room0/contact_sheet.png $(OUT)/report_pages/vote_maps.png
 	@ls $(OUT)/report_pages
 
-test: setup test-core test-freecad test-freecad1
+# two streams side by side, host (test-core, test-freecad) and FreeCAD 1.0 root
+# (test-freecad1): .ci/test.sh
+test: setup
+	@MAKE="$(MAKE)" ./.ci/test.sh
 
 test-core:
 	$(PY) -m pytest -q tests
