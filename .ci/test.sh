@@ -6,7 +6,9 @@
 #                  in the foreground: their output as it comes;
 #   FreeCAD 1.0:   the root's concurrency check, FreeCAD 1.0's tests, then the core tests
 #                  with Python 3.13 and numpy 2 (make test-freecad1), in the background with
-#                  its own log, printed whole at the end; INVRAD_NO_FREECAD1=1 skips it.
+#                  its own log (out/test-freecad1.XXXXXX.log, or in $INVRAD_TEST_LOGS),
+#                  printed whole at the end and kept if it failed; INVRAD_NO_FREECAD1=1
+#                  skips it.
 # The exit status is 0 only when both streams passed; each stream's status is printed.
 # INVRAD_TEST_SERIAL=1 runs the streams one after the other (the log still printed at the
 # end), e.g. to time one suite alone.
@@ -26,8 +28,9 @@ trap 'stop_bg; exit 130' INT
 trap 'stop_bg; exit 143' TERM
 trap 'stop_bg; exit 129' HUP
 if [ -z "${INVRAD_NO_FREECAD1:-}" ]; then
-  mkdir -p out
-  log="$(mktemp "$here/out/test-freecad1.XXXXXX.log")"
+  logs="${INVRAD_TEST_LOGS:-$here/out}"
+  mkdir -p "$logs"
+  log="$(mktemp "$logs/test-freecad1.XXXXXX.log")"
   if [ -n "${INVRAD_TEST_SERIAL:-}" ]; then
     "$make" --no-print-directory test-freecad1 </dev/null >"$log" 2>&1
     fc1=$?
