@@ -47,8 +47,9 @@ report-pages: demo
 test: setup
 	@MAKE="$(MAKE)" ./.ci/test.sh
 
+# --durations: the 20 slowest tests in every log, for the suites' time budget
 test-core:
-	$(PY) -m pytest -q tests
+	$(PY) -m pytest -q --durations=20 tests
 
 test-freecad:
 	$(FCPATH) freecadcmd tests/freecad/run.py
@@ -63,7 +64,7 @@ test-freecad1:
 	else ./.ci/test-fc1-concurrency.sh && ./.ci/test-freecad1.sh && \
 	echo "core tests with Python 3.13 and numpy 2 (the FreeCAD 1.0 root's venv)" && \
 	INVRAD_FC1_NATIVEIFC=0 ./.ci/test-freecad1.sh python -m pytest -q -p no:cacheprovider tests \
-	    --ignore=tests/test_packaging.py -m "not slow"; fi
+	    --durations=20 --ignore=tests/test_packaging.py -m "not slow"; fi
 
 gui-smoke: setup
 	$(PY) tests/freecad/gui_smoke.py --fzk
