@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# make test: every suite, in two streams side by side (the machine has 2 cores and the suites
-# keep about one busy on average: numpy and Python are mostly single-threaded, only the
-# OpenCL kernels use both):
+# make test: every suite, in two streams side by side (on 2 cores one suite alone leaves a
+# core idle much of the time: numpy and Python mostly run on one, the OpenCL kernels and the
+# room workers on both):
 #   host:          the core tests (pytest), then FreeCAD 0.20's (make test-core test-freecad),
 #                  in the foreground: their output as it comes;
 #   FreeCAD 1.0:   the root's concurrency check, FreeCAD 1.0's tests, then the core tests
