@@ -42,9 +42,9 @@ report-pages: demo
 	cp $(OUT)/office/votes/room0/contact_sheet.png $(OUT)/report_pages/vote_maps.png
 	@ls $(OUT)/report_pages
 
-# two streams side by side, host (test-core, test-freecad) and FreeCAD 1.0 root
-# (test-freecad1): .ci/test.sh
-test: setup
+# two streams side by side, host (setup, test-core, test-freecad) and FreeCAD 1.0 root
+# (test-freecad1, which sets its root up): .ci/test.sh
+test:
 	@MAKE="$(MAKE)" ./.ci/test.sh
 
 # --durations: the 20 slowest tests in every log, for the suites' time budget

@@ -2,8 +2,8 @@
 # make test: every suite, in two streams side by side (on 2 cores one suite alone leaves a
 # core idle much of the time: numpy and Python mostly run on one, the OpenCL kernels and the
 # room workers on both):
-#   host:          the core tests (pytest), then FreeCAD 0.20's (make test-core test-freecad),
-#                  in the foreground: their output as it comes;
+#   host:          the set-up (make setup), the core tests (pytest), then FreeCAD 0.20's
+#                  (make test-core test-freecad), in the foreground: output as it comes;
 #   FreeCAD 1.0:   the root's concurrency check, FreeCAD 1.0's tests, then the core tests
 #                  with Python 3.13 and numpy 2 (make test-freecad1), in the background with
 #                  its own log (out/test-freecad1.XXXXXX.log, or in $INVRAD_TEST_LOGS),
@@ -44,24 +44,37 @@ if [ -z "${INVRAD_NO_FREECAD1:-}" ]; then
     echo "FreeCAD 1.0 tests and the numpy 2 core pass run beside these (log: $log)"
   fi
 fi
-"$make" --no-print-directory test-core
-core=$?
-"$make" --no-print-directory test-freecad
-fc020=$?
+# the host's set-up (venv, Debian packages) runs beside the root's stream too: it needs
+# neither (the two set-ups take turns at apt: /tmp/invrad-apt.lock)
+fc020=-
+if "$make" --no-print-directory setup; then
+  "$make" --no-print-directory test-core
+  core=$?
+  "$make" --no-print-directory test-freecad
+  fc020=$?
+else
+  core=$?
+  echo "make setup failed: the host's tests were not run" >&2
+fi
 if [ -n "$bg" ]; then
   wait "$bg"
   fc1=$?
   bg=""
 fi
 status=0
-line() { printf '  %-44s %s\n' "$1" "$([ "$2" = 0 ] && echo passed || echo "FAILED (status $2)")"; }
+line() {
+  local what="FAILED (status $2)"
+  [ "$2" = 0 ] && what=passed
+  [ "$2" = - ] && what="not run"
+  printf '  %-44s %s\n' "$1" "$what"
+}
 if [ -n "$log" ]; then
   echo "================ FreeCAD 1.0 root: FreeCAD 1.0 tests, core tests on numpy 2 ($log)"
   cat "$log"
   echo "================ end of the FreeCAD 1.0 root's log"
 fi
 echo "make test:"
-line "core tests (host, numpy 1)" "$core"
+line "set-up and core tests (host, numpy 1)" "$core"
 line "FreeCAD 0.20 tests" "$fc020"
 if [ -n "$log" ]; then
   line "FreeCAD 1.0 tests and core tests on numpy 2" "$fc1"
