@@ -2,8 +2,9 @@
 #   make demo   set up (first time: Debian packages + venv) and locate the luminaires of the
 #               bundled example, with vote maps and a verification report under out/
 #   make test   set up and run every test: pytest on the core, then FreeCAD's under freecadcmd
-#               on the host's FreeCAD 0.20 and on FreeCAD 1.0 (a cached Debian trixie root;
-#               INVRAD_NO_FREECAD1=1 skips it)
+#               on the host's FreeCAD 0.20 and, beside them (.ci/test.sh: its log printed at
+#               the end), on FreeCAD 1.0 (a cached Debian trixie root; INVRAD_NO_FREECAD1=1
+#               skips it)
 # Other targets: make setup, make bench, make gui-smoke (GUI under Xvfb, screenshots),
 # make report-pages (the demo's report pages and vote maps as PNG),
 # make examples (regenerate examples/), make clean.
@@ -41,10 +42,14 @@ report-pages: demo
 	cp $(OUT)/office/votes/room0/contact_sheet.png $(OUT)/report_pages/vote_maps.png
 	@ls $(OUT)/report_pages
 
-test: setup test-core test-freecad test-freecad1
+# two streams side by side, host (setup, test-core, test-freecad) and FreeCAD 1.0 root
+# (test-freecad1, which sets its root up): .ci/test.sh
+test:
+	@MAKE="$(MAKE)" ./.ci/test.sh
 
+# --durations: the 20 slowest tests in every log, for the suites' time budget
 test-core:
-	$(PY) -m pytest -q tests
+	$(PY) -m pytest -q --durations=20 tests
 
 test-freecad:
 	$(FCPATH) freecadcmd tests/freecad/run.py
@@ -59,7 +64,7 @@ test-freecad1:
 	else ./.ci/test-fc1-concurrency.sh && ./.ci/test-freecad1.sh && \
 	echo "core tests with Python 3.13 and numpy 2 (the FreeCAD 1.0 root's venv)" && \
 	INVRAD_FC1_NATIVEIFC=0 ./.ci/test-freecad1.sh python -m pytest -q -p no:cacheprovider tests \
-	    --ignore=tests/test_packaging.py -m "not slow"; fi
+	    --durations=20 --ignore=tests/test_packaging.py -m "not slow"; fi
 
 gui-smoke: setup
 	$(PY) tests/freecad/gui_smoke.py --fzk

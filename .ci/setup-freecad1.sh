@@ -31,7 +31,10 @@ fi
 mirror="$(sed -n 's/^URIs: *//p' /etc/apt/sources.list.d/debian.sources 2>/dev/null | head -1)"
 mirror="${mirror:-http://deb.debian.org/debian}"
 command -v debootstrap >/dev/null 2>&1 || {
-  apt-get update -qq; DEBIAN_FRONTEND=noninteractive apt-get install -y -qq debootstrap >/dev/null; }
+  # one apt at a time with .ci/setup.sh (make test starts both at once)
+  flock /tmp/invrad-apt.lock apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive flock /tmp/invrad-apt.lock \
+    apt-get install -y -qq debootstrap >/dev/null; }
 # one build at a time (several checkouts may start at once): wait, then check again
 mkdir -p "$(dirname "$root")"
 exec 6>>"$root.build"

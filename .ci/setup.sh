@@ -22,8 +22,10 @@ command -v pdftoppm >/dev/null 2>&1 || need_apt+=(poppler-utils)
 if [ ${#need_apt[@]} -gt 0 ]; then
   echo "invrad setup: installing Debian packages: ${need_apt[*]}"
   SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${need_apt[@]}" >/dev/null
+  # one apt at a time with .ci/setup-freecad1.sh (make test starts both at once)
+  flock /tmp/invrad-apt.lock $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive flock /tmp/invrad-apt.lock \
+    $SUDO apt-get install -y -qq --no-install-recommends "${need_apt[@]}" >/dev/null
 fi
 
 if [ ! -f "$stamp" ] || [ requirements.txt -nt "$stamp" ]; then

@@ -50,6 +50,30 @@ def _inside_freecad_gui():
 
 
 # --------------------------------------------------------------------------- launcher
+def free_display(start=None, tries=300):
+    """An X display number that no X server uses: no lock file ``/tmp/.X<n>-lock`` (what
+    ``xvfb-run -a`` looks at) and no listening abstract socket ``@/tmp/.X11-unix/X<n>``.
+    An Xvfb in another root of this machine (the FreeCAD 1.0 chroot of ``make test``, or
+    the host seen from it) leaves no lock file in this /tmp but holds the abstract socket,
+    and a second Xvfb on its number fails ("server already running"). The search starts
+    at a number that depends on this process, so that runs starting at once seldom probe
+    the same numbers."""
+    import socket
+    start = 99 + os.getpid() % 400 if start is None else start
+    for n in range(start, start + tries):
+        if os.path.exists(f"/tmp/.X{n}-lock"):
+            continue
+        probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        try:
+            probe.bind(f"\0/tmp/.X11-unix/X{n}")
+        except OSError:
+            continue
+        finally:
+            probe.close()
+        return n
+    return start
+
+
 def relaunch(argv):
     import argparse
     import shutil
@@ -101,7 +125,8 @@ def relaunch(argv):
     try:
         with open(log, "w") as fh:
             # own process group: a timeout kills FreeCAD and its helpers, not only xvfb-run
-            proc = subprocess.Popen([xvfb, "-a", "-s", "-screen 0 1280x800x24", exe,
+            proc = subprocess.Popen([xvfb, "-a", "-n", str(free_display()),
+                                     "-s", "-screen 0 1280x800x24", exe,
                                      os.path.abspath(__file__)], env=env, stdout=fh,
                                     stderr=subprocess.STDOUT, start_new_session=True)
             try:

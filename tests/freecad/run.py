@@ -6,6 +6,9 @@ Two ways to start it::
     .venv/bin/python tests/freecad/run.py [-k PATTERN] [-v]   # re-launches under freecadcmd
 
 ``INVRAD_FC_TESTS=PATTERN`` (or ``-k``) keeps only tests whose id contains PATTERN.
+At the end the slowest tests are listed with their wall and CPU seconds (CPU of this
+process and of the children it waited for), like pytest's ``--durations``
+(``INVRAD_FC_DURATIONS=N``, default 15; 0: none).
 FreeCAD's recompute progress bars, which its C++ console writes to stdout, are silenced
 unless ``INVRAD_FC_NOISE=1``.
 
@@ -36,6 +39,37 @@ def _selected(suite, pattern):
     return out
 
 
+def _cpu_s():
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
+def _timed_result(base):
+    """``base`` (a TextTestResult class) that records each test's wall and CPU seconds."""
+    class Timed(base):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            self.durations = []
+
+        def startTest(self, test):
+            self._t0 = (time.time(), _cpu_s())
+            super().startTest(test)
+
+        def stopTest(self, test):
+            super().stopTest(test)
+            w0, c0 = self._t0
+            self.durations.append((time.time() - w0, _cpu_s() - c0, test.id()))
+    return Timed
+
+
+def _slowest(out, durations, n):
+    if n <= 0 or not durations:
+        return
+    out.write(f"slowest {min(n, len(durations))} FreeCAD tests (wall s, CPU s):\n")
+    for wall, cpu, name in sorted(durations, reverse=True)[:n]:
+        out.write(f"{wall:8.1f} {cpu:8.1f}  {name}\n")
+
+
 def run_inside():
     import unittest
     out = sys.stdout
@@ -59,7 +93,10 @@ def run_inside():
         suite = _selected(suite, os.environ.get("INVRAD_FC_TESTS", ""))
         verbosity = 2 if os.environ.get("INVRAD_FC_VERBOSE", "1") != "0" else 1
         t0 = time.time()
-        result = unittest.TextTestRunner(stream=out, verbosity=verbosity).run(suite)
+        runner = unittest.TextTestRunner(stream=out, verbosity=verbosity,
+                                         resultclass=_timed_result(unittest.TextTestResult))
+        result = runner.run(suite)
+        _slowest(out, result.durations, int(os.environ.get("INVRAD_FC_DURATIONS", "15")))
         out.write(f"{result.testsRun} FreeCAD test(s) in {time.time() - t0:.1f} s:"
                   f" {len(result.failures)} failure(s), {len(result.errors)} error(s),"
                   f" {len(result.skipped)} skipped\n")
