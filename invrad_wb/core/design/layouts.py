@@ -35,7 +35,7 @@ MIN_SPACING_M = 0.8
 MAX_SPACING_RATIO = 3.0
 #: a ceiling position under a slab opening (no ceiling there: a double-height void) hangs
 #: as a pendant this far below the room's ceiling level, from the structure above
-VOID_PENDANT_DROP_M = 0.3
+VOID_PENDANT_DROP_M = 0.15
 
 
 @dataclass
