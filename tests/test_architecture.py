@@ -42,11 +42,12 @@ CORE_LAYERS = [("model",), ("accel",), ("geometry",), ("io",), ("forward",), ("o
 #: app/'s modules in layers, lowest first: FreeCAD glue (and pip run as FreeCAD's Python);
 #: a fixture's body; invrad's IFC data (ifcopenshell); the two document backends (classic
 #: Arch, NativeIFC); the one interface that chooses between them per document; rooms (and
-#: the dependency checks); targets and fixtures on them; IFC import/export and the design
+#: the dependency checks); targets and fixtures on them, what the building says about a
+#: room's ceiling (roomzones); IFC import/export and the design
 #: specs; the pipeline; results (verify, re-insert, sheets)
 APP_LAYERS = [("settings", "units", "document", "pip_runner"), ("fixturebody",), ("ifcdata",),
               ("nativeifc", "classic"), ("backend",), ("rooms", "dependencies"),
-              ("targets", "fixtures"), ("ifcrooms", "ifcexport", "design"),
+              ("targets", "fixtures", "roomzones"), ("ifcrooms", "ifcexport", "design"),
               ("ifcimport", "pipeline"), ("results",)]
 
 #: top-level modules of FreeCAD and Qt (the core runs without them)

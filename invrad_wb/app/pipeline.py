@@ -237,6 +237,12 @@ def prepare(doc, settings, progress=None):
             level = {k for k, sp in enumerate(spaces) if work_plane_target(sp) is not None}
             borders = [b for b in borders if b.a not in level and b.b not in level]
         zones = lighting_zones(len(spaces), borders)
+    # slab openings over the rooms and stairs in them: where no luminaire may be mounted
+    from invrad_wb.app.roomzones import no_mount_zones
+    from invrad_wb.core.model.scene import NoMountZone
+    no_mount = [NoMountZone(k, poly, words, pendants)
+                for k, zones_k in enumerate(no_mount_zones(spaces, shapes, doc))
+                for poly, words, pendants in zones_k]
     open_regions = [{} for _ in spaces]
     for b in borders:
         open_regions[b.a].setdefault(b.face_a, []).append(b.region_a)
@@ -285,7 +291,8 @@ def prepare(doc, settings, progress=None):
     scene = Scene(np.concatenate(verts), np.concatenate(faces),
                   vertex_lux=np.concatenate(lux), face_room=np.concatenate(room),
                   face_reflectance=np.concatenate(rho),
-                  face_virtual=np.concatenate(virtual), source=doc.Label)
+                  face_virtual=np.concatenate(virtual), source=doc.Label,
+                  no_mount=no_mount)
     zone_scene = None
     if len(np.unique(zones)) < len(spaces):
         # the same (split) vertices, so that per-vertex lux of one is that of the other

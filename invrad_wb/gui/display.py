@@ -471,3 +471,76 @@ def frame_rooms(doc, view=None, aspect=None, slack=1.15):
     cam.nearDistance.setValue(1.0)
     cam.farDistance.setValue(float(3.0 * depth + 1000.0 + 10.0 * max(depth, 1000.0)))
     return True
+
+
+#: name of the clipping planes of a storey view (:func:`storey_view`)
+STOREY_CLIP_NAME = "InvRadStoreyClip"
+#: a storey view cuts this far below the rooms' ceilings (metres): the roof, the slab
+#: above and a ceiling fixture's top go, what hangs in the room stays
+STOREY_CLIP_BELOW_M = 0.03
+
+
+def ceiling_planes(spaces, below_m=STOREY_CLIP_BELOW_M):
+    """The planes of the ceilings of ``spaces`` (their solids' faces that face up from the
+    room: a flat ceiling, the slopes of a roof), each moved ``below_m`` into the room:
+    ``[((3,) unit normal pointing down into the room, distance mm)]`` as coin keeps
+    ``normal . p >= distance`` (what lies below every plane)."""
+    from invrad_wb.app.rooms import room_shape
+    out = []
+    for sp in spaces:
+        try:
+            shape = room_shape(sp)
+        except Exception:          # a room without a closed solid adds no plane
+            continue
+        for f in shape.Faces:
+            if "Plane" not in type(f.Surface).__name__:
+                continue
+            u0, u1, v0, v1 = f.ParameterRange
+            n = f.normalAt(0.5 * (u0 + u1), 0.5 * (v0 + v1))     # outward
+            if n.z < 0.3:
+                continue
+            down = -np.array([n.x, n.y, n.z]) / n.Length
+            p = np.array([f.CenterOfMass.x, f.CenterOfMass.y, f.CenterOfMass.z])
+            d = float(down @ p) + 1000.0 * below_m
+            if not any(np.allclose(down, q, atol=1e-3) and abs(d - e) < 1.0 for q, e in out):
+                out.append((down, d))
+    return out
+
+
+def storey_view(doc, spaces, below_m=STOREY_CLIP_BELOW_M):
+    """Show the rooms ``spaces`` (e.g. a storey's) from above: clipping planes just under
+    their ceilings take away what is above them in every 3D view of ``doc`` (the roof, the
+    slab and the storeys above, which FreeCAD 0.20 draws with their BuildingPart even when
+    the elements are hidden, and NativeIFC's roof), while the room names, the legend, the
+    false colour of the rooms and the fixtures under the ceilings stay. Replaces an earlier
+    storey view; :func:`clear_storey_view` ends it. Returns the number of planes."""
+    from pivy import coin
+    clear_storey_view(doc)
+    planes = ceiling_planes(spaces, below_m)
+    for sg in _graphs(doc):
+        at = 0
+        ov = _overlay(doc)
+        if ov is not None and sg.findChild(ov["legend"]) >= 0:
+            at = sg.findChild(ov["legend"]) + 1      # the legend is never clipped
+        for normal, dist in planes:
+            node = coin.SoClipPlane()
+            node.setName(STOREY_CLIP_NAME)
+            node.plane = coin.SbPlane(coin.SbVec3f(*map(float, normal)), float(dist))
+            sg.insertChild(node, at)
+    update_labels(doc)
+    return len(planes)
+
+
+def clear_storey_view(doc):
+    """Remove the clipping planes of :func:`storey_view` from ``doc``'s views; their
+    number."""
+    n = 0
+    for sg in _graphs(doc):
+        for i in reversed(range(sg.getNumChildren())):
+            child = sg.getChild(i)
+            if child.getName() == STOREY_CLIP_NAME:
+                sg.removeChild(i)
+                n += 1
+    if n:
+        update_labels(doc)
+    return n

@@ -55,6 +55,27 @@ def fzk_document():
         FreeCAD.closeDocument(doc.Name)
 
 
+def fzk_stair_and_opening():
+    """FZK-Haus's spiral stair and the slab opening over the Wohnen as ``[(name, (plan
+    min, plan max) metres, (underside, top) z of the opening / top of the stair)]``, read
+    from the IFC file with ifcopenshell."""
+    import ifcopenshell
+    import ifcopenshell.geom
+    ifc = ifcopenshell.open(FZK)
+    settings = ifcopenshell.geom.settings()
+    settings.set(settings.USE_WORLD_COORDS, True)
+    out = []
+    for name, el in (("stair", ifc.by_type("IfcStair")[0]),
+                     ("opening", next(r.RelatedOpeningElement
+                                      for r in ifc.by_type("IfcRelVoidsElement")
+                                      if r.RelatingBuildingElement.is_a("IfcSlab")))):
+        v = np.asarray(ifcopenshell.geom.create_shape(settings, el).geometry.verts)
+        v = v.reshape(-1, 3)
+        out.append((name, (v[:, :2].min(0), v[:, :2].max(0)),
+                    v[:, 2].max() if name == "stair" else (v[:, 2].min(), v[:, 2].max())))
+    return out
+
+
 class FreeCADTestCase(unittest.TestCase):
     """Each test gets a fresh document (undo on) and a temporary folder; both go away."""
 
@@ -96,6 +117,19 @@ class FreeCADTestCase(unittest.TestCase):
         self.assertGreaterEqual(room["em_lux"], work_plane["lux"] - 0.5)
         self.assertGreaterEqual(room["u0"], work_plane["u0"] - 0.005)
         self.assertIsNotNone(room["ugr"])
+
+    def assertClearOfFZKStairAndOpening(self, positions):
+        """FZK-Haus: no luminaire (positions (k, 3) metres) over the spiral stair, and none
+        on the ceiling's level over the slab opening above the Wohnen (no ceiling there:
+        only pendants hung below it). Both read from the IFC file, not from invrad."""
+        p = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+        for name, (lo, hi), z_top in fzk_stair_and_opening():
+            inside = np.all((p[:, :2] > lo) & (p[:, :2] < hi), axis=1)
+            if name == "stair":
+                self.assertFalse(inside.any(), f"luminaire over the stair: {p[inside]}")
+            else:      # at the Wohnen's ceiling or in the slab (the Galerie's roof is higher)
+                bad = inside & (p[:, 2] > z_top[0] - 0.1) & (p[:, 2] < z_top[1] + 0.1)
+                self.assertFalse(bad.any(), f"luminaire in the slab opening: {p[bad]}")
 
     def assertRaisesMessage(self, exc_type, *fragments):
         """Context manager: raises ``exc_type`` whose message contains every fragment."""

@@ -41,6 +41,8 @@ class TestDesignFZK(FreeCADTestCase):
                 self.assertRoomMeetsDesign(r, req[r["name"]]["work_plane"])
                 # regular layouts: rows x columns of the room's axes
                 self.assertIn(" grid", r["layout"])
+        # nothing over the spiral stair, no ceiling light in the slab opening above it
+        self.assertClearOfFZKStairAndOpening([lum.position for lum in res.luminaires])
         fx = all_fixtures(doc)
         self.assertEqual(len(fx), len(res.luminaires))
         cat = {e.name for e in spec.catalogue}

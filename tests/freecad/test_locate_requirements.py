@@ -60,6 +60,9 @@ class TestLocateRequirementsFZK(FreeCADTestCase):
                     self.assertLess(fluxes.pop(), 2000.0)
                 else:
                     self.assertEqual(fluxes, {2000.0})
+        # nothing over the spiral stair, no ceiling light in the slab opening above it
+        self.assertClearOfFZKStairAndOpening([lum["position"]
+                                              for lum in res.summary["luminaires"]])
         # the report judges the same way and says against what
         html = open(os.path.join(out, "index.html"), encoding="utf-8").read()
         self.assertIn("(EN 12464-1 for 500 lx)", html)

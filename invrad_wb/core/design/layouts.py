@@ -33,6 +33,9 @@ WALL_CLEARANCE_M = 0.15
 MIN_SPACING_M = 0.8
 #: largest ratio of the spacings along the two axes of a grid
 MAX_SPACING_RATIO = 3.0
+#: a ceiling position under a slab opening (no ceiling there: a double-height void) hangs
+#: as a pendant this far below the room's ceiling level, from the structure above
+VOID_PENDANT_DROP_M = 0.15
 
 
 @dataclass
@@ -59,9 +62,11 @@ class Geometry:
         distance of the outer ones from the walls, in metres."""
         s = np.unique(np.round(self.plan[:, 0], 6))
         t = np.unique(np.round(self.plan[:, 1], 6))
-        if len(s) * len(t) != self.count:          # an L or another clipped outline
-            return (f"{self.count} positions of a {self.ns} x {self.nt} grid clipped to the"
-                    " room's outline")
+        even = all(len(v) < 3 or np.allclose(np.diff(v), v[1] - v[0], atol=1e-6)
+                   for v in (s, t))
+        if len(s) * len(t) != self.count or not even:   # an L, a stair, an opening...
+            return (f"{self.count} positions of a {self.ns} x {self.nt} grid clipped to"
+                    " where the room allows luminaires (its outline, no stair)")
 
         def axis(v, size):
             step = f"{v[1] - v[0]:.2f} m apart, " if len(v) > 1 else ""
@@ -113,17 +118,26 @@ def mount(droom, plan, mounting, radius_m, wp_top_z):
     ``ceiling``: on the ceiling above the point, facing along the ceiling's inward normal;
     ``pendant``: ``mounting.height_m`` above the floor facing down, below the ceiling.
     Points outside the room, within ``WALL_CLEARANCE_M + radius_m`` of a wall, or less than
-    ``WORK_PLANE_CLEARANCE_M`` above the work plane are invalid.
+    ``WORK_PLANE_CLEARANCE_M`` above the work plane are invalid. The room's no-mount zones
+    (:meth:`~invrad_wb.core.design.room.DesignRoom.no_mount_at`) hold nothing where
+    nothing may be mounted (a stair); under a slab opening, where there is no ceiling, a
+    ceiling position becomes a pendant :data:`VOID_PENDANT_DROP_M` below the ceiling's
+    level (hung from the structure above), facing down.
     """
     xy = droom.to_world(plan)
     zc, nc = droom.ceiling_at(xy)
     ok = np.isfinite(zc) & (droom.wall_distance(xy) >= WALL_CLEARANCE_M + radius_m)
+    blocked, void = droom.no_mount_at(xy)
+    ok &= ~blocked
     if mounting.kind == "pendant":
         z = np.full(len(xy), droom.floor_z + mounting.height_m)
         ok &= z < np.where(np.isfinite(zc), zc, -np.inf) - 0.05
         nrm = np.tile([0.0, 0.0, -1.0], (len(xy), 1))
     else:
         z, nrm = np.where(np.isfinite(zc), zc, 0.0), nc
+        if void.any():
+            z = np.where(void, z - VOID_PENDANT_DROP_M, z)
+            nrm = np.where(void[:, None], [0.0, 0.0, -1.0], nrm)
     ok &= z >= wp_top_z + WORK_PLANE_CLEARANCE_M
     return np.c_[xy, z], nrm, ok
 

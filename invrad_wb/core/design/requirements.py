@@ -290,8 +290,15 @@ def design_requirements(scene, targets, flux_lm, photometry=None, backend="auto"
         if pendant:
             rd.notes.append(f"pendants {chosen[r].height_m:g} m above the floor: on the"
                             " ceiling the level is not met")
-        for lum in rd.luminaires:
-            lum.extra["mount"] = "pendant" if pendant else "surface"
+        hung = np.zeros(len(rd.luminaires), dtype=bool)
+        if rd.luminaires and not pendant:      # under a slab opening: hung, no ceiling
+            xy = np.array([lum.position[:2] for lum in rd.luminaires])
+            hung = DesignRoom(sub, r, names[r]).no_mount_at(xy)[1]
+            if hung.any():
+                rd.notes.append(f"{int(hung.sum())} pendant(s) under the slab opening"
+                                " above (no ceiling there)")
+        for lum, h in zip(rd.luminaires, hung):
+            lum.extra["mount"] = "pendant" if pendant or h else "surface"
             lum.extra["layout"] = "requirement"
             lums.append(lum)
     return RequirementsResult(rooms, targets, lums, time.perf_counter() - t0,

@@ -51,6 +51,13 @@ def merge_collinear(segments, tol=1e-6):
     return np.array(out)
 
 
+def in_polygon(polygon, xy):
+    """(k,) bool: plan points ``xy`` (k, 2) inside a plan polygon (c, 2) (even-odd)."""
+    p = np.asarray(polygon, dtype=np.float64)
+    return inside_outline(np.stack([p, np.roll(p, -1, axis=0)], axis=1),
+                          np.asarray(xy, dtype=np.float64).reshape(-1, 2))
+
+
 class DesignRoom:
     """Plan geometry of one room.
 
@@ -86,6 +93,8 @@ class DesignRoom:
                                                      scene.faces[floor])[..., :2])
         c = self.ceiling_tri
         self._flat_ceiling = (len(c) > 0 and np.ptp(c[..., 2]) < 1e-6)
+        #: the room's :class:`~invrad_wb.core.model.scene.NoMountZone` s
+        self.no_mount = [z for z in getattr(scene, "no_mount", ()) if z.room == self.room]
         self._frame()
 
     # ------------------------------------------------------------------ frame
@@ -132,6 +141,21 @@ class DesignRoom:
         seg = np.concatenate([self._edges, np.zeros(self._edges.shape[:2] + (1,))], axis=2)
         d = distance_to_segments(np.c_[xy, np.zeros(len(xy))], seg)
         return np.where(self.inside(xy), d, -d)
+
+    def no_mount_at(self, xy):
+        """Where plan points (world XY, (k, 2)) fall in the room's no-mount zones:
+        ``(blocked, void)`` (k,) bool, inside a zone where nothing may be mounted (a
+        stair) and inside one where only a pendant may hang (a slab opening above)."""
+        xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        blocked = np.zeros(len(xy), dtype=bool)
+        void = np.zeros(len(xy), dtype=bool)
+        for z in self.no_mount:
+            inside = in_polygon(z.polygon, xy)
+            if z.pendants:
+                void |= inside
+            else:
+                blocked |= inside
+        return blocked, void & ~blocked
 
     def ceiling_at(self, xy):
         """Height of the ceiling above plan points: (k,) z (NaN: none) and (k, 3) normals."""

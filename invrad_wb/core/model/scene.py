@@ -12,7 +12,10 @@ can trust it:
 * ``face_room (m,) int`` room id per face and ``face_reflectance (m,)`` in [0, 1);
 * ``face_virtual (m,) bool``: virtual receiver faces such as a work plane at 0.75 m. They
   carry targets and receive light, but are transparent (never occlude), do not reflect and
-  are never a mounting plane for luminaires.
+  are never a mounting plane for luminaires;
+* ``no_mount``: :class:`NoMountZone` s, parts of a room's plan where its ceiling cannot
+  carry a luminaire (a slab opening above: no ceiling there; a stair standing in the
+  room); the layouts of :mod:`invrad_wb.core.design` honour them.
 
 Coplanar faces of one room are grouped into :class:`Plane` objects (the thesis' planes that
 votes are cast onto). A vertex shared by faces of different planes (a room corner) receives
@@ -211,6 +214,44 @@ def _checked_virtual(face_virtual, m, source):
     return face_virtual
 
 
+@dataclass
+class NoMountZone:
+    """A part of a room's plan (world XY, metres) where no luminaire may be mounted on
+    the ceiling.
+
+    Attributes
+    ----------
+    room : int, room id
+    polygon : (k, 2) float64, its plan outline (k >= 3 corners), metres
+    reason : str, in words ('slab opening above', 'stair Wendeltreppe')
+    pendants : bool, a pendant may hang there from the structure above (a slab opening:
+        a double-height void); False where nothing may be (inside a stair)
+    """
+    room: int
+    polygon: np.ndarray
+    reason: str = "no ceiling"
+    pendants: bool = False
+
+
+def _checked_no_mount(zones, source):
+    """A list of :class:`NoMountZone` with (k, 2) float64 polygons (default none)."""
+    out = []
+    for z in zones or ():
+        if not isinstance(z, NoMountZone):
+            raise SceneError(f"no_mount: expected NoMountZone, got {type(z).__name__}",
+                             source)
+        poly = np.asarray(z.polygon, dtype=np.float64)
+        if poly.ndim != 2 or poly.shape[1] != 2 or len(poly) < 3:
+            raise SceneError(f"no-mount zone {z.reason!r} of room {z.room}: a polygon of at"
+                             f" least 3 plan points (k, 2) is needed, got {poly.shape}",
+                             source)
+        if not np.all(np.isfinite(poly)):
+            raise SceneError(f"no-mount zone {z.reason!r} of room {z.room}: NaN/inf"
+                             " coordinates", source)
+        out.append(NoMountZone(int(z.room), poly, str(z.reason), bool(z.pendants)))
+    return out
+
+
 def _checked_texture(face_uv, lux_texture, m, source):
     """Texture coordinates (m, 3, 2) and lux texture (h, w), lux: both or neither."""
     if (face_uv is None) != (lux_texture is None):
@@ -255,13 +296,15 @@ class Scene:
         Virtual receiver faces (work planes): transparent, non-reflecting.
     source : str, optional
         File or object name used in error messages.
+    no_mount : list of :class:`NoMountZone`, optional
+        Parts of rooms' ceilings where no luminaire may be mounted.
     check_winding : bool
         Refuse inconsistent winding and rooms whose normals face outward.
     """
 
     def __init__(self, vertices, faces, vertex_lux=None, face_lux=None, face_room=None,
                  face_reflectance=None, face_uv=None, lux_texture=None, face_virtual=None,
-                 source=None, check_winding=True, _split=True):
+                 source=None, check_winding=True, _split=True, no_mount=None):
         self.source = source
         v, f = _checked_mesh(vertices, faces, source)
         m = len(f)
@@ -281,6 +324,7 @@ class Scene:
         self.face_virtual = face_virtual
         self.lux_texture = lux_texture
         self.vertex_source = np.arange(len(v))
+        self.no_mount = _checked_no_mount(no_mount, source)
 
         self._check_geometry()
         if check_winding:
@@ -585,7 +629,9 @@ class Scene:
                     face_room=self.face_room[sel], face_reflectance=self.face_reflectance[sel],
                     face_uv=None if self.face_uv is None else self.face_uv[sel],
                     lux_texture=self.lux_texture, face_virtual=self.face_virtual[sel],
-                    source=self.source, check_winding=False)
+                    source=self.source, check_winding=False,
+                    no_mount=[z for z in self.no_mount
+                              if z.room in set(self.face_room[sel].tolist())])
         sub.vertex_source = self.vertex_source[used][sub.vertex_source]
         sub.face_source = sel
         return sub
@@ -595,7 +641,7 @@ class Scene:
         s = Scene(self.vertices, self.faces, vertex_lux=lux, face_room=self.face_room,
                   face_reflectance=self.face_reflectance, face_virtual=self.face_virtual,
                   source=self.source,
-                  check_winding=False, _split=False)
+                  check_winding=False, _split=False, no_mount=self.no_mount)
         s.vertex_source = self.vertex_source.copy()
         return s
 

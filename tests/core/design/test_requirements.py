@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from invrad_wb.core.design import en12464
-from invrad_wb.core.design.room import DesignRoom
+from invrad_wb.core.design.room import DesignRoom, in_polygon
 from invrad_wb.core.design.requirements import (EM_HIGH, EM_LOW, classify, classify_rooms,
                                                 design_requirements, judge)
 from invrad_wb.core.model.luminaires import Luminaire
@@ -161,3 +161,56 @@ def test_cli_locate_on_a_plain_mesh_lays_out_a_requirement_room(tmp_path, capsys
     assert len(lums) >= 2 and all(l["normal"][2] < -0.99 for l in lums)   # no wall light
     assert all(abs(l["position"][2] - 3.0) < 0.05 for l in lums)           # on the ceiling
     assert len({round(l["flux_lm"], 6) for l in lums}) == 1
+
+
+def _with_zones(sc, zones):
+    return Scene(sc.vertices, sc.faces, vertex_lux=sc.vertex_lux, face_room=sc.face_room,
+                 face_reflectance=sc.face_reflectance, face_virtual=sc.face_virtual,
+                 check_winding=False, _split=False, no_mount=zones)
+
+
+def _rect(x0, y0, x1, y1):
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=np.float64)
+
+
+def test_no_luminaire_in_a_forbidden_part_of_the_ceiling_and_the_level_is_still_met():
+    """A stair in the middle of the room (nothing may be mounted over it) and a slab
+    opening along one end (no ceiling: only a pendant may hang there)."""
+    from invrad_wb.core.forward.render import render
+    from invrad_wb.core.design.layouts import VOID_PENDANT_DROP_M
+    from invrad_wb.core.model.scene import NoMountZone
+    size, level = (7.0, 5.0, 3.0), 300.0
+    stair, opening = _rect(2.5, 1.0, 4.5, 4.0), _rect(5.5, 0.0, 7.0, 5.0)
+    sc = _with_zones(_room(size=size, level=level),
+                     [NoMountZone(0, stair, "stair"),
+                      NoMountZone(0, opening, "slab opening above", pendants=True)])
+    targets = classify_rooms(sc)
+    # without the zones most candidate grids have a position over the stair
+    from invrad_wb.core.design.layouts import grid_geometries
+    from invrad_wb.core.design.spec import Mounting
+    free = grid_geometries(DesignRoom(_room(size=size), 0), Mounting(), 0.05, 0.75, 2, 12)
+    over = [in_polygon(stair, gm.positions[:, :2]).any() for gm in free]
+    assert np.mean(over) > 0.5
+    res = design_requirements(sc, targets, 2000.0, backend="numpy")
+    lums = res.luminaires
+    p = np.array([lum.position for lum in lums])
+    assert not in_polygon(stair, p[:, :2]).any(), p
+    # on the ceiling, except under the opening: pendants hung below the ceiling's level
+    void = in_polygon(opening, p[:, :2])
+    assert np.allclose(p[~void, 2], 3.0)
+    assert np.allclose(p[void, 2], 3.0 - VOID_PENDANT_DROP_M)
+    assert [lum.extra["mount"] for lum in lums] == ["pendant" if v else "surface"
+                                                      for v in void]
+    assert all(np.allclose(lum.normal, [0, 0, -1]) for lum in lums)
+    # the level and the uniformity are still met (an independent render, EN 12464-1 grid)
+    achieved = render(sc, lums, interreflection=True, backend="numpy")
+    v = judge(sc, 0, targets[0], achieved)
+    assert v.met, v.words()
+    assert EM_LOW * level <= v.em_lux <= EM_HIGH * level and v.u0 >= targets[0].u0
+
+
+def test_a_no_mount_zone_must_be_a_plan_polygon():
+    from invrad_wb.core.model.scene import NoMountZone
+    from invrad_wb.errors import SceneError
+    with pytest.raises(SceneError, match="no-mount zone 'stair' of room 0: a polygon"):
+        _with_zones(_room(), [NoMountZone(0, [[0, 0], [1, 1]], "stair")])
