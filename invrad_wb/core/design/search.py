@@ -148,6 +148,11 @@ class RoomSearch:
     fractions : edge fractions to try (layouts.EDGE_FRACTIONS; (0.5,) = classic grids)
     """
 
+    #: the share by which a dimmed design's mean illuminances (work plane, walls, ceiling,
+    #: surroundings, Ez) are kept above their minimums (:data:`.spec.DESIGN_MARGIN`; set by
+    #: the caller): the output is chosen for ``lux * (1 + margin)``, the verdict is still
+    #: taken on ``lux``
+    margin = 0.0
     #: :class:`.cylindrical.CylindricalGrid` where the room asks for Ez (set by the
     #: caller); judged on every exact check, not by the fast model
     cylindrical = None
@@ -482,7 +487,7 @@ def _finalise(search, cand, exact_full):
         need = max(need, r.lux / max(exact_full.surfaces[name][0], 1e-12))
     if search.cyl_req is not None and exact_full.cyl is not None:
         need = max(need, search.cyl_req["lux"] / max(float(np.mean(exact_full.cyl[0])), 1e-12))
-    dim = float(np.clip(need * 1.001, dmin, 1.0))
+    dim = float(np.clip(need * (1.0 + max(search.margin, 0.001)), dmin, 1.0))
     g = cand.geom
     n = np.bincount(g.cls, minlength=2)
     watts = dim * (n[0] * e0.watts + n[1] * e1.watts)
@@ -496,6 +501,19 @@ def _finalise(search, cand, exact_full):
     c = Candidate(g, cand.entries, dim, watts, met.em, met.u0, met.shade_max,
                   bool(metrics_comply(met, search)))
     return c, met
+
+
+def margin_kept(met, search):
+    """Whether every mean illuminance of ``met`` keeps the search's margin above its
+    minimum (work plane, surfaces, Ez)."""
+    k = 1.0 + search.margin
+    ok = met.em >= search.req.lux * k - 1e-9
+    for name, r in search.surf_reqs.items():
+        if name in met.surfaces:
+            ok = ok and met.surfaces[name][0] >= r.lux * k - 1e-9
+    if search.cyl_req is not None and met.cyl is not None:
+        ok = ok and float(np.mean(met.cyl[0])) >= search.cyl_req["lux"] * k - 1e-9
+    return bool(ok)
 
 
 def metrics_comply(met, search):
