@@ -412,3 +412,32 @@ def test_a_dimmed_design_keeps_its_margin_above_every_minimum():
     assert _spec(room, cat=cat).design_margin == 0.01
     with pytest.raises(SettingsError, match="design_margin"):
         _spec(room, cat=cat, design_margin=0.5)
+
+
+def test_an_l_gets_one_grid_per_leg_and_never_more_watts_for_it(monkeypatch):
+    """An L is cut into its two legs either way; a zone layout has one grid per leg with
+    half spacing at that leg's walls; the search that may also use them never draws more
+    than the one that may not (they are more candidates, judged the same way)."""
+    from invrad_wb.core.design import layouts
+    from invrad_wb.core.design.design import design_room
+    from invrad_wb.core.design.room import DesignRoom
+    from invrad_wb.core.design.spec import Mounting
+    sc = g.with_reflectances(g.l_room(size=(8.0, 6.0, 2.6), cut=(1.8, 1.8), cell=0.4))
+    dr = DesignRoom(sc, 0)
+    cuts = layouts.room_rectangles(dr)
+    assert len(cuts) == 2
+    areas = sorted(round((r[2] - r[0]) * (r[3] - r[1]), 6) for c in cuts for r in c)
+    assert areas == [7.56, 10.8, 11.16, 14.4]     # 1.8 x 4.2, 1.8 x 6, 6.2 x 1.8, 8 x 1.8
+    geoms = layouts.zone_geometries(dr, Mounting(), 0.0, 0.75, 2, 12)
+    assert geoms and all(n == g_.count for g_ in geoms for n in [len(g_.positions)])
+    g0 = next(x for x in geoms if len(x.zones) == 2 and x.zones[0][:2] == (1, 3))
+    # the 1.8 m wide leg's single column sits on its centre line, half spacing to its ends
+    leg = g0.plan[:3] if np.ptp(g0.plan[:3, 0]) < 1e-9 else g0.plan[-3:]
+    assert np.allclose(leg[:, 0], 0.9) or np.allclose(leg[:, 1], 0.9)
+    spec = _spec({"work_plane": {"lux": 100, "u0": 0.4}},
+                 cat=[{"name": "DL", "flux_lm": 1500, "watts": 12.0, "dimming": [0.1, 1.0]}])
+    with_zones = design_room(sc, spec, 0)
+    monkeypatch.setattr(layouts, "MAX_ZONES", 1)
+    without = design_room(sc, spec, 0)
+    assert with_zones.compliant and without.compliant
+    assert with_zones.watts <= without.watts + 1e-9
