@@ -6,22 +6,32 @@ columns, an L-shaped corridor, a meeting room, a lab and a 6.5 m hall; a catalog
 photometric types written here as IES LM-63 files with their luminous sizes (two of them
 dimmable). For each room:
 
-* **grid**: the lighting designer's reference: every catalogue type, every ns x nt grid
-  with half spacing at the walls (laid over the room's axes and kept inside its outline),
-  dimmed evenly to the requirement where the type allows, checked in order of watts by
-  invrad's exact model; the first that meets every item;
-* **invrad**: ``design_room`` with the same catalogue.
+* **grid**: the lighting designer's reference: every catalogue type, one nx x ny grid with
+  half spacing at the walls per rectangle of the room (an L: both ways of cutting it into
+  two legs, every nx x ny in each leg; a box, columns or not: one grid, positions in a
+  column dropped), dimmed evenly where the type allows; ranked by the fast model, checked
+  in that order by invrad's exact model (shadows, radiosity, every item); the least watts
+  that meets every item. Then dimmed evenly once more to what Radiance finds it needs
+  (Radiance's light scales with the output: the reference at its cheapest by the judge);
+* **invrad**: ``design_room`` with the same catalogue (its default ``design_margin``).
 
-Both are then judged by Radiance (``pyradiance``'s ies2rad, oconv and rtrace, ``-ab 5``):
-the EN 12464-1 work-plane grid (Em, U0), the walls' and ceiling's grids (Em, U0), all
-maintained (x MF); UGR by the CIE 117 formula at the standard observers with the
-background luminance from Radiance's interreflected light at the eye (total minus direct,
-x MF). Prints per room and method the watts, the figures, the verdict, and the totals.
+Both are judged by Radiance (``pyradiance``'s ies2rad, oconv and rtrace, ``AMBIENT``):
+the EN 12464-1 work-plane grid (Em, U0), the immediate surroundings' band, the walls'
+and the ceiling's grids (Em, U0), Ez where the room asks (the mean over 8 horizontal
+directions of the vertical illuminance), all maintained (x MF); UGR by the CIE 117
+formula at the standard observers with the background luminance from Radiance's
+interreflected light at the eye (total minus direct, x MF). A mean passes at its
+minimum less 0.5 lx (as printed), a U0 at its minimum less 0.005, UGR at its limit +0.05.
 
-Run: ``.venv/bin/python bench/bench_design_radiance.py [room ...]``. Radiance takes
-minutes per room (rtrace -ab 5 on a loaded 2-core machine: 5-10 min).
+Run: ``.venv/bin/python bench/bench_design_radiance.py [--no-trace] [room ...]``. Designs
+are cached in ``out/radjobs/<room>/designs.pkl`` (delete it to redesign) and each
+judgement is a folder there with ``run.sh`` (rtrace); ``--no-trace`` only designs and
+writes the jobs, and ``out/radjobs/run_all.sh N`` traces them N at a time (with
+``RADBIN`` and ``RAYPATH=.:<pyradiance>/lib`` set: on a many-core machine); the next
+run reads the traced results. Radiance takes minutes per judgement on one core.
 
-Measured (2026-11-25, shared 2-core machine, only two rooms had time to run):
+Earlier (2026-11-25, shared 2-core machine, only two rooms had time to run; point
+sources, one grid over an L's bounding box, -ab 5, luminaires 5 mm below the ceiling):
 
 * meeting room, grid: 30 x DL-1200N at 38 %, 114.9 W; Radiance Em 500 lx, U0 0.83, walls
   173 lx / 0.61, ceiling 85 lx / 0.90, UGR 18.4 (limit 19): compliant.
@@ -327,10 +337,11 @@ def _radiance():
     return b, env
 
 
-#: 7 bounces (rho^7 of the series left out: < 0.2 % of the work plane's light), an ambient
-#: cache shared by a room's calls
-AMBIENT = ["-ab", "7", "-ad", "512", "-as", "128", "-aa", "0.1", "-ar", "32",
-           "-lw", "1e-4", "-af", "scene.amb"]
+#: 6 bounces (rho^6 of the series left out: about 0.2 % of the work plane's light in these
+#: rooms), an ambient cache shared by all of a judgement's rays; coarser than -ab 7 -ad 512
+#: -aa 0.1 (which took over 6 min per judgement on the shared 2-core machine)
+AMBIENT = ["-ab", "6", "-ad", "256", "-as", "64", "-aa", "0.15", "-ar", "16",
+           "-lw", "2e-4", "-af", "scene.amb"]
 
 
 def judge_prepare(scene, spec, lums, job, phot_paths):
@@ -368,7 +379,8 @@ def judge_prepare(scene, spec, lums, job, phot_paths):
     with open(os.path.join(job, "scene.rad"), "w") as fh:
         fh.write("\n".join(lines) + "\n")
     with open(os.path.join(job, "scene.oct"), "wb") as fh:
-        subprocess.run([os.path.join(b, "oconv"), "scene.rad"], cwd=job, env=env,
+        # frozen (-f): the octree holds the scene, rtrace need not run xform again
+        subprocess.run([os.path.join(b, "oconv"), "-f", "scene.rad"], cwd=job, env=env,
                        stdout=fh, check=True)
     rs, droom, wp, surfaces = judge_grids(scene, spec)
     grids = {"work_plane": (wp, np.tile([0, 0, 1.0], (len(wp), 1)), np.ones(len(wp)))}
@@ -401,6 +413,7 @@ def judge_prepare(scene, spec, lums, job, phot_paths):
     rt = '"$RADBIN/rtrace" -I -h -dj 0 -ds 0.05'
     with open(os.path.join(job, "run.sh"), "w") as fh:
         fh.write("#!/bin/sh\nset -e\ncd \"$(dirname \"$0\")\"\nrm -f scene.amb\n"
+                 'export PATH="$RADBIN:$PATH"\n'
                  f"{rt} {' '.join(AMBIENT)} scene.oct < rays.txt > rays.out.tmp\n"
                  f"{rt} -ab 0 scene.oct < direct.txt > direct.out.tmp\n"
                  "mv rays.out.tmp rays.out\nmv direct.out.tmp direct.out\n")
