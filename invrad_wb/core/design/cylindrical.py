@@ -43,6 +43,7 @@ import math
 import numpy as np
 
 from invrad_wb.core.design import en12464
+from invrad_wb.core.design.evaluate import luminous_samples
 from invrad_wb.core.forward.direct import direct_illuminance
 from invrad_wb.core.geometry.raster import locate_points
 from invrad_wb.core.model.targets import WORK_PLANE_HEADROOM_M
@@ -174,6 +175,7 @@ class CylindricalGrid:
         if not luminaires:
             return ez, eh
         occl = m.bvh is not None
+        luminaires = luminous_samples(luminaires)
         for lum in luminaires:
             h = lum.position[None, :2] - self.points[:, :2]
             r = np.linalg.norm(h, axis=1)
@@ -192,8 +194,9 @@ class CylindricalGrid:
         m, k = self.model, len(self.points)
         if not luminaires:
             return np.zeros(k), np.zeros(k)
-        return self.gather(m.rad.solve(m.rad.patch_direct(luminaires, m.bvh,
-                                                          m.bvh is not None, m.backend)))
+        lums = luminous_samples(luminaires)
+        return self.gather(m.rad.solve(m.rad.patch_direct(lums, m.bvh, m.bvh is not None,
+                                                          m.backend)))
 
     def evaluate(self, luminaires):
         """Maintained (ez (k,), eh (k,)) lux of ``luminaires`` at the points."""

@@ -18,8 +18,8 @@ from invrad_wb.core.design.evaluate import RoomModel, surface_grids
 from invrad_wb.core.design.room import DesignRoom
 from invrad_wb.core.design.accent import SPOT_TOLERANCE, find_goals, light_spots, within
 from invrad_wb.core.design.accents import light_spots_aimed
-from invrad_wb.core.design.search import (Candidate, Metrics, RoomSearch, metrics_comply,
-                                          run_search)
+from invrad_wb.core.design.search import (Candidate, Metrics, RoomSearch, margin_kept,
+                                          metrics_comply, run_search)
 
 #: shade points per room at most (deterministic subsample beyond)
 MAX_SHADE_POINTS = 2000
@@ -215,6 +215,7 @@ class DesignResult:
         return {"luminaires": [lum.to_dict() for lum in self.luminaires],
                 "rooms": [r.to_dict() for r in self.rooms],
                 "maintenance_factor": self.spec.maintenance_factor,
+                "design_margin": getattr(self.spec, "design_margin", 0.0),
                 "catalogue": [e.to_dict() for e in self.spec.catalogue],
                 "total_watts": round(self.watts, 2),
                 "total_rated_watts": round(self.rated_watts, 2),
@@ -374,6 +375,7 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
     general = [e for e in entries if not e.aimable] or entries
     search = RoomSearch(model, req, rs, general, photometry, mixed=mixed, dimming=dimming,
                         fractions=fractions)
+    search.margin = spec.design_margin
     if cyl is not None:
         search.cylindrical, search.cyl_req = cyl, cyl.req
     if not search.geoms:
@@ -424,7 +426,8 @@ def _redim_with_accents(rd, model, search, parts, accents, req, rs):
     spots = [sp for sp in rd.spots if sp.goal.kind == "spot"]
     for f in np.linspace(floor / cand.dim, 1.0, REDIM_STEPS + 1):
         met = Metrics.of(f * G + A, f * Gd + Ad, model.layout)
-        if met.em < req.lux * 1.001 or not metrics_comply(met, search):
+        if (met.em < req.lux * 1.001 or not metrics_comply(met, search)
+                or not margin_kept(met, search)):
             continue
         # met spots stay met with a margin (the exact model is not the verification)
         if all(within(f * sp.base_mean + sp.achieved_mean - sp.base_mean, sp.goal.target_mean,

@@ -72,14 +72,18 @@ def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photome
     normals = np.asarray(normals, dtype=np.float64)
     positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
     lum_normals = np.asarray(lum_normals, dtype=np.float64).reshape(-1, 3)
-    qp, qw = disk_quadrature() if radius_m > 0 else (np.zeros((1, 2)), np.ones(1))
+    if radius_m > 0:
+        qp, qw = disk_quadrature()
+        qp = radius_m * qp
+    else:
+        qp, qw = opening_quadrature(photometry)
     out = np.zeros((len(points), len(positions)))
     for key in np.unique(np.round(lum_normals, 9), axis=0):
         cols = np.flatnonzero(np.all(np.abs(lum_normals - key) < 1e-8, axis=1))
         n = lum_normals[cols[0]]
         u, v = photometric_frame(n, c0)
         for q, w in zip(qp, qw):
-            c = positions[cols] + radius_m * (q[0] * u + q[1] * v)
+            c = positions[cols] + q[0] * u + q[1] * v
             for b in range(0, len(cols), max(1, _BLOCK * 64 // max(1, len(points)))):
                 cb = slice(b, b + max(1, _BLOCK * 64 // max(1, len(points))))
                 r = points[:, None, :] - c[None, cb]
@@ -91,6 +95,49 @@ def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photome
                 else:
                     i_lm = photometry.intensity_per_lm(np.stack([d @ u, d @ v, d @ n], -1))
                 out[:, cols[cb]] += w * i_lm * cos_s / r2
+    return out
+
+
+#: Gauss-Legendre abscissa of the 2-point rule on [-1/2, 1/2]
+_GAUSS2 = 0.5 / math.sqrt(3.0)
+
+
+def opening_quadrature(photometry):
+    """Points (q, 2) metres along (C0, C90) and weights (q,) summing to 1 over the luminous
+    opening of a photometry file: the 2 x 2 Gauss-Legendre rule on its rectangle (a round
+    opening, given by its area only: on the square of that area); one point at the centre
+    where the file gives no opening.
+
+    Radiance (ies2rad) and DIALux emit a photometry file's light from its luminous opening,
+    each part with the file's intensity distribution scaled by its share of the area; a
+    point source at the centre overstates the light straight below a 0.6 m panel by 3 % at
+    2 m (9 % at 1 m), and the rule leaves 0.03 % (0.4 % at 1 m)."""
+    ext = getattr(photometry, "luminous_extent_m", None) if photometry is not None else None
+    if not ext:
+        area = getattr(photometry, "luminous_area_m2", None) if photometry is not None else None
+        if not area:
+            return np.zeros((1, 2)), np.ones(1)
+        ext = (math.sqrt(area), math.sqrt(area))
+    a, b = _GAUSS2 * ext[0], _GAUSS2 * ext[1]
+    return np.array([[-a, -b], [a, -b], [-a, b], [a, b]]), np.full(4, 0.25)
+
+
+def luminous_samples(luminaires):
+    """The luminaires as point emitters for direct light: a photometric luminaire with a
+    luminous opening becomes the points of :func:`opening_quadrature` (same photometry and
+    C0, its flux shared by the weights); the others are kept as they are (a disk is
+    integrated by the direct-light code itself)."""
+    out = []
+    for lum in luminaires:
+        ph = getattr(lum, "photometry", None)
+        qp, qw = (np.zeros((1, 2)), np.ones(1)) if lum.radius_m > 0 or ph is None \
+            else opening_quadrature(ph)
+        if len(qw) == 1:
+            out.append(lum)
+            continue
+        u, v = photometric_frame(lum.normal, lum.c0)
+        out += [replace(lum, position=lum.position + q[0] * u + q[1] * v,
+                        flux_lm=lum.flux_lm * w, c0=u) for q, w in zip(qp, qw)]
     return out
 
 
@@ -314,6 +361,7 @@ class RoomModel:
         """Maintained illuminance (k,) lux at the receivers: direct with shadows plus a
         radiosity solve; and the direct part alone."""
         occl = self.bvh is not None
+        luminaires = luminous_samples(luminaires)
         b = self.rad.solve(self.rad.patch_direct(luminaires, self.bvh, occl, self.backend))
         indirect = self._gather(b)
         direct = direct_illuminance(self.points, self.normals, luminaires, bvh=self.bvh,
@@ -330,6 +378,7 @@ class RoomModel:
         normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
         lifted = points + 1e-4 * normals
         occl = self.bvh is not None
+        luminaires = luminous_samples(luminaires)
         direct = direct_illuminance(lifted, normals, luminaires, bvh=self.bvh,
                                     occlusion=occl, backend=self.backend)
         return self.mf * (direct + self.indirect_at(lifted, normals, luminaires))
@@ -340,6 +389,7 @@ class RoomModel:
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         near = nearest_site(self.mesh.face_centroids, points)
         op = self.rad.gather(points, normals, self.rad.face_patch[near])
+        luminaires = luminous_samples(luminaires)
         return op(self.rad.solve(self.rad.patch_direct(luminaires, self.bvh,
                                                        self.bvh is not None, self.backend)))
 

@@ -204,3 +204,133 @@ def grid_geometries(droom, mounting, radius_m, wp_top_z, n_min, n_max,
             out.append(Geometry(ns, nt, fs, ft, plan[ok], pos_u[k[ok]], nrm_u[k[ok]], cls[ok],
                                 size=(ls, lt)))
     return out
+
+
+# ----------------------------------------------------------------------- zone grids
+#: a room cut into more rectangles than this gets no zone grids (columns, partitions:
+#: the room's own clipped grids serve it)
+MAX_ZONES = 3
+#: the luminaires per m^2 of the zones of one layout stay within this factor of each other
+#: (a designer keeps about the same spacing throughout)
+ZONE_DENSITY_RATIO = 1.6
+#: zone layouts kept per way of cutting a room, the most even densities first
+MAX_ZONE_LAYOUTS = 400
+
+
+class ZoneGeometry(Geometry):
+    """A layout of one ``nx x ny`` grid with half spacing at the walls per rectangle of a
+    room that is not one (an L: its two legs). ``zones``: ((nx, ny, (length, width)), ...)."""
+
+    zones: tuple = ()
+
+    def describe(self):
+        parts = [f"{nx} x {ny} in the {a:.2f} x {b:.2f} m part" for nx, ny, (a, b) in self.zones]
+        return f"one grid per rectangle of the room: {'; '.join(parts)}"
+
+
+def room_rectangles(droom):
+    """The ways of cutting a room's floor into rectangles along its axes: a list of
+    decompositions, each a list of plan rectangles (s0, t0, s1, t1). Cut in bands across
+    s and in bands across t (an L: its two legs, either way); only decompositions into 2
+    to :data:`MAX_ZONES` rectangles are returned (a rectangle, or a room with columns in
+    it, gets none)."""
+    e = droom.to_plan(droom._edges.reshape(-1, 2)).reshape(-1, 2, 2)
+    s = np.unique(np.round(e[..., 0], 6))
+    t = np.unique(np.round(e[..., 1], 6))
+    if len(s) < 2 or len(t) < 2 or len(s) * len(t) > 400:
+        return []
+    cs, ct = 0.5 * (s[1:] + s[:-1]), 0.5 * (t[1:] + t[:-1])
+    inside = droom.inside(droom.to_world(np.stack(np.meshgrid(cs, ct, indexing="ij"),
+                                                  -1).reshape(-1, 2)))
+    inside = inside.reshape(len(cs), len(ct))
+    out = []
+    for axis in (0, 1):
+        cells = inside if axis == 0 else inside.T
+        a, b = (s, t) if axis == 0 else (t, s)
+        rects, open_ = [], {}
+        for i in range(cells.shape[0]):
+            runs, j = [], 0
+            while j < cells.shape[1]:
+                if cells[i, j]:
+                    k = j
+                    while k + 1 < cells.shape[1] and cells[i, k + 1]:
+                        k += 1
+                    runs.append((j, k))
+                    j = k + 1
+                else:
+                    j += 1
+            nxt = {}
+            for r in runs:
+                nxt[r] = open_.pop(r, i)
+            for (j, k), i0 in open_.items():
+                rects.append((a[i0], b[j], a[i], b[k + 1]))
+            open_ = nxt
+        for (j, k), i0 in open_.items():
+            rects.append((a[i0], b[j], a[cells.shape[0]], b[k + 1]))
+        if axis == 1:
+            rects = [(r[1], r[0], r[3], r[2]) for r in rects]
+        rects = sorted(rects)
+        area = sum((r[2] - r[0]) * (r[3] - r[1]) for r in rects)
+        # the rectangles must be the floor (an outline with seams drawn through it is not)
+        if (2 <= len(rects) <= MAX_ZONES and rects not in out
+                and abs(area - droom.floor_area) <= 0.01 * droom.floor_area):
+            out.append(rects)
+    return out
+
+
+def _zone_grids(droom, rect, mounting, radius_m, wp_top_z):
+    """Every ``nx x ny`` grid with half spacing at the walls of one plan rectangle:
+    [(nx, ny, plan (k, 2), positions, normals)] of the valid positions."""
+    s0, t0, s1, t1 = rect
+    ls, lt = s1 - s0, t1 - t0
+    out = []
+    for nx in range(1, int(ls / MIN_SPACING_M) + 2):
+        for ny in range(1, int(lt / MIN_SPACING_M) + 2):
+            ss, st = ls / nx, lt / ny
+            if (nx > 1 and ss < MIN_SPACING_M or ny > 1 and st < MIN_SPACING_M
+                    or nx > 1 and ny > 1 and max(ss / st, st / ss) > MAX_SPACING_RATIO):
+                continue
+            plan = np.stack(np.meshgrid(s0 + (np.arange(nx) + 0.5) * ss,
+                                        t0 + (np.arange(ny) + 0.5) * st, indexing="ij"),
+                            -1).reshape(-1, 2)
+            pos, nrm, ok = mount(droom, plan, mounting, radius_m, wp_top_z)
+            if ok.any():
+                out.append((nx, ny, plan[ok], pos[ok], nrm[ok]))
+    return out
+
+
+def zone_geometries(droom, mounting, radius_m, wp_top_z, n_min, n_max):
+    """Layouts of one regular grid per rectangle of a room that is not a rectangle
+    (:func:`room_rectangles`; list of :class:`ZoneGeometry`): every ``nx x ny`` per zone
+    with half spacing at its walls, combined where the zones' luminaire densities are
+    within :data:`ZONE_DENSITY_RATIO` of each other and the count is in
+    ``[n_min, n_max]``. What a lighting designer lays in an L: a grid over the whole
+    outline, clipped, leaves one leg with a row on its wall or none down its middle."""
+    out = []
+    for si, rects in enumerate(room_rectangles(droom)):
+        grids = [_zone_grids(droom, r, mounting, radius_m, wp_top_z) for r in rects]
+        if not all(grids):
+            continue
+        area = [(r[2] - r[0]) * (r[3] - r[1]) for r in rects]
+        found = []
+        for combo in itertools.product(*[range(len(g)) for g in grids]):
+            parts = [grids[z][j] for z, j in enumerate(combo)]
+            n = sum(len(p[2]) for p in parts)
+            if not n_min <= n <= n_max:
+                continue
+            dens = [len(p[2]) / a for p, a in zip(parts, area)]
+            spread = max(dens) / min(dens)
+            if spread <= ZONE_DENSITY_RATIO:
+                found.append((spread, combo, parts))
+        found.sort(key=lambda x: x[0])
+        for spread, combo, parts in found[:MAX_ZONE_LAYOUTS]:
+            g = ZoneGeometry((si,) + tuple(p[0] for p in parts), tuple(p[1] for p in parts),
+                             (0.5, 0.5), (0.5, 0.5), np.concatenate([p[2] for p in parts]),
+                             np.concatenate([p[3] for p in parts]),
+                             np.concatenate([p[4] for p in parts]),
+                             np.zeros(sum(len(p[2]) for p in parts), int),
+                             size=tuple(droom.size))
+            g.zones = tuple((p[0], p[1], (r[2] - r[0], r[3] - r[1]))
+                            for p, r in zip(parts, rects))
+            out.append(g)
+    return out

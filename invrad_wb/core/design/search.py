@@ -22,7 +22,7 @@ from invrad_wb.core.design.evaluate import (Layout, entry_c0, luminaires_of,
                                             turned_entries, unit_response)
 from invrad_wb.core.design.spec import SurfaceRequirement
 from invrad_wb.core.output.glare import observers, ugr_from_sum, unit_glare
-from invrad_wb.core.design.layouts import grid_geometries
+from invrad_wb.core.design.layouts import grid_geometries, zone_geometries
 
 #: exact solves per room at most
 MAX_EXACT = 10
@@ -148,6 +148,11 @@ class RoomSearch:
     fractions : edge fractions to try (layouts.EDGE_FRACTIONS; (0.5,) = classic grids)
     """
 
+    #: the share by which a dimmed design's mean illuminances (work plane, walls, ceiling,
+    #: surroundings, Ez) are kept above their minimums (:data:`.spec.DESIGN_MARGIN`; set by
+    #: the caller): the output is chosen for ``lux * (1 + margin)``, the verdict is still
+    #: taken on ``lux``
+    margin = 0.0
     #: :class:`.cylindrical.CylindricalGrid` where the room asks for Ez (set by the
     #: caller); judged on every exact check, not by the fast model
     cylindrical = None
@@ -172,8 +177,11 @@ class RoomSearch:
         need = req.lux * max(droom.floor_area, 1e-6) / model.mf   # lm on the floor area
         # plausible counts per entry: the lumen method with utilisation factors
         # between _UF_LOW and _UF_HIGH (2 more at the top for uniformity)
+        # a dimmable entry also as twice as many at half output or less (light spread
+        # wider: walls, ceiling and uniformity met for less power)
         self.n_range = [(max(1, int(math.floor(need / (e.flux_lm * _UF_HIGH)))),
-                         max(2, int(math.ceil(need / (e.flux_lm * _UF_LOW))) + 2))
+                         max(2, int(math.ceil(need / (e.flux_lm * _UF_LOW
+                                                      * self._least_output(e)))) + 2))
                         for e in self.entries]
         kw = {"shifted": shifted} if fractions is None else {"fractions": fractions,
                                                              "shifted": shifted}
@@ -183,6 +191,11 @@ class RoomSearch:
         self.geoms = grid_geometries(droom, room_spec.mounting, radius, wp_z,
                                      min(r[0] for r in self.n_range),
                                      min(max(r[1] for r in self.n_range), MAX_COUNT), **kw)
+        if not droom.rectangular:
+            # an L (a room of a few rectangles): also one grid per rectangle
+            self.geoms += zone_geometries(droom, room_spec.mounting, radius, wp_z,
+                                          min(r[0] for r in self.n_range),
+                                          min(max(r[1] for r in self.n_range), MAX_COUNT))
         if not self.geoms:
             # a catalogue too weak for the room: its densest grids are the closest designs
             dense = grid_geometries(droom, room_spec.mounting, radius, wp_z, 1, MAX_COUNT,
@@ -198,6 +211,11 @@ class RoomSearch:
         self._glare()
         self.eye_ind = {}          # entry name -> (O,) indirect lux per lm at the eyes
         self.checked = {}
+
+    def _least_output(self, e):
+        """The output fraction the count range allows for: 1, or 0.5 for an entry the
+        search may dim that far."""
+        return 0.5 if self.dimming and e.dimming[0] <= 0.5 else 1.0
 
     def _half_size(self, e):
         """Half the largest side of an entry's luminous opening (m; 0: a point); the grids
@@ -482,7 +500,7 @@ def _finalise(search, cand, exact_full):
         need = max(need, r.lux / max(exact_full.surfaces[name][0], 1e-12))
     if search.cyl_req is not None and exact_full.cyl is not None:
         need = max(need, search.cyl_req["lux"] / max(float(np.mean(exact_full.cyl[0])), 1e-12))
-    dim = float(np.clip(need * 1.001, dmin, 1.0))
+    dim = float(np.clip(need * (1.0 + max(search.margin, 0.001)), dmin, 1.0))
     g = cand.geom
     n = np.bincount(g.cls, minlength=2)
     watts = dim * (n[0] * e0.watts + n[1] * e1.watts)
@@ -496,6 +514,19 @@ def _finalise(search, cand, exact_full):
     c = Candidate(g, cand.entries, dim, watts, met.em, met.u0, met.shade_max,
                   bool(metrics_comply(met, search)))
     return c, met
+
+
+def margin_kept(met, search):
+    """Whether every mean illuminance of ``met`` keeps the search's margin above its
+    minimum (work plane, surfaces, Ez)."""
+    k = 1.0 + search.margin
+    ok = met.em >= search.req.lux * k - 1e-9
+    for name, r in search.surf_reqs.items():
+        if name in met.surfaces:
+            ok = ok and met.surfaces[name][0] >= r.lux * k - 1e-9
+    if search.cyl_req is not None and met.cyl is not None:
+        ok = ok and float(np.mean(met.cyl[0])) >= search.cyl_req["lux"] * k - 1e-9
+    return bool(ok)
 
 
 def metrics_comply(met, search):
