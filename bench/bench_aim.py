@@ -50,6 +50,12 @@ before, where the first selection's fit is poor):
                <= 0.20 deg, 0 spurious) 115.6 s / 43.1 s CPU (6.7).
   --seed 3 after: gallery 5/5 39.1 s / 13.2 s (9.4), shop 4/4 50.7 s / 18.1 s (7.9),
                lobby 5/5 42.7 s / 15.1 s (7.1); the same luminaires as before.
+  seeds 5 and 6 (all rooms, after): 14/14 each, 0 spurious; CPU s gallery 17.9 / 11.8,
+               shop 18.2 / 18.4, lobby 11.9 / 11.3 (load 6-7).
+Measured 2026-11-26 01:45-01:55, the footprint scoring as matrix products (aim._Scorer):
+  lobby --seed 4: 43.1 s CPU (footprint candidates 13.4 s) -> 30.9 s (5.4 s), 5/5;
+  --seed 3: gallery 13.2 -> 10.0 s CPU, shop 18.1 -> 11.3, lobby 15.1 -> 11.2
+               (29.4 / 29.9 / 28.0 s wall at load 7-8), 14/14, 0 spurious.
 """
 import argparse
 import math
