@@ -41,6 +41,21 @@ Measured 2026-11-25 22:25-23:02, the lobby's re-seeding from the residual
                not found, 2 spurious) 72.5 s / 28.2 s (7.0), after 0/5 (one not found,
                1 spurious; three wall-wash spots found facing straight down, 32-48 cm
                off) 94.8 s / 38.7 s (6.1).
+Measured 2026-11-26 00:58-01:40, the footprint pursuit (_RoomFit.pursuit: a second
+selection from footprint candidates found one after another, each scored beside those
+before, where the first selection's fit is poor):
+  lobby --seed 4: before 0/5 (three wall-wash spots found facing straight down 32-48 cm
+               off, the floor spot and the downlight beside it as two downlights 26 cm off,
+               1 spurious) 132.1 s / 59.9 s CPU (5.8); after 5/5 (<= 1.2 cm,
+               <= 0.20 deg, 0 spurious) 115.6 s / 43.1 s CPU (6.7).
+  --seed 3 after: gallery 5/5 39.1 s / 13.2 s (9.4), shop 4/4 50.7 s / 18.1 s (7.9),
+               lobby 5/5 42.7 s / 15.1 s (7.1); the same luminaires as before.
+  seeds 5 and 6 (all rooms, after): 14/14 each, 0 spurious; CPU s gallery 17.9 / 11.8,
+               shop 18.2 / 18.4, lobby 11.9 / 11.3 (load 6-7).
+Measured 2026-11-26 01:45-01:55, the footprint scoring as matrix products (aim._Scorer):
+  lobby --seed 4: 43.1 s CPU (footprint candidates 13.4 s) -> 30.9 s (5.4 s), 5/5;
+  --seed 3: gallery 13.2 -> 10.0 s CPU, shop 18.1 -> 11.3, lobby 15.1 -> 11.2
+               (29.4 / 29.9 / 28.0 s wall at load 7-8), 14/14, 0 spurious.
 """
 import argparse
 import math
