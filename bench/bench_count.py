@@ -10,6 +10,11 @@ unknown, flux given): count right?, worst position error (cm), worst flux error 
 seconds.
 
 Usage: python bench/bench_count.py [--only NAME,...] [--noise 0.05] [--no-flux-given]
+       python bench/bench_count.py --bound-only    (the bounds alone, seconds)
+
+'sd cm' / 'sd %': the Cramer-Rao bound of the true arrangement on every target vertex
+(:func:`bound`): the standard deviation of the worst-pinned luminaire's position (along
+its worst direction) and flux that no unbiased estimate from these noisy data beats.
 
 Measured 2026-11-25 on the shared 2-core machine (load 5-9, so seconds are wall seconds
 of a busy machine; 'ok' = the count right and every luminaire matched within 0.5 m):
@@ -99,6 +104,34 @@ def build(name, noise, seed=0, cell=0.2):
     return scene.with_vertex_lux(lux), lums
 
 
+def bound(scene, true, noise, free):
+    """The Cramer-Rao bound of the true luminaires on every target vertex of ``scene``
+    (:func:`invrad_wb.core.inverse.fitcheck.position_sd`, the noise ``noise``, fluxes free
+    or given): (worst position sd (cm), worst flux sd (%) or nan). No unbiased estimate
+    from these data does better; an error of 2-3 sd in the worst of a dozen luminaires is
+    ordinary."""
+    from invrad_wb.core.inverse.fitcheck import position_sd
+    from invrad_wb.core.inverse.locate import LocateSettings
+    from invrad_wb.core.inverse.locate_placement import _occluders
+    from invrad_wb.core.inverse.locate_problem import _refine_problem, vertex_points
+    from invrad_wb.core.inverse.refine import Light
+    from invrad_wb.core.inverse.votemaps import build_canvas
+    s = LocateSettings()
+    room = int(scene.rooms[0])
+    canvas = build_canvas(scene, room, pixel=s.pixel_m, dummy=False)
+    flux = true[0].flux_lm
+    prob, _ = _refine_problem(scene, vertex_points(scene), canvas, _occluders(scene, s), s,
+                              flux, "numpy", True, {"radiosity": 0.0})
+    prob.free_flux = free
+    lights = [Light("surface", np.asarray(t.position, float), np.array([0, 0, -1.0]), -1,
+                    origin=np.asarray(t.position, float), u=np.array([1.0, 0, 0]),
+                    v=np.array([0, 1.0, 0]), flux_scale=t.flux_lm / flux) for t in true]
+    lights, _ = prob.refresh_indirect(lights, moved=0.0)
+    sd, fsd = position_sd(prob, lights, sigma=max(noise, 1e-12))
+    return 100.0 * float(sd.max()), (100.0 * float(fsd.max()) if fsd is not None
+                                     else float("nan"))
+
+
 def flux_errors(found, true):
     """Worst relative flux error (%) over true luminaires (each against its nearest)."""
     worst = 0.0
@@ -116,10 +149,20 @@ def main():
     ap.add_argument("--only", default="")
     ap.add_argument("--noise", type=float, default=0.05)
     ap.add_argument("--no-flux-given", action="store_true", help="skip the flux-given runs")
+    ap.add_argument("--bound-only", action="store_true",
+                    help="print the Cramer-Rao bounds of the scenes only (no locate)")
     args = ap.parse_args()
+    if args.bound_only:
+        for name in [n for n in scenes() if not args.only or n in args.only.split(",")]:
+            scene, true = build(name, args.noise)
+            free = bound(scene, true, args.noise, True)
+            given = bound(scene, true, args.noise, False)
+            print(f"{name:16s} flux free: {free[0]:6.2f} cm {free[1]:6.2f} %;"
+                  f" flux given: {given[0]:6.2f} cm", flush=True)
+        return
     names = [n for n in scenes() if not args.only or n in args.only.split(",")]
     print(f"{'scene':16s} {'mode':6s} {'count':>7s} {'ok':>3s} {'max cm':>7s}"
-          f" {'max flux %':>10s} {'s':>7s}")
+          f" {'max flux %':>10s} {'s':>7s} {'cpu s':>7s} {'sd cm':>6s} {'sd %':>6s}")
     summary = {"free": [], "given": []}
     for name in names:
         scene, true = build(name, args.noise)
@@ -127,16 +170,18 @@ def main():
         if not args.no_flux_given and len({t.flux_lm for t in true}) == 1:
             modes.append(("given", true[0].flux_lm))
         for mode, flux in modes:
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             r = locate(scene, flux)
-            dt = time.perf_counter() - t0
+            dt, dc = time.perf_counter() - t0, time.process_time() - c0
             m = match(r.luminaires, true)
             ok = m["found"] == m["true"] == len(r.luminaires)
             fe = flux_errors(r.luminaires, true)
             cm = m["max_error_cm"] if m["max_error_cm"] is not None else float("nan")
             summary[mode].append((ok, cm, fe, dt))
+            sd, fsd = bound(scene, true, args.noise, mode == "free")
             print(f"{name:16s} {mode:6s} {len(r.luminaires):>3d}/{len(true):<3d}"
-                  f" {'yes' if ok else 'NO':>3s} {cm:7.2f} {fe:10.2f} {dt:7.1f}", flush=True)
+                  f" {'yes' if ok else 'NO':>3s} {cm:7.2f} {fe:10.2f} {dt:7.1f} {dc:7.1f}"
+                  f" {sd:6.2f} {fsd:6.2f}", flush=True)
     for mode, rows in summary.items():
         if rows:
             print(f"  {mode}: count right {sum(r[0] for r in rows)}/{len(rows)};"
