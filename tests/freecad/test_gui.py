@@ -335,6 +335,21 @@ class TestDisplayNumpy(FreeCADTestCase):
         for y, _, _ in lay["swatches"]:
             self.assertTrue(y0 < y < lay["bar"][1])
 
+    def test_a_storey_view_cuts_just_under_the_ceilings(self):
+        # two rooms of one storey under one flat ceiling: one plane, 3 cm under it,
+        # keeping what lies below (coin keeps normal . p >= distance)
+        a = make_walled_room(self.doc, size=(4.0, 3.0, 2.7))
+        b = make_walled_room(self.doc, size=(4.0, 3.0, 2.7), origin=(4.0, 0.0, 0.0))
+        self.doc.recompute()
+        planes = display.ceiling_planes([a, b])
+        self.assertEqual(len(planes), 1)
+        normal, dist = planes[0]
+        np.testing.assert_allclose(normal, [0.0, 0.0, -1.0], atol=1e-9)
+        top = a.Shape.BoundBox.ZMax
+        self.assertAlmostEqual(-dist, top - 1000.0 * display.STOREY_CLIP_BELOW_M, places=3)
+        for z, kept in ((top - 100.0, True), (top + 10.0, False)):
+            self.assertEqual(float(np.dot(normal, [1000.0, 1000.0, z])) >= dist, kept)
+
     def test_overlay_geometry_of_a_room(self):
         space = make_walled_room(self.doc, size=(4.0, 3.0, 2.7))
         targets.set_work_plane(space, 500.0)
