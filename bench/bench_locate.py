@@ -3,7 +3,7 @@
 second OpenCL vs numpy, and how time grows with voting density and with the number of
 planes. Everything in one run (the machines are noisy: compare ratios within a run).
 
-Usage: python bench/bench_locate.py [--quick] [--skip-numpy]
+Usage: python bench/bench_locate.py [--quick] [--skip-numpy] [--rho R] [--accuracy-only]
 """
 import argparse
 import os
@@ -47,7 +47,7 @@ def raw_peak_errors(result, true):
 def accuracy_table(backend, models, rhos, repeat):
     print("\n== Accuracy and seconds per scene (true flux given; 0.10 m pixels, ~3000 points)")
     print(f"{'scenario':12s} {'rho':>4s} {'model':8s} {'found':>6s} {'spur':>4s}"
-          f" {'max err cm':>10s} {'raw peak cm':>12s} {'seconds':>8s}  (votes / refine / radiosity)")
+          f" {'max err cm':>10s} {'mean cm':>8s} {'raw peak cm':>12s} {'seconds':>8s}  (votes / refine / radiosity)")
     rows = []
     for rho in rhos:
         for name in SCENARIOS:
@@ -61,8 +61,10 @@ def accuracy_table(backend, models, rhos, repeat):
                 rp = raw_peak_errors(raw, true)
                 rp_s = "/".join("-" if e is None else f"{e:.0f}" for e in rp)
                 tm = r.timings
+                mx = m["max_error_cm"] if m["max_error_cm"] is not None else float("nan")
+                mean = float(np.mean(m["errors_cm"])) if m["errors_cm"] else float("nan")
                 print(f"{name:12s} {rho:4.1f} {model:8s} {m['found']:>3d}/{m['true']:<2d}"
-                      f" {m['spurious']:4d} {m['max_error_cm'] or float('nan'):10.2f}"
+                      f" {m['spurious']:4d} {mx:10.2f} {mean:8.2f}"
                       f" {rp_s:>12s} {t:8.2f}  ({tm['votes']:.2f} / {tm['postprocess']:.2f}"
                       f" / {tm['radiosity']:.2f})", flush=True)
                 rows.append((name, rho, model, m, t))
@@ -71,7 +73,8 @@ def accuracy_table(backend, models, rhos, repeat):
             sel = [r for r in rows if r[2] == model and r[1] == rho]
             ok = all(r[3]["found"] == r[3]["true"] and r[3]["spurious"] == 0
                      and r[3]["max_error_cm"] < 10 for r in sel)
-            worst = max(r[3]["max_error_cm"] or 99 for r in sel)
+            worst = max(99 if r[3]["max_error_cm"] is None else r[3]["max_error_cm"]
+                        for r in sel)
             tot = np.median([r[4] for r in sel])
             print(f"  {model:8s} rho {rho:.1f}: all found, none spurious: {ok};"
                   f" worst error {worst:.2f} cm; median {tot:.2f} s per scene")
@@ -164,11 +167,19 @@ def main():
     ap.add_argument("--quick", action="store_true", help="direct light, exact model only")
     ap.add_argument("--skip-numpy", action="store_true", help="no numpy vote timing")
     ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--rho", type=float, default=None, help="one reflectance only")
+    ap.add_argument("--accuracy-only", action="store_true",
+                    help="only the flux-given accuracy table")
     args = ap.parse_args()
     backend = "opencl" if opencl_available() else "numpy"
     print(f"backend: {backend}" + (f" ({get_env().description})" if backend == "opencl" else ""))
     models = ["exact"] if args.quick else ["exact", "ellipse"]
     rhos = [0.0] if args.quick else [0.0, 0.6]
+    if args.rho is not None:
+        rhos = [args.rho]
+    if args.accuracy_only:
+        accuracy_table(backend, models, rhos, args.repeat)
+        return
     accuracy_table(backend, models, rhos, args.repeat)
     free_flux_table(backend, rhos)
     votes_per_second(([] if args.skip_numpy else ["numpy"]) + ([backend] if backend == "opencl"
