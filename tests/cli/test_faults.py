@@ -112,13 +112,22 @@ needs_proc = pytest.mark.skipif(not os.path.isdir("/proc/self/task"),
                                 reason="needs Linux /proc to find worker processes")
 
 
+def _as_in_a_terminal():
+    """A child's stop signals as a terminal gives them (preexec_fn): the suite itself may run
+    under ``nohup`` (SIGHUP ignored) or as a background job (SIGINT ignored), which a child
+    inherits and invrad rightly keeps (test_the_guard_leaves_ignored_signals_ignored_...)."""
+    for s in (signal.SIGINT, signal.SIGHUP, signal.SIGTERM):
+        signal.signal(s, signal.SIG_DFL)
+
+
 def _signalled(args, sig, when, tmp_path, group=False):
     """Run the CLI, send ``sig`` when ``when`` ('start': at once; 'workers': once worker
     processes run; 'room': once a batch announced its first scene), return
     (returncode, stderr, worker pids)."""
     out = open(tmp_path / "stdout.txt", "w+")
     p = subprocess.Popen(PY + [str(a) for a in args], cwd=ROOT, stdout=out,
-                         stderr=subprocess.PIPE, text=True, start_new_session=True)
+                         stderr=subprocess.PIPE, text=True, start_new_session=True,
+                         preexec_fn=_as_in_a_terminal)
     kids = set()
     try:
         if when == "workers":
@@ -445,7 +454,8 @@ def test_a_direct_freecad_cmd_run_is_guarded_too(tmp_path, sig, status):
                           "--out", str(tmp_path / "out.FCStd"), "--report",
                           str(tmp_path / "report"), "--freecadcmd", str(fake)], cwd=ROOT,
                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                         start_new_session=True, env=dict(os.environ, TMPDIR=str(tmp)))
+                         start_new_session=True, env=dict(os.environ, TMPDIR=str(tmp)),
+                         preexec_fn=_as_in_a_terminal)
     try:
         assert _wait_for(lambda: started.exists() and started.read_text().strip()
                          or p.poll() is not None, 60)
