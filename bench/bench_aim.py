@@ -63,7 +63,8 @@ Measured 2026-11-26 01:53-02:12, fluxes free (--free-flux --seed 3; wall / CPU s
                fit) 160.6 / 79.8 (5.5): the pursuit stopped after 2 candidates;
   the pursuit's fluxes refitted together (nonnegative least squares): lobby 5/5
                (<= 0.8 cm, <= 0.22 deg, <= 0.3 %) 152.2 / 67.3 (9.0); gallery 5/5 as
-               before 103.9 / 40.9 (10.0); shop 4/4 as before 78.7 / 35.8 (9.1).
+               before 103.9 / 40.9 (10.0); shop 4/4 as before 78.7 / 35.8 (9.1);
+               lobby --seed 4 5/5 (<= 1.6 cm, <= 0.24 deg, <= 1.2 %) 68.8 / 32.0 (7.2).
   Free flux is still 2-3 x the 30 s aim: the vote ladder (7 casts, 20-30 s wall, and 7
   more for the residual votes) and the LM refinement (aimlight.light 16 s of 88 s wall
   in a profile of the gallery) dominate.
