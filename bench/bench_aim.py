@@ -56,6 +56,21 @@ Measured 2026-11-26 01:45-01:55, the footprint scoring as matrix products (aim._
   lobby --seed 4: 43.1 s CPU (footprint candidates 13.4 s) -> 30.9 s (5.4 s), 5/5;
   --seed 3: gallery 13.2 -> 10.0 s CPU, shop 18.1 -> 11.3, lobby 15.1 -> 11.2
                (29.4 / 29.9 / 28.0 s wall at load 7-8), 14/14, 0 spurious.
+Measured 2026-11-26 01:53-02:12, fluxes free (--free-flux --seed 3; wall / CPU s, load):
+  after the scoring above: gallery 5/5 (0.0 cm, 0.00 deg, 0.0 %) 72.2 / 35.8 (6.0),
+               shop 4/4 (<= 0.8 cm, <= 0.27 deg, <= 0.6 %) 62.3 / 31.6 (6.5), lobby 0/5
+               (3 not found, 30-43 cm, 2 spurious; stopped at the time bound on a poor
+               fit) 160.6 / 79.8 (5.5): the pursuit stopped after 2 candidates;
+  the pursuit's fluxes refitted together (nonnegative least squares): lobby 5/5
+               (<= 0.8 cm, <= 0.22 deg, <= 0.3 %) 152.2 / 67.3 (9.0); gallery 5/5 as
+               before 103.9 / 40.9 (10.0); shop 4/4 as before 78.7 / 35.8 (9.1);
+               lobby --seed 4 5/5 (<= 1.6 cm, <= 0.24 deg, <= 1.2 %) 68.8 / 32.0 (7.2).
+  Free flux is still 2-3 x the 30 s aim: the vote ladder (7 casts, 20-30 s wall, and 7
+  more for the residual votes) and the LM refinement (aimlight.light 16 s of 88 s wall
+  in a profile of the gallery) dominate.
+--aim fixed unchanged (checked 01:53): examples/office.ply --flux 3000 and a 5 x 4 x 3 m
+box with two cos^10 downlights (reflectance 0.5) give the same result JSON (less the
+timings) as main's 32a4396: sha256 20103b146ca106e6..., 65ad7a226ee49e01....
 """
 import argparse
 import math

@@ -371,7 +371,7 @@ def footprint_pursuit(run, s, significant=0.2, spots=PURSUIT_SPOTS, steps=PURSUI
     beside the beams already found, what is left of each beam is its own."""
     prob, pts = run.problem, run.points
     light = np.zeros(len(pts.lux))
-    out = []
+    out, columns = [], []
     cost_empty = None
     for _ in range(steps):
         left = pts.lux - prob.indirect - light
@@ -390,8 +390,32 @@ def footprint_pursuit(run, s, significant=0.2, spots=PURSUIT_SPOTS, steps=PURSUI
         if gain < s.min_gain * scorer.cost0 or gain < PURSUIT_MIN_GAIN_TOTAL * cost_empty:
             break
         out.append(best)
-        light = light + prob.fixed_light([prob.with_indirect(best)])
+        if not run.free_flux:
+            light = light + prob.fixed_light([prob.with_indirect(best)])
+            continue
+        # fluxes free: all fluxes found so far refitted together (orthogonal matching
+        # pursuit); alone, the first candidate's flux grows to cover its neighbours'
+        # light too, and what it leaves shows no beam (the bench lobby, free flux: the
+        # pursuit stopped after 2 of 5)
+        unit = best.copy()
+        unit.flux_scale = 1.0
+        columns.append(prob.fixed_light([prob.with_indirect(unit)]))
+        scales = _nonnegative_fluxes(np.column_stack(columns), pts.lux - prob.indirect,
+                                     prob.w_area)
+        for L, f in zip(out, scales):
+            L.flux_scale = float(f)
+        light = np.column_stack(columns) @ scales
     return out
+
+
+def _nonnegative_fluxes(E, target, w):
+    """Flux scales (n,) >= 0 of the columns of ``E`` (k, n) that best give ``target``
+    (k,) in area-weighted least squares, within the refinement's limits."""
+    from scipy.optimize import nnls
+    sw = np.sqrt(np.maximum(w, 0.0))
+    x, _ = nnls(E * sw[:, None], target * sw)
+    lim = np.exp(LOG_SCALE_LIMIT)
+    return np.clip(x, 1.0 / lim, lim)
 
 
 def aimed_candidates(run, s, cands):
