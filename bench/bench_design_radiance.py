@@ -42,7 +42,7 @@ room        invrad W  grid W   ratio  task      surround  walls     ceiling  Ez 
 meeting       112.1    115.1   0.974  507/0.68  303/0.59  192/0.40  85/0.73  194/0.85 18.6  yes
 L corridor     52.7     52.2   1.010  117/0.80  102/0.58  68/0.50   30/0.80  -        10.3  yes
 lab           243.1    256.3   0.949  506/0.70  311/0.54  149/0.49  81/0.76  -        18.8  yes
-classroom     354.7    344.5   1.030  (not traced in time)
+classroom     354.7    344.5   1.030  507/0.60  341/0.48  219/0.41  93/0.76  -        18.8  yes
 L office, hall: not redesigned in time
 ==========  ========  =======  =====  ========  ========  ========  =======  =======  ====  =======
 
