@@ -31,39 +31,54 @@ writes the jobs, and ``out/radjobs/run_all.sh N`` traces them N at a time (with
 run reads the traced results. Radiance takes minutes per judgement on one core.
 
 Measured 2026-11-26 (shared 2-core machine at load 8; rtrace -ab 6 -ad 256 -aa 0.15,
-3-6 min per judgement; the grids' judgements had no time to run, so "grid W" is the
-exact model's, dimmed evenly to it; per item: Radiance's mean / U0, maintained):
+3-7 min per judgement; the grids' judgements had no time to run, so "grid W" is the
+exact model's, dimmed evenly to it; per item: Radiance's mean / U0, maintained).
 
-==========  =======  =======  =====  =========  =========  ========  ========  =====  ====  =====
-room        invrad W  grid W  ratio  task       surround.  walls     ceiling   Ez     UGR   by Rad.
-==========  =======  =======  =====  =========  =========  ========  ========  =====  ====  =====
-meeting       110.7    114.9  0.964  500/0.68   299/0.59   189/0.40  84/0.74   192/.85 18.6  no (surr. 299 < 300)
-L corridor     52.3     51.6  1.014  115/0.58   100/0.51   69/0.38   31/0.60   -      11.6  yes
-classroom     346.6    344.1  1.007  495/0.60   333/0.48   214/0.41  91/0.75   -      18.7  no (Em 495)
-lab           242.7    255.8  0.949  505/0.70   310/0.55   149/0.49  80/0.76   -      18.8  yes
-L office      417.4   none    -      (not traced in time)
-hall 6.5 m    800.0   none    -      (not traced in time)
-==========  =======  =======  =====  =========  =========  ========  ========  =====  ====  =====
+After luminous openings hide the ceiling behind them (final code):
+
+==========  ========  =======  =====  ========  ========  ========  =======  =======  ====  =======
+room        invrad W  grid W   ratio  task      surround  walls     ceiling  Ez       UGR   by Rad.
+==========  ========  =======  =====  ========  ========  ========  =======  =======  ====  =======
+meeting       112.1    115.1   0.974  507/0.68  303/0.59  192/0.40  85/0.73  194/0.85 18.6  yes
+L corridor     52.7     52.2   1.010  117/0.80  102/0.58  68/0.50   30/0.80  -        10.3  yes
+lab           243.1    256.3   0.949  506/0.70  311/0.54  149/0.49  81/0.76  -        18.8  yes
+classroom     354.7    344.5   1.030  507/0.60  341/0.48  219/0.41  93/0.76  -        18.8  yes
+L office, hall: not redesigned in time
+==========  ========  =======  =====  ========  ========  ========  =======  =======  ====  =======
+
+Before that (luminous openings lighting from their area, the ceiling behind them still
+reflecting as ceiling):
+
+==========  ========  =======  =====  ========  ========  ========  =======  =======  ====  =======
+room        invrad W  grid W   ratio  task      surround  walls     ceiling  Ez       UGR   by Rad.
+==========  ========  =======  =====  ========  ========  ========  =======  =======  ====  =======
+meeting       110.7    114.9   0.964  500/0.68  299/0.59  189/0.40  84/0.74  192/0.85 18.6  no: surr.
+L corridor     52.3     51.6   1.014  115/0.58  100/0.51  69/0.38   31/0.60  -        11.6  yes
+classroom     346.6    344.1   1.007  495/0.60  333/0.48  214/0.41  91/0.75  -        18.7  no: Em
+lab           242.7    255.8   0.949  505/0.70  310/0.55  149/0.49  80/0.76  -        18.8  yes
+L office      417.4    none    -      (not traced in time)
+hall 6.5 m    800.0    none    -      (not traced in time)
+==========  ========  =======  =====  ========  ========  ========  =======  =======  ====  =======
 
 Requirements: task 500 / 0.60 (corridor 100 / 0.40, hall 300 / 0.60), surroundings one
 step lower / 0.40, walls 75 (corridor, hall: 50) / 0.10, ceiling 50 (30) / 0.10, Ez 150
-/ 0.10 (meeting), UGR 19 (corridor 28, hall 22). invrad's own figures of the same designs:
-meeting 507/0.68, 303, 192, 87, Ez 194, UGR 18.4; corridor 117/0.57, 101, 69, 31, 11.5;
-classroom 505/0.61, 340, 219, 97, 18.4; lab 505/0.71, 310, 149, 80, 18.8. The grid
-reference finds no compliant grid in the L office (30 exact checks) and the hall (HB-15000
-4 x 2 with half spacing fails where invrad's 4 x 2 pulled in from the walls passes).
+/ 0.10 (meeting), UGR 19 (corridor 28, hall 22). The grid reference finds no compliant
+grid in the L office (30 exact checks) and the hall (HB-15000 4 x 2 with half spacing
+fails where invrad's 4 x 2 pulled in from the walls passes at 800 W).
 
-Where the engines differ (``/tmp``-free check: compare Radiance's -ab 0 with invrad's
-direct light on the job's own rays): the direct light agrees within 0.1-0.8 % in every
-room (luminous openings modelled: before, invrad's point sources gave 1.6-2.6 % more
-under 0.6 m panels). The interreflected light agrees in the lab (downlights only: 65.8
-vs 64.7 lx) but Radiance finds 8-13 % less where panels cover the ceiling (meeting 75.2
-vs 82.1, corridor 29.0 vs 31.1, classroom 74.7 vs 85.7 lx): Radiance's light polygon does
-not reflect, so the ceiling behind 6, 6 and 32 panels (11, 8 and 18 % of it) is black to
-it, while invrad's radiosity reflects it as ceiling. Radiance's -ab 6 also stops the
-series early (a closed box with one luminaire, against rho F / (A (1 - rho)): -1.9 % at
-rho 0.5, -8.4 % at rho 0.7). The work plane then gets 1-2 % less by Radiance, more than
-``design_margin``'s 1 %.
+Where the engines differed (Radiance's -ab 0 against invrad's direct light on the job's
+own rays, and the totals): the direct light agrees within 0.1-0.8 % in every room once
+luminous openings light from their area (invrad's point sources gave 1.6-2.6 % more under
+0.6 m panels). The interreflected light agreed in the lab (downlights only: 65.8 vs 64.7
+lx) but Radiance found 8-13 % less where panels cover the ceiling (meeting 75.2 vs 82.1,
+corridor 29.0 vs 31.1, classroom 74.7 vs 85.7 lx): its light polygons reflect nothing,
+while invrad's radiosity reflected the ceiling behind 6, 6 and 32 panels (11, 8 and 18 %
+of it) as ceiling. With the ceiling behind an opening reflecting as the opening, the same
+luminaires: Em 500.6 / 500.1 (invrad / Radiance), 493.4 / 495.3, 504.2 / 504.7, 115.5 /
+115.4 lx; walls and surroundings within 0.4 %, ceilings within 2-4 % (the judge leaves
+the points behind the panels out). Radiance's -ab 6 also stops the series early (a
+closed box with one luminaire, against rho F / (A (1 - rho)): -1.9 % at rho 0.5, -8.4 %
+at rho 0.7): ``design_margin``'s 1 %.
 
 Earlier (2026-11-25, shared 2-core machine, only two rooms had time to run; point
 sources, one grid over an L's bounding box, -ab 5, luminaires 5 mm below the ceiling):

@@ -194,9 +194,7 @@ class CylindricalGrid:
         m, k = self.model, len(self.points)
         if not luminaires:
             return np.zeros(k), np.zeros(k)
-        lums = luminous_samples(luminaires)
-        return self.gather(m.rad.solve(m.rad.patch_direct(lums, m.bvh, m.bvh is not None,
-                                                          m.backend)))
+        return self.gather(m.solve(luminaires))
 
     def evaluate(self, luminaires):
         """Maintained (ez (k,), eh (k,)) lux of ``luminaires`` at the points."""

@@ -141,6 +141,50 @@ def luminous_samples(luminaires):
     return out
 
 
+#: reflectance of a luminaire's luminous opening in the interreflection: light falling on
+#: it enters the luminaire (diffuser, louvre, optic) rather than being reflected like the
+#: ceiling around it (Radiance's light polygons reflect nothing either)
+OPENING_REFLECTANCE = 0.0
+#: a surface within this distance of an opening's plane, facing the same way, lies behind it
+_BEHIND_M = 0.05
+#: sample points per mesh triangle for the share of it an opening covers
+_COVER_SAMPLES = np.array([[1 / 3, 1 / 3, 1 / 3], [2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6],
+                           [1 / 6, 1 / 6, 2 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5],
+                           [0.5, 0.0, 0.5]])
+
+
+def opening_half_sides(lum):
+    """(half along C0, half along C90) metres of a luminaire's luminous opening, or None
+    (a point source: no opening; a disk as the square of its area)."""
+    if lum.radius_m > 0:
+        h = 0.5 * math.sqrt(math.pi) * lum.radius_m
+        return h, h
+    ph = getattr(lum, "photometry", None)
+    ext = getattr(ph, "luminous_extent_m", None) if ph is not None else None
+    if ext:
+        return 0.5 * ext[0], 0.5 * ext[1]
+    area = getattr(ph, "luminous_area_m2", None) if ph is not None else None
+    return (0.5 * math.sqrt(area),) * 2 if area else None
+
+
+def covered_share(triangles, normals, luminaires):
+    """(T,) share of each triangle (T, 3, 3) that lies behind a luminous opening (within
+    ``_BEHIND_M`` of its plane, facing the way it faces, inside its rectangle)."""
+    out = np.zeros(len(triangles))
+    pts = np.einsum("sj,tjk->tsk", _COVER_SAMPLES, triangles)          # (T, S, 3)
+    for lum in luminaires:
+        half = opening_half_sides(lum)
+        if half is None:
+            continue
+        u, v = photometric_frame(lum.normal, lum.c0)
+        d = pts - lum.position
+        near = ((normals @ lum.normal > 0.9)[:, None]
+                & (np.abs(d @ lum.normal) < _BEHIND_M)
+                & (np.abs(d @ u) <= half[0]) & (np.abs(d @ v) <= half[1]))
+        out = np.maximum(out, near.mean(axis=1))
+    return out
+
+
 class Layout:
     """Where the grids lie among a model's receivers: the work plane first (``n_wp``),
     then each surface grid (``parts``: name -> (slice, area weights)), then the points
@@ -357,12 +401,34 @@ class RoomModel:
         return patch
 
     # ------------------------------------------------------------------ exact
+    def solve(self, luminaires):
+        """Patch exitance (P,) of luminaires' light: their direct light on the patches and
+        the radiosity solve, with the ceiling behind their luminous openings reflecting
+        as an opening (:data:`OPENING_REFLECTANCE`), not as ceiling."""
+        rad = self.rad
+        e = rad.patch_direct(luminous_samples(luminaires), self.bvh, self.bvh is not None,
+                             self.backend)
+        m = self.mesh
+        share = covered_share(m.triangles, m.face_normals, luminaires)
+        if not share.any():
+            return rad.solve(e)
+        cov = np.bincount(rad.face_patch[rad.face_patch >= 0],
+                          weights=(m.face_areas * share)[rad.face_patch >= 0],
+                          minlength=rad.n_patches)
+        cov = np.clip(cov / np.maximum(rad.patch_area, 1e-12), 0.0, 1.0)
+        rho = rad.patch_reflectance
+        try:
+            rad.patch_reflectance = rho * (1.0 - cov) + OPENING_REFLECTANCE * cov
+            return rad.solve(e)
+        finally:
+            rad.patch_reflectance = rho
+
     def exact(self, luminaires):
         """Maintained illuminance (k,) lux at the receivers: direct with shadows plus a
         radiosity solve; and the direct part alone."""
         occl = self.bvh is not None
+        b = self.solve(luminaires)
         luminaires = luminous_samples(luminaires)
-        b = self.rad.solve(self.rad.patch_direct(luminaires, self.bvh, occl, self.backend))
         indirect = self._gather(b)
         direct = direct_illuminance(self.points, self.normals, luminaires, bvh=self.bvh,
                                     occlusion=occl, backend=self.backend)
@@ -389,9 +455,7 @@ class RoomModel:
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         near = nearest_site(self.mesh.face_centroids, points)
         op = self.rad.gather(points, normals, self.rad.face_patch[near])
-        luminaires = luminous_samples(luminaires)
-        return op(self.rad.solve(self.rad.patch_direct(luminaires, self.bvh,
-                                                       self.bvh is not None, self.backend)))
+        return op(self.solve(luminaires))
 
     def calibrate(self, key, luminaires, fast_lux):
         """Learn the indirect light per lumen of a catalogue entry (``key``; None: skip) from

@@ -58,11 +58,10 @@ DEFAULT_SHADE_LIMIT_LUX = 5.0
 DEFAULT_MARGIN_M = 0.5
 #: share a dimmed design keeps above each mean illuminance minimum (``"design_margin"``):
 #: the spread between two honest engines on the same room. Measured against Radiance
-#: (bench/bench_design_radiance.py): the direct light agrees within 0.1-0.8 % (luminous
-#: openings modelled); the interreflected light is exact here (radiosity conserves the
-#: flux: a closed box's mean indirect illuminance is rho F / (A (1 - rho))), while rtrace
-#: with -ab 6 stops the series (-1.9 % of it at rho 0.5, -8.4 % at rho 0.7 in that box), so
-#: Radiance finds 1-1.5 % less on the work plane and ~3 % less on a ceiling
+#: (bench/bench_design_radiance.py) once luminous openings light from their area and hide
+#: the ceiling behind them: work plane, walls and surroundings within 0.1-0.4 % in four
+#: rooms; Radiance's rtrace -ab 6 stops the interreflection series early (a closed box:
+#: -1.9 % of it at rho 0.5, -8.4 % at rho 0.7), which 1 % covers on a work plane
 DESIGN_MARGIN = 0.01
 #: Largest tilt of an aimable entry that does not state its own (degrees).
 DEFAULT_MAX_TILT_DEG = 60.0

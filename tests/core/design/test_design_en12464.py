@@ -441,3 +441,40 @@ def test_an_l_gets_one_grid_per_leg_and_never_more_watts_for_it(monkeypatch):
     without = design_room(sc, spec, 0)
     assert with_zones.compliant and without.compliant
     assert with_zones.watts <= without.watts + 1e-9
+
+
+def test_the_ceiling_behind_a_luminous_opening_reflects_as_the_opening():
+    """Light falling on a 0.6 m panel's opening is not reflected like the ceiling around
+    it: the patches behind it reflect OPENING_REFLECTANCE; a point source covers none, and
+    the rest of the room is lit less for the ceiling it hides (Radiance, whose light
+    polygons reflect nothing, found 8-13 % less interreflected light than invrad did
+    before)."""
+    from invrad_wb.core.design import evaluate as ev
+    from invrad_wb.core.design.room import DesignRoom
+    from invrad_wb.core.model.luminaires import Luminaire
+    from invrad_wb.core.model.photometry import Photometry
+    lam = Photometry.lambertian()
+    panel = Photometry(lam.table, 1.0, name="panel", luminous_area_m2=0.36,
+                       luminous_extent_m=(0.6, 0.6))
+    sc = g.with_reflectances(g.box_room(size=(4.0, 3.0, 2.8), cell=0.3))
+    pts = np.array([[2.0, 1.5, 0.8]])
+    model = ev.RoomModel(sc, DesignRoom(sc, 0), pts, 1.0, "numpy")
+    at, down = [2.0, 1.5, 2.8], [0.0, 0.0, -1.0]
+    m = model.mesh
+    share = ev.covered_share(m.triangles, m.face_normals,
+                             [Luminaire(at, down, 1000.0, photometry=panel)])
+    # the covered area is the opening's (the mesh's triangles straddle its edges)
+    assert np.sum(share * m.face_areas) == pytest.approx(0.36, rel=0.15)
+    assert np.all(share[m.face_normals[:, 2] > -0.9] == 0)         # only the ceiling
+    b_open = model.solve([Luminaire(at, down, 1000.0, photometry=panel)])
+    b_point = model.solve([Luminaire(at, down, 1000.0, photometry=lam)])
+    # patches wholly behind the opening reflect nothing, partly behind: in proportion
+    rad = model.rad
+    cov = np.bincount(rad.face_patch, weights=share * m.face_areas,
+                      minlength=rad.n_patches) / rad.patch_area
+    whole, part = np.flatnonzero(cov > 0.999), np.flatnonzero((cov > 0.2) & (cov < 0.8))
+    assert len(whole) + len(part)
+    assert np.all(b_open[whole] == 0.0) and np.all(b_point[whole] > 0)
+    assert np.all(b_open[part] < 0.85 * b_point[part])
+    total = lambda b: float(np.sum(b * model.rad.patch_area))        # noqa: E731
+    assert total(b_open) < total(b_point)
