@@ -52,8 +52,8 @@ def photometric_numpy(points, normals, luminaires, bvh=None, occlusion=True,
 
     Luminaires go in blocks of about :data:`PHOTOMETRIC_BLOCK_PAIRS` (luminaire, point)
     pairs (:func:`photometric_pairs`); one at a time took 7 s for 1000 luminaires on
-    11,000 points here. ``occluded(bvh, p, q)`` traces the shadow rays: numpy here, the
-    OpenCL segment kernel from :func:`direct_illuminance_opencl`."""
+    11,000 points here. ``occluded(bvh, p, q)`` traces the shadow rays (numpy by
+    default). The numpy twin of :func:`photometric_opencl`."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     out = np.zeros(len(points))
