@@ -122,7 +122,7 @@ def main():
                 acc["total"] += t["total"] + io_s
                 acc["rooms"] += n
                 print(f"{name:12s} {rho:4.1f} {n:5d} {m['found']:>3d}/{m['true']:<2d}"
-                      f" {m['spurious']:4d} {m['max_error_cm'] or float('nan'):7.2f}"
+                      f" {m['spurious']:4d} {float('nan') if m['max_error_cm'] is None else m['max_error_cm']:7.2f}"
                       + "".join(f" {t[s] / n:8.3f}" for s in STAGES)
                       + f" {(t['total'] + io_s) / n:7.3f}", flush=True)
     finally:
