@@ -70,7 +70,10 @@ def ifc_elements(ifc):
             shape = ifcopenshell.geom.create_shape(settings, el)
         except Exception:          # no body representation (e.g. a stair of flights)
             return None
-        v = np.asarray(shape.geometry.verts, dtype=np.float64).reshape(-1, 3)
+        # a copy while the shape lives: ifcopenshell 0.8's verts is a buffer into the shape,
+        # freed with it (np.asarray kept a view: the FZK opening read 1.7e-315..6.4e300 m
+        # in the FreeCAD 1.0 root, and the zone landed over the Kueche)
+        v = np.array(shape.geometry.verts, dtype=np.float64).reshape(-1, 3)
         return v if len(v) else None
     out = []
     for rel in ifc.by_type("IfcRelVoidsElement"):

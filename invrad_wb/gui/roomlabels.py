@@ -342,7 +342,7 @@ def _native_obstacles(space):
                     shape = ifcopenshell.geom.create_shape(settings, el)
                 except Exception:     # no body representation
                     continue
-                pts.append(np.asarray(shape.geometry.verts, dtype=np.float64).reshape(-1, 3))
+                pts.append(np.array(shape.geometry.verts, dtype=np.float64).reshape(-1, 3))
     except Exception:
         pts = []
     xyz = np.concatenate(pts) if pts else np.zeros((0, 3))

@@ -69,8 +69,9 @@ def fzk_stair_and_opening():
                      ("opening", next(r.RelatedOpeningElement
                                       for r in ifc.by_type("IfcRelVoidsElement")
                                       if r.RelatingBuildingElement.is_a("IfcSlab")))):
-        v = np.asarray(ifcopenshell.geom.create_shape(settings, el).geometry.verts)
-        v = v.reshape(-1, 3)
+        shape = ifcopenshell.geom.create_shape(settings, el)
+        v = np.array(shape.geometry.verts, dtype=np.float64).reshape(-1, 3)   # a copy: see
+        del shape                                                 # roomzones.no_mount_zones
         out.append((name, (v[:, :2].min(0), v[:, :2].max(0)),
                     v[:, 2].max() if name == "stair" else (v[:, 2].min(), v[:, 2].max())))
     return out
