@@ -53,6 +53,46 @@ def convex_hull(xy):
     return np.array(half(p) + half(p[::-1]))
 
 
+def world_settings():
+    """ifcopenshell geometry settings in world coordinates."""
+    import ifcopenshell.geom
+    settings = ifcopenshell.geom.settings()
+    settings.set(settings.USE_WORLD_COORDS, True)
+    return settings
+
+
+def body_vertices(el, settings):
+    """(k, 3) world vertices (metres) of an IFC element's body, or None without one."""
+    import ifcopenshell.geom
+    try:
+        shape = ifcopenshell.geom.create_shape(settings, el)
+    except Exception:              # no body representation (e.g. a stair of flights)
+        return None
+    # a copy while the shape lives: ifcopenshell 0.8's verts is a buffer into the shape,
+    # freed with it (a view read the FZK opening as 1.7e-315..6.4e300 m in the FreeCAD
+    # 1.0 root, and its zone landed over the Kueche)
+    v = np.array(shape.geometry.verts, dtype=np.float64).reshape(-1, 3)
+    return v if len(v) else None
+
+
+def element_vertices(ifc, classes):
+    """``[(class, element, (k, 3) world vertices in metres)]`` of an ifcopenshell file's
+    elements of exactly ``classes`` (not their subtypes; a class the schema lacks is left
+    out); elements without a body are left out."""
+    settings = world_settings()
+    out = []
+    for cls in classes:
+        try:
+            elements = ifc.by_type(cls, include_subtypes=False)
+        except Exception:          # a class this schema lacks
+            continue
+        for el in elements:
+            v = body_vertices(el, settings)
+            if v is not None:
+                out.append((cls, el, v))
+    return out
+
+
 def ifc_elements(ifc):
     """``[(kind, words, (k, 3) vertices in metres)]`` of an ifcopenshell file:
     ``'opening'`` for each opening that voids a slab, roof or covering, ``'stair'`` for
@@ -61,38 +101,18 @@ def ifc_elements(ifc):
     got = _CACHE.get(key)
     if got is not None and got[0] is ifc:
         return got[1]
-    import ifcopenshell.geom
-    settings = ifcopenshell.geom.settings()
-    settings.set(settings.USE_WORLD_COORDS, True)
-
-    def verts(el):
-        try:
-            shape = ifcopenshell.geom.create_shape(settings, el)
-        except Exception:          # no body representation (e.g. a stair of flights)
-            return None
-        # a copy while the shape lives: ifcopenshell 0.8's verts is a buffer into the shape,
-        # freed with it (np.asarray kept a view: the FZK opening read 1.7e-315..6.4e300 m
-        # in the FreeCAD 1.0 root, and the zone landed over the Kueche)
-        v = np.array(shape.geometry.verts, dtype=np.float64).reshape(-1, 3)
-        return v if len(v) else None
+    settings = world_settings()
     out = []
     for rel in ifc.by_type("IfcRelVoidsElement"):
         host, opening = rel.RelatingBuildingElement, rel.RelatedOpeningElement
         if not any(host.is_a(c) for c in SLAB_CLASSES):
             continue
-        v = verts(opening)
+        v = body_vertices(opening, settings)
         if v is not None:
             out.append(("opening", f"opening in {host.is_a()[3:].lower()}"
                         f" {host.Name or '#%d' % host.id()}", v))
-    for cls in STAIR_CLASSES:
-        try:
-            elements = ifc.by_type(cls, include_subtypes=False)
-        except Exception:          # a class this schema lacks
-            continue
-        for el in elements:
-            v = verts(el)
-            if v is not None:
-                out.append(("stair", f"{cls[3:].lower()} {el.Name or '#%d' % el.id()}", v))
+    out += [("stair", f"{cls[3:].lower()} {el.Name or '#%d' % el.id()}", v)
+            for cls, el, v in element_vertices(ifc, STAIR_CLASSES)]
     _CACHE[key] = (ifc, out)
     return out
 

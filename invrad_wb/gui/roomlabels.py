@@ -327,22 +327,9 @@ def _native_obstacles(space):
     got = _NATIVE_CACHE.get(id(ifc))
     if got is not None and got[0] is ifc:
         return got[1]
-    pts = []
     try:
-        import ifcopenshell.geom
-        settings = ifcopenshell.geom.settings()
-        settings.set(settings.USE_WORLD_COORDS, True)
-        for cls in NATIVE_OBSTACLES:
-            try:
-                elements = ifc.by_type(cls, include_subtypes=False)
-            except Exception:         # a class this schema lacks
-                continue
-            for el in elements:
-                try:
-                    shape = ifcopenshell.geom.create_shape(settings, el)
-                except Exception:     # no body representation
-                    continue
-                pts.append(np.array(shape.geometry.verts, dtype=np.float64).reshape(-1, 3))
+        from invrad_wb.app.roomzones import element_vertices
+        pts = [v for _, _, v in element_vertices(ifc, NATIVE_OBSTACLES)]
     except Exception:
         pts = []
     xyz = np.concatenate(pts) if pts else np.zeros((0, 3))

@@ -71,7 +71,7 @@ def fzk_stair_and_opening():
                                       if r.RelatingBuildingElement.is_a("IfcSlab")))):
         shape = ifcopenshell.geom.create_shape(settings, el)
         v = np.array(shape.geometry.verts, dtype=np.float64).reshape(-1, 3)   # a copy: see
-        del shape                                                 # roomzones.no_mount_zones
+        del shape                                                 # roomzones.body_vertices
         out.append((name, (v[:, :2].min(0), v[:, :2].max(0)),
                     v[:, 2].max() if name == "stair" else (v[:, 2].min(), v[:, 2].max())))
     return out
