@@ -2,12 +2,13 @@
 """Screenshots of aimed luminaires in FreeCAD (issue 23): a result JSON (``locate --aim
 free``, or bench/bench_aim.py --save's ``<room>_found.json``) inserted as light fixtures into
 a walled room of the result's size, seen in isometric, from the side and from above, with
-each fixture's beam axis drawn to where it meets the room.
+each fixture's beam axis drawn to where it meets the room; with ``--reopen`` after the
+document was saved, closed and opened again.
 
 ::
 
     .venv/bin/python bench/shots_aim.py FOUND.json [--true TRUE.json] [--out DIR]
-        [--freecad freecad]
+        [--freecad freecad] [--reopen]
 
 re-launches itself as ``xvfb-run freecad bench/shots_aim.py`` and, inside the GUI, writes
 ``<out>/<room>_<fc version>_{iso,side,top}.png`` and ``<out>/<room>_<fc version>.json``: per
@@ -36,6 +37,9 @@ def relaunch(argv):
     ap.add_argument("--out", default=os.path.join(ROOT, "out", "shots-aim"))
     ap.add_argument("--freecad", default=os.environ.get("INVRAD_FREECAD", "freecad"))
     ap.add_argument("--timeout", type=float, default=300.0)
+    ap.add_argument("--reopen", action="store_true",
+                    help="save the document, close it and open it again before the shots"
+                         " (the beam axes are drawn again by the workbench's InitGui.py)")
     args = ap.parse_args(argv)
     exe, xvfb = shutil.which(args.freecad), shutil.which("xvfb-run")
     if not exe or not xvfb:
@@ -43,6 +47,8 @@ def relaunch(argv):
         return 2
     os.makedirs(args.out, exist_ok=True)
     home = tempfile.mkdtemp(prefix="invrad-fchome-")
+    os.makedirs(os.path.join(home, "Mod"))
+    os.symlink(ROOT, os.path.join(home, "Mod", "invrad"))   # the workbench, as installed
     paths = os.environ.get("PYTHONPATH", "").split(os.pathsep) + [
         sysconfig.get_paths()["purelib"], ROOT]
     paths = [p for i, p in enumerate(paths) if p and p not in paths[:i]]
@@ -50,7 +56,8 @@ def relaunch(argv):
                INVRAD_SITE_PACKAGES=os.pathsep.join(paths), QTWEBENGINE_DISABLE_SANDBOX="1")
     env[ENV] = json.dumps({"found": os.path.abspath(args.found),
                            "true": args.true and os.path.abspath(args.true),
-                           "out": os.path.abspath(args.out), "paths": paths})
+                           "out": os.path.abspath(args.out), "paths": paths,
+                           "reopen": args.reopen})
     env.pop("QT_QPA_PLATFORM", None)
     try:
         rc = subprocess.run([xvfb, "-a", "-s", "-screen 0 1280x800x24", exe,
@@ -93,6 +100,20 @@ def inside():
                              label=name.capitalize())
     objs = fixtures.insert_fixtures(doc, [(space, found)])
     doc.recompute()
+    if cfg.get("reopen"):
+        # saved, closed and opened again: what a user sees the next day
+        from PySide import QtGui
+        names, sname = [o.Name for o in objs], space.Name
+        path = os.path.join(cfg["out"], f"{name}_{ver}.FCStd")
+        doc.saveAs(path)
+        FreeCAD.closeDocument(doc.Name)
+        doc = FreeCAD.openDocument(path)
+        for _ in range(10):
+            QtGui.QApplication.processEvents()
+            FreeCADGui.updateGui()
+        objs = [doc.getObject(n) for n in names]
+        space = doc.getObject(sname)
+        ver += "_reopened"
     report = []
     for obj, lum in zip(objs, found):
         pl = obj.Placement
