@@ -184,7 +184,8 @@ def _degrees_per_angle_unit(ifc):
         scale = float(U.calculate_unit_scale(ifc, "PLANEANGLEUNIT"))
     except Exception:          # no unit assignment, an ifcopenshell without angle units
         scale = 1.0
-    return math.degrees(scale if math.isfinite(scale) and scale > 0 else 1.0)
+    k = math.degrees(scale if math.isfinite(scale) and scale > 0 else 1.0)
+    return 1.0 if abs(k - 1.0) < 1e-9 else k      # a DEGREE unit's pi/180 round-off
 
 
 def aim_properties(ifc, lum):
