@@ -66,6 +66,27 @@ class InvRadWorkbench(FreeCADGui.Workbench):
 
 FreeCADGui.addWorkbench(InvRadWorkbench())
 
+
+class _InvRadBeamAxes:
+    """The beam axes of aimed fixtures are Coin nodes, which FreeCAD does not save: drawn
+    again once a document is opened (before the workbench is ever activated too) and
+    after undo and redo (invrad_wb/gui/beamaxis.py, imported on the first document)."""
+
+    def slotCreatedDocument(self, doc):
+        try:
+            from invrad_wb.gui import beamaxis
+            beamaxis.redraw_later(doc)
+        except Exception:          # a package that does not import leaves FreeCAD be
+            pass
+
+    slotUndoDocument = slotRedoDocument = slotCreatedDocument
+
+
+import FreeCAD as _FreeCAD
+if _FreeCAD.GuiUp and getattr(_FreeCAD, "_invrad_beam_axes", None) is None:
+    _FreeCAD._invrad_beam_axes = _InvRadBeamAxes()
+    _FreeCAD.addDocumentObserver(_FreeCAD._invrad_beam_axes)
+
 # The 3D view's text (invrad's room names and legend, every other workbench's too): Coin
 # opens FreeType and fontconfig at run time by their unversioned names, libfreetype.so and
 # libfontconfig.so, which only the -dev packages install. FreeCAD 1.0 from Debian 13 has

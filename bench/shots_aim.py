@@ -2,12 +2,14 @@
 """Screenshots of aimed luminaires in FreeCAD (issue 23): a result JSON (``locate --aim
 free``, or bench/bench_aim.py --save's ``<room>_found.json``) inserted as light fixtures into
 a walled room of the result's size, seen in isometric, from the side and from above, with
-each fixture's beam axis drawn to where it meets the room.
+each fixture's beam axis drawn to where it meets the room; with ``--reopen`` after the
+document was saved, closed and opened again; with ``--native`` (FreeCAD 1.x) two spots
+aimed in FZK-Haus opened as a NativeIFC document, saved and reopened.
 
 ::
 
     .venv/bin/python bench/shots_aim.py FOUND.json [--true TRUE.json] [--out DIR]
-        [--freecad freecad]
+        [--freecad freecad] [--reopen]
 
 re-launches itself as ``xvfb-run freecad bench/shots_aim.py`` and, inside the GUI, writes
 ``<out>/<room>_<fc version>_{iso,side,top}.png`` and ``<out>/<room>_<fc version>.json``: per
@@ -31,26 +33,38 @@ def relaunch(argv):
     import sysconfig
     import tempfile
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("found")
+    ap.add_argument("found", nargs="?", help="a result JSON (not with --native)")
     ap.add_argument("--true")
     ap.add_argument("--out", default=os.path.join(ROOT, "out", "shots-aim"))
     ap.add_argument("--freecad", default=os.environ.get("INVRAD_FREECAD", "freecad"))
     ap.add_argument("--timeout", type=float, default=300.0)
+    ap.add_argument("--reopen", action="store_true",
+                    help="save the document, close it and open it again before the shots"
+                         " (the beam axes are drawn again by the workbench's InitGui.py)")
+    ap.add_argument("--native", action="store_true",
+                    help="FreeCAD 1.x: FZK-Haus as a NativeIFC document, two spots aimed"
+                         " 40 degrees in its Wohnen, saved and reopened (implies --reopen)")
     args = ap.parse_args(argv)
+    if not args.native and not args.found:
+        ap.error("a result JSON is needed (or --native)")
     exe, xvfb = shutil.which(args.freecad), shutil.which("xvfb-run")
     if not exe or not xvfb:
         print(f"shots_aim: needs {args.freecad} and xvfb-run on the PATH", file=sys.stderr)
         return 2
     os.makedirs(args.out, exist_ok=True)
     home = tempfile.mkdtemp(prefix="invrad-fchome-")
+    os.makedirs(os.path.join(home, "Mod"))
+    os.symlink(ROOT, os.path.join(home, "Mod", "invrad"))   # the workbench, as installed
     paths = os.environ.get("PYTHONPATH", "").split(os.pathsep) + [
         sysconfig.get_paths()["purelib"], ROOT]
     paths = [p for i, p in enumerate(paths) if p and p not in paths[:i]]
     env = dict(os.environ, FREECAD_USER_HOME=home, PYTHONPATH=os.pathsep.join(paths),
                INVRAD_SITE_PACKAGES=os.pathsep.join(paths), QTWEBENGINE_DISABLE_SANDBOX="1")
-    env[ENV] = json.dumps({"found": os.path.abspath(args.found),
+    env[ENV] = json.dumps({"found": args.found and os.path.abspath(args.found),
+                           "native": args.native,
                            "true": args.true and os.path.abspath(args.true),
-                           "out": os.path.abspath(args.out), "paths": paths})
+                           "out": os.path.abspath(args.out), "paths": paths,
+                           "reopen": args.reopen})
     env.pop("QT_QPA_PLATFORM", None)
     try:
         rc = subprocess.run([xvfb, "-a", "-s", "-screen 0 1280x800x24", exe,
@@ -65,6 +79,8 @@ def inside():
     for p in reversed(cfg["paths"]):
         if p not in sys.path:
             sys.path.insert(0, p)
+    if cfg.get("native"):
+        return inside_native(cfg)
     import numpy as np
     import FreeCAD
     import FreeCADGui
@@ -93,6 +109,20 @@ def inside():
                              label=name.capitalize())
     objs = fixtures.insert_fixtures(doc, [(space, found)])
     doc.recompute()
+    if cfg.get("reopen"):
+        # saved, closed and opened again: what a user sees the next day
+        from PySide import QtGui
+        names, sname = [o.Name for o in objs], space.Name
+        path = os.path.join(cfg["out"], f"{name}_{ver}.FCStd")
+        doc.saveAs(path)
+        FreeCAD.closeDocument(doc.Name)
+        doc = FreeCAD.openDocument(path)
+        for _ in range(10):
+            QtGui.QApplication.processEvents()
+            FreeCADGui.updateGui()
+        objs = [doc.getObject(n) for n in names]
+        space = doc.getObject(sname)
+        ver += "_reopened"
     report = []
     for obj, lum in zip(objs, found):
         pl = obj.Placement
@@ -134,6 +164,110 @@ def inside():
         view.saveImage(path, 1200, 800, "White")
         shots.append(path)
     with open(os.path.join(cfg["out"], f"{name}_{ver}.json"), "w") as fh:
+        json.dump({"freecad": FreeCAD.Version()[:3], "fixtures": report, "shots": shots},
+                  fh, indent=1)
+
+
+def settle():
+    """Let FreeCAD's event loop run (deferred drawing, NativeIFC's timers)."""
+    import time
+    import FreeCADGui
+    from PySide import QtGui
+    for _ in range(20):
+        QtGui.QApplication.processEvents()
+        FreeCADGui.updateGui()
+        time.sleep(0.05)
+
+
+def inside_native(cfg):
+    """FZK-Haus as a NativeIFC document: two spots aimed 40 degrees (pans 0 and 180) from
+    the middle of its Wohnen's ceiling, inserted as IfcLightFixture entities; the IFC and
+    the document saved, the document closed and opened again; shots, and per fixture its
+    aim read from the saved IFC against the one inserted."""
+    import shutil
+    import numpy as np
+    import FreeCAD
+    import FreeCADGui
+    import ifcopenshell
+    import ifcopenshell.util.unit as U
+    sys.path.insert(0, os.path.join(ROOT, "tests", "freecad"))
+    from fctest import FZK
+    from invrad_wb.app import fixtures, ifcdata, ifcimport, nativeifc, rooms
+    from invrad_wb.app.fixturebody import has_beam_axis
+    from invrad_wb.core.model.aiming import aim_from_tilt_pan, aimed_c0
+    from invrad_wb.core.model.luminaires import Luminaire
+    ver = "fc" + "".join(FreeCAD.Version()[:2])
+    src = os.path.join(cfg["out"], f"fzk_native_{ver}.ifc")
+    shutil.copy(FZK, src)
+    doc, proj = ifcimport.open_ifc(src, shapemode=1)
+    settle()
+    space = {rooms.room_name(s): s for s in rooms.find_spaces(doc)}["Wohnen"]
+    bb = nativeifc.space_solid(space).BoundBox
+    mount = np.array([0.0, 0.0, -1.0])
+    lums = []
+    for k, pan in enumerate((0.0, 180.0)):
+        pos = np.array([bb.Center.x + (k - 0.5) * 600.0, bb.Center.y, bb.ZMax - 10.0]) / 1000
+        aim = aim_from_tilt_pan(mount, 40.0, pan)
+        lums.append(Luminaire(pos, aim, 800.0, c0=aimed_c0(mount, aim),
+                              extra={"tilt_deg": 40.0, "pan_deg": pan}))
+    objs = fixtures.insert_fixtures(doc, [(space, lums)])
+    names, sname = [o.Name for o in objs], space.Name
+    nativeifc.save(proj)
+    path = os.path.join(cfg["out"], f"fzk_native_{ver}.FCStd")
+    doc.saveAs(path)
+    FreeCAD.closeDocument(doc.Name)
+    doc = FreeCAD.openDocument(path)
+    settle()
+    objs = [doc.getObject(n) for n in names]
+    saved = ifcopenshell.open(src)
+    scale = U.calculate_unit_scale(saved)
+    by_guid = {e.GlobalId: e for e in saved.by_type("IfcLightFixture")}
+    report = []
+    for obj, lum in zip(objs, lums):
+        row = {"label": obj.Label, "tilt_deg": getattr(obj, "Tilt", None),
+               "pan_deg": getattr(obj, "Pan", None), "beam_axis_drawn": has_beam_axis(obj)}
+        a = getattr(obj, "AimPoint", None)
+        if a is not None:
+            row["aim_point_m"] = [round(a.x / 1000, 3), round(a.y / 1000, 3),
+                                  round(a.z / 1000, 3)]
+        ent = by_guid.get(getattr(obj, "GlobalId", None))
+        got = ifcdata.invrad_fixture_data(ent, scale, saved) if ent is not None else None
+        if got is not None:
+            row["saved_ifc"] = {
+                "position_mm": float(1000 * np.linalg.norm(got.position - lum.position)),
+                "aim_deg": float(np.degrees(np.arccos(np.clip(got.normal @ lum.normal,
+                                                               -1, 1)))),
+                "tilt_deg": got.extra.get("tilt_deg"), "pan_deg": got.extra.get("pan_deg")}
+        report.append(row)
+    # the room and its fixtures alone (the building's walls and slabs hide them)
+    space = doc.getObject(sname)
+    for o in doc.Objects:
+        vo = getattr(o, "ViewObject", None)
+        if vo is None or o in objs:
+            continue
+        if o is space:
+            vo.Visibility = True
+            if hasattr(vo, "Transparency"):
+                vo.Transparency = 70
+        elif o not in space.InListRecursive:
+            vo.Visibility = False
+    settle()
+    view = FreeCADGui.activeDocument().activeView()
+    view.setCameraType("Orthographic")
+    shots = []
+    for tag, cam in (("iso", view.viewIsometric), ("front", view.viewFront),
+                     ("top", view.viewTop)):
+        cam()
+        FreeCADGui.Selection.clearSelection()
+        for o in objs + [space]:
+            FreeCADGui.Selection.addSelection(o)
+        FreeCADGui.SendMsgToActiveView("ViewSelection")
+        FreeCADGui.Selection.clearSelection()
+        settle()
+        shot = os.path.join(cfg["out"], f"fzk_native_{ver}_reopened_{tag}.png")
+        view.saveImage(shot, 1200, 800, "White")
+        shots.append(shot)
+    with open(os.path.join(cfg["out"], f"fzk_native_{ver}_reopened.json"), "w") as fh:
         json.dump({"freecad": FreeCAD.Version()[:3], "fixtures": report, "shots": shots},
                   fh, indent=1)
 

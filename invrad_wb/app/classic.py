@@ -19,8 +19,10 @@ from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.errors import SceneError
 from invrad_wb.app import settings as S
 from invrad_wb.app.document import describe, global_shape, object_type, transaction
-from invrad_wb.app.fixturebody import (check_luminaire, fixture_axes, fixture_rotation,
-                                       fixture_shape, fixture_size, new_guid)
+from invrad_wb.app.fixturebody import (add_aim_properties, aim_extra, aim_point_mm, aimed_tilt,
+                                       check_luminaire, draw_beam_axis, fixture_axes,
+                                       fixture_rotation, fixture_shape, fixture_size,
+                                       new_guid)
 from invrad_wb.app.ifcdata import PSET_REQ_IFC4, PSET_RESULT, RESULT_PROPERTIES
 from invrad_wb.app.units import direction, m_to_mm, mm_to_m, vector_mm
 
@@ -29,12 +31,6 @@ LIGHT_FIXTURE = "Light Fixture"
 FIXTURE_RGB = (1.0, 0.93, 0.55)
 FIXTURE_EMISSIVE_RGB = (0.75, 0.62, 0.15)
 FIXTURE_LINE_RGB = (0.25, 0.2, 0.05)
-#: The beam axis of an aimed fixture in the 3D view: a dashed line in this colour from the
-#: fixture to its aim point, and a small cross there.
-BEAM_AXIS_RGB = (0.85, 0.25, 0.0)
-BEAM_AXIS_NODE = "InvradBeamAxis"
-#: Tilts below this (degrees from the mounting surface's normal) are not drawn as aimed.
-AIMED_MIN_TILT_DEG = 0.5
 
 
 # --------------------------------------------------------------------------- rooms
@@ -176,75 +172,6 @@ def style_fixture(obj):
     draw_beam_axis(obj)
 
 
-def aimed_tilt(lum):
-    """The tilt in degrees of an aimed luminaire (locate --aim free, a design accent: its
-    ``extra['tilt_deg']``), or None for one that faces along its mounting normal."""
-    t = lum.extra.get("tilt_deg")
-    if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
-        return None
-    return float(t) if t >= AIMED_MIN_TILT_DEG else None
-
-
-def aim_point_mm(space, lum):
-    """Where an aimed luminaire's beam axis first meets its room (FreeCAD Vector, mm): the
-    ray from the luminaire along its light direction against the Space's shape; 2 m along
-    the axis when it meets nothing (an open or broken shape)."""
-    import FreeCAD
-    import Part
-    p = vector_mm(lum.position)
-    d = direction(lum.normal)
-    try:
-        seg = Part.LineSegment(p, p + d * 1e5).toShape()
-        hits = [(v.Point - p).Length for v in seg.section(space.Shape).Vertexes]
-        hits = [h for h in hits if h > 5.0]
-    except Exception:          # no shape, a broken solid
-        hits = []
-    return p + d * (min(hits) if hits else 2000.0)
-
-
-def draw_beam_axis(obj):
-    """Show an aimed fixture's beam axis in the 3D view (GUI only): a dashed line along its
-    light direction (local -Z) from the fixture to its ``AimPoint``, and a cross there.
-    The line is a child of the view's root, after the placement's transform, so it moves
-    with the fixture; drawn once per view object."""
-    import FreeCAD
-    if not FreeCAD.GuiUp or "AimPoint" not in getattr(obj, "PropertiesList", ()):
-        return
-    vo = getattr(obj, "ViewObject", None)
-    root = getattr(vo, "RootNode", None)
-    if root is None:
-        return
-    try:
-        from pivy import coin
-    except ImportError:
-        return
-    for i in range(root.getNumChildren() - 1, -1, -1):
-        if root.getChild(i).getName() == BEAM_AXIS_NODE:
-            root.removeChild(i)
-    pl = obj.Placement
-    end = pl.inverse().multVec(obj.AimPoint)
-    length = max(end.Length, 1.0)
-    c = 0.04 * length
-    sep = coin.SoSeparator()
-    sep.setName(BEAM_AXIS_NODE)
-    col = coin.SoBaseColor()
-    col.rgb = BEAM_AXIS_RGB
-    style = coin.SoDrawStyle()
-    style.lineWidth = 2
-    style.linePattern = 0xFF00
-    pts = [(0, 0, 0), (0, 0, -length),
-           (-c, 0, -length), (c, 0, -length), (0, -c, -length), (0, c, -length)]
-    coords = coin.SoCoordinate3()
-    coords.point.setValues(0, len(pts), pts)
-    lines = coin.SoLineSet()
-    lines.numVertices.setValues(0, 3, [2, 2, 2])
-    light = coin.SoLightModel()
-    light.model = coin.SoLightModel.BASE_COLOR
-    for node in (light, col, style, coords, lines):
-        sep.addChild(node)
-    root.addChild(sep)
-
-
 def _add_properties(obj):
     props = [
         ("App::PropertyFloat", "LuminousFlux", "Light", "Luminous flux of the luminaire (lm)"),
@@ -307,28 +234,11 @@ def make_fixture(space, lum, label):
         obj.IfcData = data
     tilt = aimed_tilt(lum)
     if tilt is not None:
-        _add_aim_properties(obj, space, lum, tilt)
+        add_aim_properties(obj, lum, tilt, aim_point_mm(space.Shape, lum))
     obj.Room = space
     space.Proxy.addObject(space, obj)
     style_fixture(obj)
     return obj
-
-
-def _add_aim_properties(obj, space, lum, tilt):
-    """An aimed fixture's tilt and pan (degrees from its mounting normal) and the point its
-    beam axis meets the room (drawn in the 3D view, :func:`draw_beam_axis`)."""
-    for ptype, name, doc in (
-            ("App::PropertyFloat", "Tilt", "Tilt of the beam from the mounting surface's"
-                                           " normal (degrees)"),
-            ("App::PropertyFloat", "Pan", "Pan of the beam around the mounting surface's"
-                                          " normal (degrees)"),
-            ("App::PropertyVector", "AimPoint", "Where the beam axis meets the room")):
-        if name not in obj.PropertiesList:
-            obj.addProperty(ptype, name, "Light", doc)
-    obj.Tilt = tilt
-    pan = lum.extra.get("pan_deg")
-    obj.Pan = float(pan) if isinstance(pan, (int, float)) and not isinstance(pan, bool) else 0.0
-    obj.AimPoint = aim_point_mm(space, lum)
 
 
 def _placement(lum):
@@ -386,7 +296,8 @@ def fixture_luminaire(obj):
         c0 = None
     return Luminaire(mm_to_m(pl.Base), n, flux,
                      mm_to_m(getattr(obj, "EmitterRadius", 0.0)),
-                     score=float(getattr(obj, "Score", 0.0)) or None, c0=c0)
+                     score=float(getattr(obj, "Score", 0.0)) or None, c0=c0,
+                     extra=aim_extra(obj))
 
 
 # --------------------------------------------------------------------------- requirements

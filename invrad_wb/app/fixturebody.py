@@ -123,3 +123,140 @@ def check_luminaire(lum, where):
         raise LuminaireError(f"{where}: position/normal are not finite")
     if not (np.isfinite(lum.flux_lm) and lum.flux_lm > 0):
         raise LuminaireError(f"{where}: flux {lum.flux_lm!r} lm must be > 0")
+
+
+# --------------------------------------------------------------------------- aimed fixtures
+#: Tilts below this (degrees from the mounting surface's normal) are not drawn as aimed.
+AIMED_MIN_TILT_DEG = 0.5
+#: The beam axis of an aimed fixture in the 3D view: a dashed line in this colour from the
+#: fixture to its aim point, and a small cross there.
+BEAM_AXIS_RGB = (0.85, 0.25, 0.0)
+BEAM_AXIS_NODE = "InvradBeamAxis"
+#: The properties an aimed fixture carries in the document (both backends).
+AIM_PROPERTIES = ("Tilt", "Pan", "AimPoint")
+
+
+def aimed_tilt(lum):
+    """The tilt in degrees of an aimed luminaire (locate --aim free, a design accent: its
+    ``extra['tilt_deg']``), or None for one that faces along its mounting normal."""
+    t = lum.extra.get("tilt_deg")
+    if isinstance(t, bool) or not isinstance(t, (int, float)) or not np.isfinite(t):
+        return None
+    return float(t) if t >= AIMED_MIN_TILT_DEG else None
+
+
+def aimed_pan(lum):
+    """The pan in degrees of an aimed luminaire (``extra['pan_deg']``), 0 when none."""
+    p = lum.extra.get("pan_deg")
+    if isinstance(p, bool) or not isinstance(p, (int, float)) or not np.isfinite(p):
+        return 0.0
+    return float(p)
+
+
+def aim_point_mm(shape, lum):
+    """Where an aimed luminaire's beam axis first meets its room (FreeCAD Vector, mm): the
+    ray from the luminaire along its light direction against the room's ``shape`` (a Part
+    shape, mm); 2 m along the axis when it meets nothing (an open or broken shape)."""
+    import Part
+    from invrad_wb.app.units import direction, vector_mm
+    p = vector_mm(lum.position)
+    d = direction(lum.normal)
+    try:
+        seg = Part.LineSegment(p, p + d * 1e5).toShape()
+        hits = [(v.Point - p).Length for v in seg.section(shape).Vertexes]
+        hits = [h for h in hits if h > 5.0]
+    except Exception:          # no shape, a broken solid
+        hits = []
+    return p + d * (min(hits) if hits else 2000.0)
+
+
+def add_aim_properties(obj, lum, tilt, aim_point, group="Light", readonly=False):
+    """An aimed fixture's tilt and pan (degrees from its mounting normal) and the point its
+    beam axis meets the room (drawn in the 3D view, :func:`draw_beam_axis`), as document
+    properties of ``obj`` in ``group``; ``readonly`` where they only show what is stored
+    elsewhere (a NativeIFC fixture's IFC placement and property set)."""
+    for ptype, name, doc in (
+            ("App::PropertyFloat", "Tilt", "Tilt of the beam from the mounting surface's"
+                                           " normal (degrees)"),
+            ("App::PropertyFloat", "Pan", "Pan of the beam around the mounting surface's"
+                                          " normal (degrees)"),
+            ("App::PropertyVector", "AimPoint", "Where the beam axis meets the room")):
+        if name not in obj.PropertiesList:
+            obj.addProperty(ptype, name, group, doc)
+    obj.Tilt = tilt
+    obj.Pan = aimed_pan(lum)
+    obj.AimPoint = aim_point
+    if readonly:
+        for name in AIM_PROPERTIES:
+            obj.setPropertyStatus(name, "ReadOnly")
+
+
+def is_aimed_fixture(obj):
+    """A document object with an aimed fixture's properties (either backend)."""
+    try:
+        props = obj.PropertiesList
+    except Exception:          # a deleted object
+        return False
+    return all(p in props for p in AIM_PROPERTIES)
+
+
+def aim_extra(obj):
+    """``{"tilt_deg", "pan_deg"}`` of an aimed fixture's document properties, or {}."""
+    if not is_aimed_fixture(obj):
+        return {}
+    return {"tilt_deg": float(obj.Tilt), "pan_deg": float(obj.Pan)}
+
+
+def has_beam_axis(obj):
+    """Whether the 3D view shows ``obj``'s beam axis (False without the GUI)."""
+    root = getattr(getattr(obj, "ViewObject", None), "RootNode", None)
+    if root is None:
+        return False
+    return any(root.getChild(i).getName() == BEAM_AXIS_NODE
+               for i in range(root.getNumChildren()))
+
+
+def draw_beam_axis(obj):
+    """Show an aimed fixture's beam axis in the 3D view (GUI only): a dashed line along its
+    light direction (local -Z) from the fixture to its ``AimPoint``, and a cross there.
+    The line is a child of the view's root, after the placement's transform, so it moves
+    with the fixture; drawn once per view object (an earlier one is replaced). The 3D
+    view's nodes are not saved: :mod:`invrad_wb.gui.beamaxis` draws them again when a
+    document is opened and after undo or redo. True when drawn."""
+    import FreeCAD
+    if not FreeCAD.GuiUp or "AimPoint" not in getattr(obj, "PropertiesList", ()):
+        return False
+    vo = getattr(obj, "ViewObject", None)
+    root = getattr(vo, "RootNode", None)
+    if root is None:
+        return False
+    try:
+        from pivy import coin
+    except ImportError:
+        return False
+    for i in range(root.getNumChildren() - 1, -1, -1):
+        if root.getChild(i).getName() == BEAM_AXIS_NODE:
+            root.removeChild(i)
+    pl = obj.Placement
+    end = pl.inverse().multVec(obj.AimPoint)
+    length = max(end.Length, 1.0)
+    c = 0.04 * length
+    sep = coin.SoSeparator()
+    sep.setName(BEAM_AXIS_NODE)
+    col = coin.SoBaseColor()
+    col.rgb = BEAM_AXIS_RGB
+    style = coin.SoDrawStyle()
+    style.lineWidth = 2
+    style.linePattern = 0xFF00
+    pts = [(0, 0, 0), (0, 0, -length),
+           (-c, 0, -length), (c, 0, -length), (0, -c, -length), (0, c, -length)]
+    coords = coin.SoCoordinate3()
+    coords.point.setValues(0, len(pts), pts)
+    lines = coin.SoLineSet()
+    lines.numVertices.setValues(0, 3, [2, 2, 2])
+    light = coin.SoLightModel()
+    light.model = coin.SoLightModel.BASE_COLOR
+    for node in (light, col, style, coords, lines):
+        sep.addChild(node)
+    root.addChild(sep)
+    return True

@@ -15,7 +15,7 @@ import os
 import numpy as np
 
 from invrad_wb.app import settings as S
-from invrad_wb.app.fixturebody import fixture_axes, fixture_size
+from invrad_wb.app.fixturebody import aimed_pan, aimed_tilt, fixture_axes, fixture_size
 from invrad_wb.app.units import MM_PER_M
 
 #: the lighting requirement property set: IFC4 name, IFC4.3 name (same properties:
@@ -146,8 +146,11 @@ def closed_solid(shape):
     return solid, 0
 
 
-def invrad_fixture_data(entity, unit_scale):
-    """A Luminaire from an IfcLightFixture written by invrad, or None if it is not one."""
+def invrad_fixture_data(entity, unit_scale, ifc=None):
+    """A Luminaire from an IfcLightFixture written by invrad, or None if it is not one:
+    position and light direction (local -Z) from its placement, an aimed one's C0 axis
+    (local X) and its tilt and pan (``extra``, :func:`read_aim`; ``ifc``, the entity's
+    file, gives their angle unit)."""
     import ifcopenshell.util.element as E
     import ifcopenshell.util.placement as P
     from invrad_wb.core.model.luminaires import Luminaire
@@ -162,10 +165,69 @@ def invrad_fixture_data(entity, unit_scale):
         return None
     m = np.asarray(P.get_local_placement(entity.ObjectPlacement), dtype=np.float64)
     pos = m[:3, 3] * unit_scale
-    normal = -m[:3, 2]
+    normal = -m[:3, 2] / np.linalg.norm(m[:3, 2])
+    # an aimed luminaire's C0 axis (local X) differs from its normal's own frame
+    c0 = m[:3, 0] / np.linalg.norm(m[:3, 0])
+    if np.allclose(c0, fixture_axes(normal)[0], atol=1e-6):
+        c0 = None
     radius = float(pset.get("EmitterRadius") or 0.0)
     score = pset.get("Score")
-    return Luminaire(pos, normal, flux, radius, score=float(score) if score else None)
+    return Luminaire(pos, normal, flux, radius, score=float(score) if score else None,
+                     c0=c0, extra=read_aim(ifc, pset))
+
+
+def _degrees_per_angle_unit(ifc):
+    """Degrees per unit of the file's plane angle unit (its ``PLANEANGLEUNIT``; radians,
+    IFC's default, where it names none)."""
+    import ifcopenshell.util.unit as U
+    try:
+        scale = float(U.calculate_unit_scale(ifc, "PLANEANGLEUNIT"))
+    except Exception:          # no unit assignment, an ifcopenshell without angle units
+        scale = 1.0
+    k = math.degrees(scale if math.isfinite(scale) and scale > 0 else 1.0)
+    return 1.0 if abs(k - 1.0) < 1e-9 else k      # a DEGREE unit's pi/180 round-off
+
+
+def aim_properties(ifc, lum):
+    """An aimed luminaire's ``Tilt`` and ``Pan`` (``IfcPlaneAngleMeasure`` in the file's
+    plane angle unit) for invrad's property set, or {} for one facing along its mounting
+    normal. Its placement carries the aim itself (local -Z along the light)."""
+    tilt = aimed_tilt(lum)
+    if tilt is None:
+        return {}
+    k = _degrees_per_angle_unit(ifc)
+    return {"Tilt": ifc.create_entity("IfcPlaneAngleMeasure", tilt / k),
+            "Pan": ifc.create_entity("IfcPlaneAngleMeasure", aimed_pan(lum) / k)}
+
+
+def write_aim(ifc, ent, lum):
+    """Add an aimed luminaire's tilt and pan (:func:`aim_properties`) to the invrad
+    property set of the IfcLightFixture ``ent`` (made when missing); False when it is not
+    aimed."""
+    import ifcopenshell.api.pset as PS
+    import ifcopenshell.util.element as E
+    props = aim_properties(ifc, lum)
+    if not props:
+        return False
+    pid = (E.get_psets(ent).get(S.IFC_LUMINAIRE_PSET) or {}).get("id")
+    p = ifc.by_id(pid) if pid else PS.add_pset(ifc, product=ent, name=S.IFC_LUMINAIRE_PSET)
+    PS.edit_pset(ifc, pset=p, properties=props)
+    return True
+
+
+def read_aim(ifc, pset):
+    """``{"tilt_deg", "pan_deg"}`` from invrad's property set (as ``get_psets`` gives it)
+    of an aimed fixture, or {}."""
+    try:
+        tilt = float(pset.get("Tilt"))
+        pan = float(pset.get("Pan") or 0.0)
+    except (TypeError, ValueError):
+        return {}
+    k = _degrees_per_angle_unit(ifc) if ifc is not None else math.degrees(1.0)
+    tilt, pan = tilt * k, (pan * k) % 360.0
+    if not (math.isfinite(tilt) and math.isfinite(pan)):
+        return {}
+    return {"tilt_deg": tilt, "pan_deg": pan}
 
 
 def luminaire_psets(ifc, ent, lum, kind=None):
@@ -186,6 +248,7 @@ def luminaire_psets(ifc, ent, lum, kind=None):
     path = getattr(lum.photometry, "path", None)
     if path:
         props["PhotometryFile"] = ifc.create_entity("IfcText", os.fspath(path))
+    props.update(aim_properties(ifc, lum))
     p = PS.add_pset(ifc, product=ent, name=S.IFC_LUMINAIRE_PSET)
     PS.edit_pset(ifc, pset=p, properties=props)
     common = {"NumberOfSources": 1}

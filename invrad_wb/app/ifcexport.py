@@ -37,7 +37,7 @@ from invrad_wb.app.document import activate, describe
 from invrad_wb.app.fixtures import all_fixtures, fixture_luminaire, fixture_room
 from invrad_wb.app.ifcdata import (  # noqa: F401 - ifcexport.add_body etc. as before
     PSET_REQ_IFC4, PSET_RESULT, RESULT_PROPERTIES, add_body, body_context, fixture_matrix,
-    is_invrad_fixture, luminaire_psets, write_requirement)
+    is_invrad_fixture, luminaire_psets, write_aim, write_requirement)
 from invrad_wb.app.rooms import find_spaces, space_uid
 
 
@@ -282,6 +282,7 @@ def _restore_orientation(ifc, ent, lum, unit_scale):
             G.remove_representation(ifc, representation=rep)
     G.edit_object_placement(ifc, product=ent, matrix=fixture_matrix(lum), is_si=True)
     add_body(ifc, ent, lum, body_context(ifc), unit_scale)
+    write_aim(ifc, ent, lum)            # an aimed spot's tilt and pan in invrad's set
 
 
 # --------------------------------------------------------------------------- requirements

@@ -241,7 +241,7 @@ def _import_lighting(ifc, spaces_ifc, by_guid, result):
         if lux is not None:
             TG.set_work_plane(by_guid[sp.GlobalId], lux)
     for lf in ifc.by_type("IfcLightFixture"):
-        lum = invrad_fixture_data(lf, unit_scale)
+        lum = invrad_fixture_data(lf, unit_scale, ifc)
         if lum is None:
             continue
         container = E.get_container(lf)

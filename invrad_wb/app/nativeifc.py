@@ -40,6 +40,7 @@ from invrad_wb.errors import InvradError, LuminaireError, SceneError
 from invrad_wb.app import ifcdata
 from invrad_wb.app import settings as S
 from invrad_wb.app.document import describe, transaction
+from invrad_wb.app import fixturebody
 from invrad_wb.app.fixturebody import check_luminaire
 # the requirement sets live in ifcdata (the classic export writes them too)
 from invrad_wb.app.ifcdata import (  # noqa: F401 - nativeifc.read_requirement etc. as before
@@ -235,7 +236,8 @@ def fixture_luminaire(obj):
     ent = entity(obj)
     lum = None
     if ent is not None:
-        lum = ifcdata.invrad_fixture_data(ent, U.calculate_unit_scale(ifcfile(obj)))
+        ifc = ifcfile(obj)
+        lum = ifcdata.invrad_fixture_data(ent, U.calculate_unit_scale(ifc), ifc)
     if lum is None:
         raise LuminaireError(f"light fixture {describe(obj)} has no luminous flux"
                              f" ({S.IFC_LUMINAIRE_PSET}.LuminousFlux) in the IFC file")
@@ -268,6 +270,28 @@ def _new_fixture_entity(ifc, space_ent, lum, label, ctx, unit_scale):
     ifcdata.add_body(ifc, ent, lum, ctx, unit_scale)
     ifcdata.luminaire_psets(ifc, ent, lum)
     return ent
+
+
+#: The group of an aimed NativeIFC fixture's Tilt, Pan and AimPoint: NativeIFC writes a
+#: property of any group but its own ("Base", "IFC", "Geometry") into a property set
+#: of that name, and these only show what the IFC holds (placement, ``InvRad_Luminaire``).
+AIM_GROUP = "Base"
+
+
+def _show_aim(obj, space, lum):
+    """An aimed fixture's tilt, pan and aim point as (read-only) properties of its
+    NativeIFC object, and its beam axis in the 3D view, as a classic fixture's; the IFC
+    keeps them in its placement and property set (:func:`ifcdata.write_aim`)."""
+    tilt = fixturebody.aimed_tilt(lum)
+    if tilt is None:
+        return
+    try:
+        shape = space_solid(space)
+    except SceneError:         # the axis then ends 2 m out
+        shape = None
+    fixturebody.add_aim_properties(obj, lum, tilt, fixturebody.aim_point_mm(shape, lum),
+                                   group=AIM_GROUP, readonly=True)
+    fixturebody.draw_beam_axis(obj)
 
 
 def insert_fixtures(doc, per_room, label, replace=True, name="Insert luminaires",
@@ -330,6 +354,7 @@ def insert_fixtures(doc, per_room, label, replace=True, name="Insert luminaires"
                 obj.Proxy.cached = False       # a new entity: not in the file's cache
                 obj.touch()
                 space.Proxy.addObject(space, obj)
+                _show_aim(obj, space, lum)
                 out.append(obj)
         _write_requirements(ifc, [sp for sp, _ in per_room], requirements)
         if hasattr(proj, "Modified"):

@@ -482,8 +482,10 @@ class Smoke:
         self.check("Init.py registered invrad's IFC importer",
                    "invrad_wb.app.ifcimport" in FreeCAD.getImportType("ifc"))
         before = set(sys.modules)
+        # (but the beam-axis redrawing of InitGui.py's observer, light, on a first document)
         self.check("the package is not imported before activation",
-                   not any(m.startswith("invrad_wb.gui") for m in before),
+                   not any(m.startswith("invrad_wb.gui") and m not in
+                           ("invrad_wb.gui", "invrad_wb.gui.beamaxis") for m in before),
                    sorted(m for m in before if m.startswith("invrad_wb")))
         FreeCADGui.activateWorkbench("InvRadWorkbench")
         yield None
@@ -828,8 +830,53 @@ class Smoke:
         # 6. design from requirements through its task panel
         yield from self.run_design(doc, space, ceiling)
 
+        # 7. an aimed spot's beam axis, drawn again where FreeCAD forgets it
+        yield from self.run_aimed()
+
         if self.fzk:
             yield from self.run_fzk()
+
+    def run_aimed(self):
+        """An aimed spot's beam axis (a Coin node, not saved): drawn on insert, again after
+        undo and redo and after the document is saved, closed and opened (the observer
+        of InitGui.py, invrad_wb/gui/beamaxis.py)."""
+        import FreeCAD
+        import numpy as np
+        from fctest import make_walled_room
+        from invrad_wb.app import fixtures
+        from invrad_wb.app.fixturebody import has_beam_axis
+        from invrad_wb.core.model.aiming import aim_from_tilt_pan, aimed_c0
+        from invrad_wb.core.model.luminaires import Luminaire
+        doc = FreeCAD.newDocument("AimedSpot")
+        doc.UndoMode = 1
+        space = make_walled_room(doc)
+        mount = np.array([0.0, 0.0, -1.0])
+        aim = aim_from_tilt_pan(mount, 40.0, 120.0)
+        spot = Luminaire([2.0, 1.5, 2.7], aim, 700.0, c0=aimed_c0(mount, aim),
+                         extra={"tilt_deg": 40.0, "pan_deg": 120.0})
+        (fx,) = fixtures.insert_fixtures(doc, [(space, [spot])])
+        name, sname = fx.Name, space.Name
+        self.check("aimed spot: beam axis drawn", has_beam_axis(fx))
+        doc.undo()
+        doc.redo()
+        yield None
+        fx = doc.getObject(name)
+        self.check("aimed spot: beam axis drawn again after undo and redo",
+                   fx is not None and has_beam_axis(fx))
+        path = os.path.join(self.out, "aimed_spot.FCStd")
+        doc.saveAs(path)
+        FreeCAD.closeDocument(doc.Name)
+        doc = FreeCAD.openDocument(path)
+        yield None
+        fx = fixtures.room_fixtures(doc.getObject(sname))
+        self.check("aimed spot: beam axis drawn again after the document is reopened",
+                   len(fx) == 1 and has_beam_axis(fx[0]) and fx[0].Tilt == 40.0)
+        for o in doc.Objects:
+            if getattr(o, "IfcType", "") in ("Wall", "Slab") and o.ViewObject is not None:
+                o.ViewObject.Transparency = 75
+        self.view_iso()
+        self.shot("aimed_spot_reopened")
+        FreeCAD.closeDocument(doc.Name)
 
     def run_design(self, doc, space, ceiling):
         import FreeCADGui

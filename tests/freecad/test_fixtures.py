@@ -218,9 +218,16 @@ class TestFixtures(FreeCADTestCase):
         self.assertEqual(len(fixtures.room_fixtures(self.space)), 1)
 
     def test_save_and_reload_keeps_fixtures(self):
+        from invrad_wb.core.model.aiming import aim_from_tilt_pan, aimed_c0
+        from invrad_wb.gui import beamaxis
+        mount = np.array([0.0, 0.0, -1.0])
+        aim = aim_from_tilt_pan(mount, 40.0, 120.0)         # a spot aimed at the wall y = 0
+        spot = Luminaire([2.0, 1.5, 2.7], aim, 700.0, c0=aimed_c0(mount, aim),
+                         extra={"tilt_deg": 40.0, "pan_deg": 120.0})
         fixtures.insert_fixtures(self.doc, [(self.space, [down(1, 1, score=0.7),
                                                           Luminaire([0.1, 1.5, 2.0], [1, 0, 0],
-                                                                    900.0, 0.05)])])
+                                                                    900.0, 0.05), spot])])
+        aim_point = fixtures.room_fixtures(self.space)[2].AimPoint
         path = self.path("lit.FCStd")
         self.doc.saveAs(path)
         name = self.doc.Name
@@ -228,8 +235,21 @@ class TestFixtures(FreeCADTestCase):
         doc = FreeCAD.openDocument(path)
         space = doc.getObjectsByLabel("Office")[0]
         fx = fixtures.room_fixtures(space)
-        self.assertEqual(len(fx), 2)
-        self.assertEqual(sorted(f.LuminousFlux for f in fx), [900.0, 1500.0])
+        self.assertEqual(len(fx), 3)
+        self.assertEqual(sorted(f.LuminousFlux for f in fx), [700.0, 900.0, 1500.0])
+        # the aimed spot: its aim (placement), C0 axis, tilt, pan and aim point, and it is
+        # among the fixtures whose beam axis the GUI draws again (gui_smoke checks the
+        # drawing itself)
+        (aimed,) = beamaxis.aimed_fixtures(doc)
+        back = fixtures.fixture_luminaire(aimed)
+        np.testing.assert_allclose(back.position, spot.position, atol=1e-12)
+        self.assertLess(np.degrees(np.arccos(np.clip(back.normal @ aim, -1, 1))), 1e-6)
+        np.testing.assert_allclose(back.c0, spot.c0, atol=1e-9)
+        self.assertEqual(back.extra, {"tilt_deg": 40.0, "pan_deg": 120.0})
+        self.assertEqual(aimed.AimPoint, aim_point)
+        hit = spot.position * 1000 + aim * (1500.0 - 100.0) / -aim[1]   # wall y = 0.1 m
+        np.testing.assert_allclose([aim_point.x, aim_point.y, aim_point.z], hit, atol=1e-6)
+        fx = [f for f in fx if f is not aimed]
         for f in fx:
             self.assertEqual(f.Room, space)
             self.assertEqual(f.IfcType, "Light Fixture")
@@ -240,7 +260,7 @@ class TestFixtures(FreeCADTestCase):
         np.testing.assert_allclose(lum.position, [0.1, 1.5, 2.0], atol=1e-12)
         self.assertAlmostEqual(lum.radius_m, 0.05)
         doc.recompute()
-        self.assertEqual(len(fixtures.room_fixtures(space)), 2)
+        self.assertEqual(len(fixtures.room_fixtures(space)), 3)
         self.doc = doc
 
 

@@ -302,11 +302,14 @@ class TestAimedFixture(FreeCADTestCase):
     carries the tilt: local -Z along the light (issue 23)."""
 
     def test_tilted_fixture_survives_ifc_export_and_read_back(self):
+        import ifcopenshell.util.element as E
         import ifcopenshell.util.placement as P
+        import ifcopenshell.util.unit as U
         from invrad_wb.core.model.aiming import aim_from_tilt_pan, aimed_c0
         down = np.array([0.0, 0.0, -1.0])
         aim = aim_from_tilt_pan(down, 40.0, 120.0)
-        lum = Luminaire([2.0, 1.5, 2.6], aim, 900.0, c0=aimed_c0(down, aim))
+        lum = Luminaire([2.0, 1.5, 2.6], aim, 900.0, c0=aimed_c0(down, aim),
+                        extra={"tilt_deg": 40.0, "pan_deg": 120.0})
         space = make_walled_room(self.doc)
         (obj,) = fixtures.insert_fixtures(self.doc, [(space, [lum])])
         # drawn tilted: the light leaves along the fixture's local -Z
@@ -321,15 +324,26 @@ class TestAimedFixture(FreeCADTestCase):
         self.assertLess(np.linalg.norm(m[:3, 3] / scale - lum.position), 1e-3)
         z, x = m[:3, 2], m[:3, 0]
         self.assertLess(np.degrees(np.arccos(np.clip(-z @ aim, -1, 1))), 0.1)
-        # the document's fixture has its C0 (local X) as the luminaire's c0; FreeCAD
-        # 0.20's exporter writes another X about the same Z (measured: 30 degrees off
-        # here), which matters only for a rotationally asymmetric photometry
+        # the document's fixture and the file have its C0 (local X) as the luminaire's
+        # c0 (FreeCAD 0.20's exporter wrote another X about the same Z, 30 degrees off
+        # here, until the export set the placement again), which matters for a
+        # rotationally asymmetric photometry
         xf = obj.Placement.Rotation.multVec(FreeCAD.Vector(1, 0, 0))
         self.assertLess(np.linalg.norm(np.array([xf.x, xf.y, xf.z]) - lum.c0), 1e-9)
-        self.assertLess(abs(x @ z), 1e-9)
-        # and read back into a document
+        self.assertLess(np.linalg.norm(x / np.linalg.norm(x) - lum.c0), 1e-6)
+        # tilt and pan in invrad's property set, in the file's angle unit
+        pset = E.get_psets(lf)["InvRad_Luminaire"]
+        deg = np.degrees(U.calculate_unit_scale(ifc, "PLANEANGLEUNIT"))
+        self.assertAlmostEqual(pset["Tilt"] * deg, 40.0, places=6)
+        self.assertAlmostEqual(pset["Pan"] * deg, 120.0, places=6)
+        # and read back into a document: position, aim, C0, tilt and pan, aim point
         imp = ifcrooms.import_ifc(out)
         (fx,) = fixtures.all_fixtures(imp.doc)
         back = fixtures.fixture_luminaire(fx)
         self.assertLess(np.linalg.norm(back.position - lum.position), 1e-3)
         self.assertLess(np.degrees(np.arccos(np.clip(back.normal @ aim, -1, 1))), 0.1)
+        self.assertLess(np.degrees(np.arccos(np.clip(back.c0 @ lum.c0, -1, 1))), 0.1)
+        self.assertAlmostEqual(fx.Tilt, 40.0, places=6)
+        self.assertAlmostEqual(fx.Pan, 120.0, places=6)
+        a = fx.AimPoint
+        self.assertLess(np.linalg.norm(np.array([a.x, a.y, a.z]) - obj.AimPoint), 1.0)

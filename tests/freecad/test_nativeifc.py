@@ -317,9 +317,24 @@ class TestNativeLockedDocument(FreeCADTestCase):
         ifc = doc.Proxy.ifcfile
         sp = {rooms.room_name(s): s for s in rooms.find_spaces(doc)}
         self.assertEqual(set(sp), FZK_ROOMS)
-        lums = [Luminaire([3.0 + 0.5 * k, 7.8, 2.4], [0, 0, -1], 800.0) for k in range(2)]
-        fixtures.insert_fixtures(doc, [(sp["Buero"], lums)])
+        from invrad_wb.app import ifcdata
+        from invrad_wb.core.model.aiming import aim_from_tilt_pan, aimed_c0
+        mount = np.array([0.0, 0.0, -1.0])
+        aim = aim_from_tilt_pan(mount, 35.0, 200.0)          # the second one: a tilted spot
+        lums = [Luminaire([3.0, 7.8, 2.4], mount, 800.0),
+                Luminaire([3.5, 7.8, 2.4], aim, 800.0, c0=aimed_c0(mount, aim),
+                          extra={"tilt_deg": 35.0, "pan_deg": 200.0})]
+        plain, spot = fixtures.insert_fixtures(doc, [(sp["Buero"], lums)])
         self.assertEqual(len(invrad_lights(ifc)), 2)
+        # the spot's aim in the document (as a classic fixture's) and read from its entity
+        self.assertNotIn("Tilt", plain.PropertiesList)
+        self.assertEqual((spot.Tilt, spot.Pan), (35.0, 200.0))
+        self.assertIn("ReadOnly", spot.getPropertyStatus("Tilt"))
+        back = fixtures.fixture_luminaire(spot)
+        self.assertLess(np.degrees(np.arccos(np.clip(back.normal @ aim, -1, 1))), 1e-6)
+        self.assertLess(np.linalg.norm(back.c0 - lums[1].c0), 1e-9)
+        self.assertAlmostEqual(back.extra["tilt_deg"], 35.0, places=9)
+        self.assertAlmostEqual(back.extra["pan_deg"], 200.0, places=9)
         for e in invrad_lights(ifc):
             self.assertEqual(E.get_container(e).GlobalId, rooms.space_uid(sp["Buero"]))
         doc.undo()
@@ -327,7 +342,18 @@ class TestNativeLockedDocument(FreeCADTestCase):
         doc.redo()
         self.assertEqual(len(invrad_lights(ifc)), 2)
         out = nativeifc.save(proj, self.path("saved.ifc"))
-        self.assertEqual(len(invrad_lights(read(out))), 2)
+        saved = read(out)
+        self.assertEqual(len(invrad_lights(saved)), 2)
+        # the saved file, read back: position within 1 mm, aim, tilt, pan within 0.1 deg
+        import ifcopenshell.util.unit as U
+        (e,) = [e for e in invrad_lights(saved)
+                if "Tilt" in E.get_psets(e)["InvRad_Luminaire"]]
+        got = ifcdata.invrad_fixture_data(e, U.calculate_unit_scale(saved), saved)
+        self.assertLess(np.linalg.norm(got.position - lums[1].position), 1e-3)
+        self.assertLess(np.degrees(np.arccos(np.clip(got.normal @ aim, -1, 1))), 0.1)
+        self.assertLess(np.degrees(np.arccos(np.clip(got.c0 @ lums[1].c0, -1, 1))), 0.1)
+        self.assertLess(abs(got.extra["tilt_deg"] - 35.0), 0.1)
+        self.assertLess(abs(got.extra["pan_deg"] - 200.0), 0.1)
 
 
 @needs_native
