@@ -1,0 +1,36 @@
+"""What ``python -m invrad_wb locate`` loads: the command line and the modules a locate
+run imports (the core's locate, scene reading, the requirement check, JSON writing) leave
+out the report's and the GUI's heavy libraries; each costs every run 0.2-1 s of start-up."""
+import subprocess
+import sys
+
+from repo_paths import ROOT
+
+#: libraries that ``locate`` never needs
+HEAVY = ("matplotlib", "weasyprint", "jinja2", "dask", "distributed", "trimesh",
+         "ifcopenshell", "FreeCAD", "PIL", "tqdm")
+
+
+def test_the_locate_command_imports_no_report_library():
+    code = ("import sys; import invrad_wb.cli, invrad_wb.cli.locate;"
+            " import invrad_wb.core.inverse.locate, invrad_wb.core.io.sceneio,"
+            " invrad_wb.core.io.atomic, invrad_wb.core.io.jsonout;"
+            " import invrad_wb.core.design.requirements, invrad_wb.core.output.fitquality;"
+            f" print(' '.join(m for m in {HEAVY!r} if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120, cwd=ROOT)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == []
+
+
+def test_the_colour_scale_is_still_matplotlibs_viridis():
+    # made on first use now: the same nine stops
+    import numpy as np
+    from invrad_wb.core.output import images
+    v = images.VIRIDIS
+    assert v.shape == (9, 3)
+    np.testing.assert_allclose(v[0], [68.08602, 1.24287, 84.000825], atol=1e-4)
+    np.testing.assert_allclose(v[-1], [253.27824, 231.070035, 36.70368], atol=1e-4)
+    rgb = images.false_colour(np.array([0.0, 100.0, np.nan]), 0.0, 100.0)
+    assert tuple(rgb[0]) == tuple(np.round(v[0]).astype(np.uint8))
+    assert tuple(rgb[1]) == tuple(np.round(v[-1]).astype(np.uint8))
