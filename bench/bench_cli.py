@@ -12,8 +12,9 @@ Scenes: the shipped ``examples/office.ply`` (interreflection, 4 x 3000 lm), the 
 office only). Each CLI run's RESULT.json is compared with the other revision's, timings
 left out: a faster stage that changed the answer shows as "results differ".
 
-Stages come from ``bench/cli_probe.py`` (see there); ``start`` is the interpreter's start
-and ``site`` (the child's seconds minus those the probe saw). CPU seconds hardly depend on
+Stages come from ``bench/cli_probe.py`` (see there); ``start + exit`` is the interpreter's
+start, ``site`` and its finalisation after the exit hooks (the child's seconds minus those
+the probe saw). CPU seconds hardly depend on
 what else runs; wall seconds do. Compare ratios within one run.
 
 Usage: python bench/bench_cli.py [--before REV] [--rounds N] [--quick] [--no-numpy]
@@ -33,7 +34,7 @@ sys.path.insert(0, HERE)
 
 import numpy as np  # noqa: E402
 
-STAGES = ("start", "imports", "read scene", "opencl context", "kernel builds",
+STAGES = ("start + exit", "imports", "read scene", "opencl context", "kernel builds",
           "requirements check", "locate", "write", "cli other")
 CORE = ("sampling", "maps", "votes", "postprocess", "radiosity")
 
@@ -88,7 +89,7 @@ def cli_run(root, scene, flux, tmp):
     with open(out, encoding="utf-8") as fh:
         data = json.load(fh)
     stages = dict(pr["stages"])
-    stages["start"] = [wall - pr["inside"][0], cpu - pr["inside"][1]]
+    stages["start + exit"] = [wall - pr["inside"][0], cpu - pr["inside"][1]]
     stages["total"] = [wall, cpu]
     return stages, pr["core"], data
 

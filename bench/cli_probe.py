@@ -20,7 +20,8 @@ inner one only), so they add up to the time inside the process:
 The core's own stage seconds (``result.timings``: sampling, maps, votes, postprocess,
 radiosity) are recorded too, in wall and CPU seconds: they include whatever import or kernel
 build happened inside them. The interpreter's start (before this file runs) is measured by
-the caller: the child's seconds minus the ones recorded here.
+the caller: the child's seconds minus the ones recorded here ("start + exit": also the
+interpreter's finalisation after the exit hooks).
 """
 import json
 import os
@@ -155,23 +156,27 @@ def _install_import_timer():
     B._find_and_load = _find_and_load
 
 
+def _write():
+    _charge()
+    out = os.environ.get("INVRAD_PROBE_OUT")
+    if out:
+        with open(out, "w", encoding="utf-8") as fh:
+            json.dump({"stages": _stages, "core": _core,
+                       "inside": [time.perf_counter() - _T0_WALL,
+                                  time.process_time() - _T0_CPU]}, fh)
+
+
 def main():
+    """``python -m invrad_wb ARGS`` of the checkout, its own ``__main__`` (how it ends the
+    process included); the stages are written by an exit hook (the first registered, so
+    the last to run: after the command's own hooks)."""
+    import atexit
+    import runpy
+    atexit.register(_write)
     _install_import_timer()
-    argv = sys.argv[1:]
-    rc = 1
-    try:
-        import invrad_wb.cli as cli
-        rc = cli.main(argv)
-    finally:
-        _charge()
-        out = os.environ.get("INVRAD_PROBE_OUT")
-        if out:
-            with open(out, "w", encoding="utf-8") as fh:
-                json.dump({"stages": _stages, "core": _core, "rc": rc,
-                           "inside": [time.perf_counter() - _T0_WALL,
-                                      time.process_time() - _T0_CPU]}, fh)
-    return rc
+    sys.argv = ["invrad_wb"] + sys.argv[1:]
+    runpy.run_module("invrad_wb", run_name="__main__", alter_sys=True)
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    main()

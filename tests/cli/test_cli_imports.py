@@ -34,3 +34,33 @@ def test_the_colour_scale_is_still_matplotlibs_viridis():
     rgb = images.false_colour(np.array([0.0, 100.0, np.nan]), 0.0, 100.0)
     assert tuple(rgb[0]) == tuple(np.round(v[0]).astype(np.uint8))
     assert tuple(rgb[1]) == tuple(np.round(v[-1]).astype(np.uint8))
+
+
+def _leave(tmp_path, body, env=None):
+    import os
+    out = tmp_path / "out.txt"
+    code = ("import sys, atexit; from invrad_wb.cli.common import leave;"
+            f" atexit.register(lambda: open({str(tmp_path / 'hook')!r}, 'w').close());"
+            + body)
+    with open(out, "w") as fh:
+        p = subprocess.run([sys.executable, "-c", code], stdout=fh, stderr=subprocess.PIPE,
+                           text=True, timeout=60, cwd=ROOT,
+                           env=dict({k: v for k, v in os.environ.items()
+                                     if k != "PYTHONUNBUFFERED"}, **(env or {})))
+    return p, out.read_text(), (tmp_path / "hook").exists()
+
+
+def test_leave_flushes_the_output_runs_the_exit_hooks_and_keeps_the_status(tmp_path):
+    # stdout to a file is block-buffered: 100 kB still in the buffer when leave() is called
+    p, text, hooked = _leave(tmp_path, "print('x' * 100000, end=''); leave(3)")
+    assert p.returncode == 3, p.stderr
+    assert text == "x" * 100000 and hooked
+    p, text, hooked = _leave(tmp_path, "print('ok'); leave(None)")
+    assert p.returncode == 0 and text == "ok\n" and hooked
+
+
+def test_leave_waits_for_a_live_thread_as_python_does(tmp_path):
+    body = ("import threading, time; t = threading.Thread(target=lambda: (time.sleep(0.3),"
+            " print('thread done'))); t.start(); leave(4)")
+    p, text, hooked = _leave(tmp_path, body)
+    assert p.returncode == 4 and text == "thread done\n" and hooked
