@@ -133,7 +133,7 @@ def _patch(module):
         def locate(*a, **kw):
             r = inner(*a, **kw)
             for k, v in r.timings.items():
-                _core[k] = [float(v), getattr(v, "cpu", float("nan"))]
+                _core[k] = [float(v), getattr(v, "cpu", 0.0 if v == 0 else float("nan"))]
                 r.timings[k] = float(v)
             return r
         module.locate = _timed("locate", locate)

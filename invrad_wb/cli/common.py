@@ -234,13 +234,16 @@ def leave(rc):
     down some 600 modules, the OpenCL driver's and LLVM's library destructors) is skipped.
     Measured on the 2-core PoCL machine (``bench/bench_cli.py``, the office example):
     that finalisation took 0.9-1.1 s wall and 0.2 s CPU after every run; now 0.07-0.09 s.
-    Not when another Python thread is still alive (the interpreter would wait for it) or
-    Dask was used, nor with ``INVRAD_SLOW_EXIT=1``: then ``sys.exit`` as before. Never
+    Not when another Python thread is still alive (the interpreter would wait for it),
+    Dask was used, a profiler or tracer runs (``python -m cProfile -m invrad_wb`` writes
+    its figures after the module returns; coverage, debuggers), nor with
+    ``INVRAD_SLOW_EXIT=1``: then ``sys.exit`` as before. Never
     used when the command line runs inside FreeCAD (``cli.main``), only by
     ``python -m invrad_wb``."""
     import threading
     code = exit_status(rc)
     if (os.environ.get(ENV_SLOW_EXIT, "").strip() not in ("", "0")
+            or sys.getprofile() is not None or sys.gettrace() is not None
             or any(t is not threading.main_thread() and t.is_alive()
                    for t in threading.enumerate())
             or "distributed" in sys.modules):

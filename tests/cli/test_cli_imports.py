@@ -64,3 +64,17 @@ def test_leave_waits_for_a_live_thread_as_python_does(tmp_path):
             " print('thread done'))); t.start(); leave(4)")
     p, text, hooked = _leave(tmp_path, body)
     assert p.returncode == 4 and text == "thread done\n" and hooked
+
+
+def test_leave_skips_the_finalisation_unless_a_profiler_or_tracer_runs(tmp_path):
+    # a module-level object's __del__ runs in the interpreter's finalisation only; it
+    # writes through a descriptor it holds (sys.stdout may be gone by then)
+    body = ("import os\nfd = os.dup(1)\n"
+            "class D:\n    def __del__(self, w=os.write, fd=fd): w(fd, b'finalised')\n"
+            "d = D()\n{}leave(0)")
+    p, text, hooked = _leave(tmp_path, "\n" + body.format(""))
+    assert p.returncode == 0 and hooked and "finalised" not in text
+    p, text, hooked = _leave(tmp_path, "\n" + body.format("sys.settrace(lambda *a: None)\n"))
+    assert p.returncode == 0 and hooked and "finalised" in text       # as Python ends
+    p, text, hooked = _leave(tmp_path, "\n" + body.format(""), {"INVRAD_SLOW_EXIT": "1"})
+    assert p.returncode == 0 and "finalised" in text
