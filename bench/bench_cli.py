@@ -115,11 +115,11 @@ def answer(data):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--before", metavar="REV", help="also time the CLI of this revision")
-    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--rounds", type=int, default=None, help="3 (--quick: 2)")
     ap.add_argument("--quick", action="store_true", help="the office only, 2 rounds")
     ap.add_argument("--no-numpy", action="store_true", help="no numpy reference")
     a = ap.parse_args()
-    rounds = 2 if a.quick and a.rounds == 3 else a.rounds
+    rounds = a.rounds or (2 if a.quick else 3)
     tmp = tempfile.mkdtemp(prefix="invrad-bench-cli-")
     try:
         sides = [("after", HERE)]
