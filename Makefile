@@ -77,6 +77,7 @@ bench: setup
 	$(PY) bench/bench_memory.py
 	$(PY) bench/bench_parallel.py
 	$(PY) bench/bench_stages.py
+	$(PY) bench/bench_cli.py --quick
 
 examples: setup
 	$(PY) examples/make_examples.py

@@ -6,5 +6,6 @@ from invrad_wb.runguard import stop_early_on_signals
 stop_early_on_signals()         # SIGTERM while the modules load: one line, no traceback
 
 from invrad_wb.cli import main  # noqa: E402
+from invrad_wb.cli.common import leave  # noqa: E402
 
-sys.exit(main())
+leave(main())       # hooks run, streams flushed, no slow interpreter finalisation

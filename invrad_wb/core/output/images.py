@@ -49,10 +49,27 @@ def _matplotlib_stops(name, n):
     return matplotlib.colormaps[name](np.linspace(0.0, 1.0, n))[:, :3] * 255.0
 
 
-#: viridis, matplotlib's (the report's figures use it, :func:`invrad_wb.core.output.figures.
-#: lux_cmap`) at 9 evenly spaced points, interpolated linearly (the workbench overlay,
-#: :mod:`invrad_wb.gui.display`, uses the same points: its colours match these images)
-VIRIDIS = _matplotlib_stops("viridis", 9)
+_STOPS = {}
+
+
+def _viridis():
+    """:data:`VIRIDIS`, computed on first use: importing matplotlib costs a command that
+    draws nothing (``locate``, whose requirement check imports this module) 0.2-0.3 s."""
+    if "viridis" not in _STOPS:
+        _STOPS["viridis"] = _matplotlib_stops("viridis", 9)
+    return _STOPS["viridis"]
+
+
+def __getattr__(name):
+    #: VIRIDIS: viridis, matplotlib's (the report's figures use it, :func:`invrad_wb.core.
+    #: output.figures.lux_cmap`) at 9 evenly spaced points, interpolated linearly (the
+    #: workbench overlay, :mod:`invrad_wb.gui.display`, uses the same points: its colours
+    #: match these images); made on first use (:func:`_viridis`)
+    if name == "VIRIDIS":
+        return _viridis()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 #: the deviation scale: matplotlib's RdBu_r (ColorBrewer RdBu reversed), blue (too dark) ->
 #: white (on target) -> red (too bright), the map of the report's deviation figures
 #: (:func:`invrad_wb.core.output.figures.deviation_cmap`)
@@ -87,7 +104,7 @@ def false_colour(values, vmin, vmax, shade=False):
     """
     v = np.asarray(values, dtype=np.float64)
     t = (v - vmin) / max(float(vmax) - float(vmin), 1e-12)
-    rgb = _lut(VIRIDIS, np.nan_to_num(t)).round().astype(np.uint8)
+    rgb = _lut(_viridis(), np.nan_to_num(t)).round().astype(np.uint8)
     rgb[~np.isfinite(v)] = NAN_GREY
     if shade:
         rgb[v == 0] = SHADE_BLACK

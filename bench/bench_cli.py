@@ -1,0 +1,184 @@
+#!/usr/bin/env python3
+"""The whole command line, per room: ``python -m invrad_wb locate SCENE --flux F -o R.json``
+as a user runs it (a new process: interpreter start, imports, reading, OpenCL context,
+kernel builds, votes, refinement, radiosity, writing), stage by stage, in wall and CPU
+seconds; beside it the same method in plain numpy (``locate(..., backend="numpy")``, every
+kernel's numpy twin, run in this process) and, with ``--before REV``, the CLI of another
+revision. Runs alternate (before, after, numpy; then again), so that the shared machine's
+load falls on all of them alike; each figure is the median over ``--rounds``.
+
+Scenes: the shipped ``examples/office.ply`` (interreflection, 4 x 3000 lm), the generated
+``l_room`` with reflectance 0.6 and ``two_ceiling`` in direct light (``--quick``: the
+office only). Each CLI run's RESULT.json is compared with the other revision's, timings
+left out: a faster stage that changed the answer shows as "results differ".
+
+Stages come from ``bench/cli_probe.py`` (see there); ``start + exit`` is the interpreter's
+start, ``site`` and its finalisation after the exit hooks (the child's seconds minus those
+the probe saw). CPU seconds hardly depend on
+what else runs; wall seconds do. Compare ratios within one run.
+
+Usage: python bench/bench_cli.py [--before REV] [--rounds N] [--quick] [--no-numpy]
+"""
+import argparse
+import json
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, HERE)
+
+import numpy as np  # noqa: E402
+
+STAGES = ("start + exit", "imports", "read scene", "opencl context", "kernel builds",
+          "requirements check", "locate", "write", "cli other")
+CORE = ("sampling", "maps", "votes", "postprocess", "radiosity")
+
+
+def scenes(tmp, quick):
+    """(name, path, flux) of the benchmark's scenes, generated ones written to ``tmp``."""
+    out = [("office", os.path.join(HERE, "examples", "office.ply"), 3000.0)]
+    if quick:
+        return out
+    from invrad_wb.core.io.sceneio import write_scene
+    from invrad_wb.core.synthetic.scenarios import known_scene
+    for name, rho in (("l_room", 0.6), ("two_ceiling", 0.0)):
+        scene, true = known_scene(name, reflectance=rho)
+        path = os.path.join(tmp, f"{name}.ply")
+        write_scene(path, scene)
+        out.append((f"{name} rho {rho:g}", path, true[0].flux_lm))
+    return out
+
+
+def checkout(rev, tmp):
+    """A copy of revision ``rev`` of this repository (``git archive``) in ``tmp``."""
+    dest = os.path.join(tmp, "before")
+    os.makedirs(dest)
+    tar = subprocess.run(["git", "-C", HERE, "archive", rev], check=True,
+                         capture_output=True).stdout
+    subprocess.run(["tar", "-x", "-C", dest], input=tar, check=True)
+    return dest
+
+
+def cli_run(root, scene, flux, tmp):
+    """One CLI process on ``root``'s code; returns (stages {name: [wall, cpu]}, core
+    {stage: [wall, cpu]}, RESULT.json's data)."""
+    out = os.path.join(tmp, "result.json")
+    probe = os.path.join(tmp, "probe.json")
+    for f in (out, probe):
+        if os.path.exists(f):
+            os.remove(f)
+    env = dict(os.environ, INVRAD_PROBE_ROOT=root, INVRAD_PROBE_OUT=probe)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)     # a user's Python caches bytecode
+    cmd = [sys.executable, os.path.join(HERE, "bench", "cli_probe.py"), "locate", scene,
+           "--flux", f"{flux:g}", "-o", out]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t = time.perf_counter()
+    p = subprocess.run(cmd, cwd=root, env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    if p.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed ({p.returncode}):\n{p.stderr[-2000:]}")
+    with open(probe, encoding="utf-8") as fh:
+        pr = json.load(fh)
+    with open(out, encoding="utf-8") as fh:
+        data = json.load(fh)
+    stages = dict(pr["stages"])
+    stages["start + exit"] = [wall - pr["inside"][0], cpu - pr["inside"][1]]
+    stages["total"] = [wall, cpu]
+    return stages, pr["core"], data
+
+
+def numpy_run(path, flux):
+    """The same method in plain numpy in this process: (wall, cpu) of read + locate."""
+    from invrad_wb.core.inverse.locate import locate
+    from invrad_wb.core.io.sceneio import read_scene
+    t, c = time.perf_counter(), time.process_time()
+    locate(read_scene(path), flux, backend="numpy")
+    return [time.perf_counter() - t, time.process_time() - c]
+
+
+def answer(data):
+    """RESULT.json without what may differ between identical runs (seconds)."""
+    d = dict(data)
+    d.pop("timings", None)
+    for r in d.get("rooms", []):
+        r.pop("stopped_after_s", None)
+    return json.dumps(d, sort_keys=True)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--before", metavar="REV", help="also time the CLI of this revision")
+    ap.add_argument("--rounds", type=int, default=None, help="3 (--quick: 2)")
+    ap.add_argument("--quick", action="store_true", help="the office only, 2 rounds")
+    ap.add_argument("--no-numpy", action="store_true", help="no numpy reference")
+    a = ap.parse_args()
+    rounds = a.rounds or (2 if a.quick else 3)
+    tmp = tempfile.mkdtemp(prefix="invrad-bench-cli-")
+    try:
+        sides = [("after", HERE)]
+        if a.before:
+            sides.insert(0, ("before", checkout(a.before, tmp)))
+        print(f"python {sys.version.split()[0]}, {os.cpu_count()} cores; sides: "
+              + ", ".join(f"{n} = {r}" for n, r in sides) + f"; {rounds} round(s), medians")
+        for name, path, flux in scenes(tmp, a.quick):
+            for side, root in sides:     # warm-up: bytecode and PoCL's kernel cache
+                cli_run(root, path, flux, tmp)
+            runs = {side: [] for side, _ in sides}
+            ref = []
+            answers = {}
+            for _ in range(rounds):
+                for side, root in sides:
+                    st, core, data = cli_run(root, path, flux, tmp)
+                    runs[side].append((st, core))
+                    answers.setdefault(side, answer(data))
+                if not a.no_numpy:
+                    ref.append(numpy_run(path, flux))
+            _table(name, flux, runs, ref, answers)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _med(values):
+    return float(np.median(values)) if values else float("nan")
+
+
+def _table(name, flux, runs, ref, answers):
+    sides = list(runs)
+    print(f"\n== {name} (--flux {flux:g}): seconds per room, wall / CPU")
+    print(f"{'stage':20s}" + "".join(f" {s + ' wall':>12s} {s + ' cpu':>11s}" for s in sides))
+    for stage in STAGES + ("total",):
+        row = []
+        for s in sides:
+            for k in (0, 1):
+                row.append(_med([st.get(stage, [0.0, 0.0])[k] for st, _ in runs[s]]))
+        print(f"{stage:20s}" + "".join(f" {v:12.3f}" for v in row))
+    print(f"{'core (in locate)':20s}")
+    for stage in CORE:
+        row = []
+        for s in sides:
+            for k in (0, 1):
+                row.append(_med([c.get(stage, [0.0, 0.0])[k] for _, c in runs[s]]))
+        print(f"{'  ' + stage:20s}" + "".join(f" {v:12.3f}" for v in row))
+    tot = {s: [_med([st["total"][k] for st, _ in runs[s]]) for k in (0, 1)] for s in sides}
+    if "before" in tot:
+        print(f"speed-up after vs before: wall {tot['before'][0] / tot['after'][0]:.2f}x,"
+              f" CPU {tot['before'][1] / tot['after'][1]:.2f}x; results "
+              + ("identical" if answers["before"] == answers["after"] else "DIFFER"))
+    if ref:
+        rw, rc = _med([r[0] for r in ref]), _med([r[1] for r in ref])
+        print(f"numpy reference (same method, numpy twins, in this process): wall {rw:.2f} s,"
+              f" CPU {rc:.2f} s")
+        for s in sides:
+            print(f"  CLI {s} / numpy reference: wall {tot[s][0] / rw:.3f},"
+                  f" CPU {tot[s][1] / rc:.3f}")
+
+
+if __name__ == "__main__":
+    main()
