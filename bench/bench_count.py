@@ -10,6 +10,7 @@ unknown, flux given): count right?, worst position error (cm), worst flux error 
 seconds.
 
 Usage: python bench/bench_count.py [--only NAME,...] [--noise 0.05] [--no-flux-given]
+                                   [--given-only] [--cell 0.2]
        python bench/bench_count.py --bound-only    (the bounds alone, seconds)
 
 'sd cm' / 'sd %': the Cramer-Rao bound of the true arrangement on every target vertex
@@ -178,24 +179,27 @@ def main():
     ap.add_argument("--only", default="")
     ap.add_argument("--noise", type=float, default=0.05)
     ap.add_argument("--no-flux-given", action="store_true", help="skip the flux-given runs")
+    ap.add_argument("--given-only", action="store_true", help="only the flux-given runs")
+    ap.add_argument("--cell", type=float, default=0.2,
+                    help="the generator's mesh spacing (m): one target per vertex")
     ap.add_argument("--bound-only", action="store_true",
                     help="print the Cramer-Rao bounds of the scenes only (no locate)")
     args = ap.parse_args()
     if args.bound_only:
         for name in [n for n in scenes() if not args.only or n in args.only.split(",")]:
-            scene, true = build(name, args.noise)
+            scene, true = build(name, args.noise, cell=args.cell)
             free = bound(scene, true, args.noise, True)
             given = bound(scene, true, args.noise, False)
-            print(f"{name:16s} flux free: {free[0]:6.2f} cm {free[1]:6.2f} %;"
-                  f" flux given: {given[0]:6.2f} cm", flush=True)
+            print(f"{name:16s} {len(scene.vertices):6d} vertices flux free: {free[0]:6.2f} cm"
+                  f" {free[1]:6.2f} %; flux given: {given[0]:6.2f} cm", flush=True)
         return
     names = [n for n in scenes() if not args.only or n in args.only.split(",")]
     print(f"{'scene':16s} {'mode':6s} {'count':>7s} {'ok':>3s} {'max cm':>7s}"
           f" {'max flux %':>10s} {'s':>7s} {'cpu s':>7s} {'sd cm':>6s} {'sd %':>6s}")
     summary = {"free": [], "given": []}
     for name in names:
-        scene, true = build(name, args.noise)
-        modes = [("free", None)]
+        scene, true = build(name, args.noise, cell=args.cell)
+        modes = [] if args.given_only else [("free", None)]
         if not args.no_flux_given and len({t.flux_lm for t in true}) == 1:
             modes.append(("given", true[0].flux_lm))
         for mode, flux in modes:

@@ -32,12 +32,9 @@ Measured with bench/bench_count.py (5 % noise, interreflection): see its docstri
 import numpy as np
 
 from invrad_wb.core.model.scene import plane_basis
-
-#: the smallest root-mean-square log residual the criterion believes (0.3 %): below it the
-#: remaining misfit is the model's, not the data's noise (measured: four 2500 lm downlights
-#: 0.9 m apart, rendered with interreflection, no noise: the true arrangement leaves 0.29 %,
-#: targets interpolated between vertices 0.2 m apart and the radiosity patches)
-MODEL_FLOOR = 0.003
+# the smallest root-mean-square log residual the criterion believes (0.3 %, the greedy
+# selection's too): below it the remaining misfit is the model's, not the data's noise
+from invrad_wb.core.inverse.refine import MODEL_FLOOR
 
 #: split distances, as fractions of the mounting distance to the lit points below, and
 #: directions (degrees) in the luminaire's plane
