@@ -62,6 +62,15 @@ floor (a luminaire must lower the cost by 0.5 % of the cost without any, 0.002 h
 rejects the missing one although it lowers the cost by 30 % (0.00160 -> 0.00112, about
 1000 noise variances); with that floor at 0.0005, array20 comes out 20/20, 8.8 cm and
 array16 16/16, 18.2 cm (not changed here: it moves every flux-given run).
+
+2026-11-26, greedy selection judged against the noise (refine.greedy_select: min_gain of
+the current cost, both costs held at least the model floor, no floor of the empty room's
+cost), --given-only, load 7-8 (count / max cm / wall s / CPU s / bound sd cm):
+  given  array12_issue 12/12 yes  4.11  42 16 | 4.14   (before 12/12  4.1)
+  given  array9_1.0h    9/9  yes  3.45  30 11 | 2.61   (before  9/9   3.5)
+  given  array16_0.8h  16/16 yes 18.22  77 31 | 8.80   (before 15/16 39.1)
+  given  array20_1.2h  20/20 yes  8.75  99 39 | 3.01   (before 19/20 40.1)
+  given  cluster4_0.3h  4/4  yes 29.86  12  6 | 8.41   (before  4/4  29.9)
 """
 import argparse
 import os
