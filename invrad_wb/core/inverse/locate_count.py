@@ -12,6 +12,9 @@ luminaire that fits the noise lowers the cost too, so it keeps too many. Here:
   directions, two distances), the pair is fitted with the others held, and the best
   pair of all luminaires is refitted with everything (sparse recovery's greedy pursuit
   with re-fitting, the new atoms found by splitting rather than from a fixed dictionary);
+  not where one luminaire with a luminous disk (at most :func:`largest_radius`) explains
+  the data as well: the refinement's luminaires are points, and points within an area
+  luminaire mimic its light better than one point does;
 - **merge**: two near luminaires are replaced by one of their summed flux at their
   flux-weighted centre;
 - **remove**: a luminaire is dropped and the others refitted.
