@@ -63,7 +63,7 @@ rejects the missing one although it lowers the cost by 30 % (0.00160 -> 0.00112,
 1000 noise variances); with that floor at 0.0005, array20 comes out 20/20, 8.8 cm and
 array16 16/16, 18.2 cm (not changed here: it moves every flux-given run).
 
-2026-11-26, greedy selection judged against the noise (refine.greedy_select: min_gain of
+2026-11-26, greedy selection judged against the noise (select.greedy_select: min_gain of
 the current cost, both costs held at least the model floor, no floor of the empty room's
 cost), --given-only, load 7-8 (count / max cm / wall s / CPU s / bound sd cm):
   given  array12_issue 12/12 yes  4.11  42 16 | 4.14   (before 12/12  4.1)

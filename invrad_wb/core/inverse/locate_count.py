@@ -37,7 +37,7 @@ import numpy as np
 from invrad_wb.core.model.scene import plane_basis
 # the smallest root-mean-square log residual the criterion believes (0.3 %, the greedy
 # selection's too): below it the remaining misfit is the model's, not the data's noise
-from invrad_wb.core.inverse.refine import MODEL_FLOOR
+from invrad_wb.core.inverse.select import MODEL_FLOOR
 
 #: split distances, as fractions of the mounting distance to the lit points below, and
 #: directions (degrees) in the luminaire's plane

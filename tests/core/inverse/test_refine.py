@@ -4,7 +4,8 @@ only luminaires that explain light, and the cost's robustness."""
 import numpy as np
 import pytest
 
-from invrad_wb.core.inverse.refine import Light, RefineProblem, greedy_select
+from invrad_wb.core.inverse.refine import Light, RefineProblem
+from invrad_wb.core.inverse.select import greedy_select
 
 
 def _points():
