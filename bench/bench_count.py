@@ -84,8 +84,8 @@ every vertex is used (vertex_points takes at most 20000):
   0.15 m (12566) 1.95 / 2.89, 0.1 m (27846, 20000 used) 1.55 / 2.29; array16 0.2 m
   (7938) 8.80 / 12.28, 0.15 m (13910) 6.61 / 9.22, 0.1 m (30846, 20000 used) 5.50 / 7.72
 A worst-luminaire sd of 2 cm at 5 % noise needs about 0.2 x 2 / sd(0.2 m) metres: 0.15 m
-for array9, 0.045 m for array16 (flux given; 0.033 m free, about 150000 vertices, beyond
-vertex_points' 20000); the worst of a dozen luminaires within 2 cm (about 2.5 sd) needs
+for array9, 0.045 m for array16 (flux given, about 160000 vertices; 0.033 m free, about
+290000: far beyond vertex_points' 20000); the worst of a dozen luminaires within 2 cm (about 2.5 sd) needs
 0.06 m for array9 and 0.018 m for array16. Run at 0.15 m, array9 (flux given): 9/9, max
 2.33 cm, rms/sd 1.20, bound 1.95 cm (at 0.2 m: max 3.45 cm), 7.9 CPU s.
 """
