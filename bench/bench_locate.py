@@ -4,6 +4,7 @@ second OpenCL vs numpy, and how time grows with voting density and with the numb
 planes. Everything in one run (the machines are noisy: compare ratios within a run).
 
 Usage: python bench/bench_locate.py [--quick] [--skip-numpy] [--rho R] [--accuracy-only]
+       [--free-flux-only]
 """
 import argparse
 import os
@@ -85,8 +86,8 @@ def free_flux_table(backend, rhos):
     """Locate without a flux: the generated scenes with luminaires of different fluxes, and
     the one-flux scenarios with each luminaire's flux drawn from 1200-4800 lm."""
     print("\n== Without a flux: count, position error and flux error per scene")
-    print(f"{'scenario':20s} {'rho':>4s} {'found':>6s} {'max cm':>7s} {'max flux %':>10s}"
-          f" {'s':>6s} {'(of it votes s)':>15s}")
+    print(f"{'scenario':20s} {'rho':>4s} {'found':>6s} {'out':>4s} {'max cm':>7s}"
+          f" {'max flux %':>10s} {'s':>6s} {'(of it votes s)':>15s}")
     rng = np.random.default_rng(1)
     worst_cm, worst_flux, all_ok = 0.0, 0.0, True
     for name in MIXED_SCENARIOS + SCENARIOS:
@@ -111,7 +112,8 @@ def free_flux_table(backend, rhos):
             worst_cm = max(worst_cm, m["max_error_cm"] or 0.0)
             worst_flux = max(worst_flux, ferr)
             print(f"{name:20s} {rho:4.1f} {m['found']:>3d}/{m['true']:<2d} "
-                  f"{m['max_error_cm'] or 0.0:7.2f} {ferr:10.2f} {t:6.2f} {r.timings['votes']:15.2f}")
+                  f"{len(r.luminaires):4d} {m['max_error_cm'] or 0.0:7.2f} {ferr:10.2f}"
+                  f" {t:6.2f} {r.timings['votes']:15.2f}")
     print(f"  every count right: {all_ok}; worst {worst_cm:.2f} cm, worst flux {worst_flux:.2f} %")
 
 
@@ -170,6 +172,8 @@ def main():
     ap.add_argument("--rho", type=float, default=None, help="one reflectance only")
     ap.add_argument("--accuracy-only", action="store_true",
                     help="only the flux-given accuracy table")
+    ap.add_argument("--free-flux-only", action="store_true",
+                    help="only the table without a flux")
     args = ap.parse_args()
     backend = "opencl" if opencl_available() else "numpy"
     print(f"backend: {backend}" + (f" ({get_env().description})" if backend == "opencl" else ""))
@@ -179,6 +183,9 @@ def main():
         rhos = [args.rho]
     if args.accuracy_only:
         accuracy_table(backend, models, rhos, args.repeat)
+        return
+    if args.free_flux_only:
+        free_flux_table(backend, rhos)
         return
     accuracy_table(backend, models, rhos, args.repeat)
     free_flux_table(backend, rhos)

@@ -8,8 +8,8 @@ import numpy as np
 from invrad_wb import constants as C
 
 from invrad_wb.core.inverse.peaks import find_peaks
-from invrad_wb.core.inverse.refine import (LOG_SCALE_LIMIT, Light, greedy_select, joint_swap,
-                                           swap_search)
+from invrad_wb.core.inverse.refine import LOG_SCALE_LIMIT, Light
+from invrad_wb.core.inverse.select import greedy_select, joint_swap, swap_search
 from invrad_wb.core.inverse.locate_placement import (_light_from_peak, _prefer_mounted,
                                                      _snap_to_surfaces)
 from invrad_wb.core.inverse.locate_problem import FREE_FLUX_MIN_GAIN_TOTAL, _ladder_peaks

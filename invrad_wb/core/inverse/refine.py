@@ -23,16 +23,15 @@ own share, adding or removing one changes the indirect light consistently (a sin
 term made the selection oscillate between too many and too few luminaires).
 
 Candidates (vote peaks, best first) are added greedily and kept only if they lower the cost
-by a clear margin; afterwards each luminaire is removed again if the cost does not need it.
+by a clear margin; afterwards each luminaire is removed again if the cost does not need it
+(:mod:`invrad_wb.core.inverse.select`).
 The (1+1) evolution strategy of thesis 3.1.2.2 is available as an alternative optimiser.
 """
 from dataclasses import dataclass, field
-import time
 
 import numpy as np
 
 from invrad_wb import constants as C
-from invrad_wb.errors import Cancelled, SettingsError
 from invrad_wb.core.geometry.bvh import segments_occluded_numpy
 from invrad_wb.core.inverse import optim
 
@@ -92,7 +91,10 @@ class Light:
         return p
 
     def with_params(self, p):
-        q = Light(**{**self.__dict__})
+        # a shallow copy (the dataclass constructor with its 20 fields was a tenth of a
+        # count search's time: every optimiser step unpacks every luminaire twice)
+        q = object.__new__(Light)
+        q.__dict__.update(self.__dict__)
         if self.kind == "surface":
             q.position = self.origin + p[0] * self.u + p[1] * self.v
         else:
@@ -453,29 +455,38 @@ class RefineProblem:
     def separation(self, lights, with_jac=False):
         """Penalty residuals (p,) for close pairs and, with_jac, their Jacobian (p, n)."""
         rows, jac = [], []
-        sizes = [len(L.params()) for L in lights]
-        starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
         lam, d0 = self._separation_weight(), self.separation_m
-        for i in range(len(lights)):
-            for j in range(i + 1, len(lights)):
-                a, b = lights[i], lights[j]
-                if a.facing() @ b.facing() < 0.5:
-                    continue
-                diff = a.position - b.position
-                d = float(np.linalg.norm(diff))
-                if d >= d0:
-                    continue
-                rows.append(lam * (1.0 - d / d0))
-                if with_jac:
-                    e = diff / d if d > 1e-9 else a.dpos()[0] / np.linalg.norm(a.dpos()[0])
-                    row = np.zeros(starts[-1])
-                    row[starts[i]:starts[i + 1]] = -lam / d0 * (a.dpos() @ e)
-                    row[starts[j]:starts[j + 1]] = lam / d0 * (b.dpos() @ e)
-                    jac.append(row)
+        # only pairs closer than d0 count: found with one distance matrix (a Python loop
+        # over every pair was a sixth of a dozen luminaires' optimiser time)
+        P = np.array([L.position for L in lights]).reshape(-1, 3)
+        near = np.argwhere(np.triu(np.sum((P[:, None] - P[None]) ** 2, axis=2)
+                                   < d0 * d0 * (1 + 1e-9),
+                                   k=1))
+        starts = None
+        for i, j in near:
+            a, b = lights[i], lights[j]
+            if a.facing() @ b.facing() < 0.5:
+                continue
+            diff = a.position - b.position
+            d = float(np.linalg.norm(diff))
+            if d >= d0:
+                continue
+            if starts is None:
+                sizes = [len(L.params()) for L in lights]
+                starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
+            rows.append(lam * (1.0 - d / d0))
+            if with_jac:
+                e = diff / d if d > 1e-9 else a.dpos()[0] / np.linalg.norm(a.dpos()[0])
+                row = np.zeros(starts[-1])
+                row[starts[i]:starts[i + 1]] = -lam / d0 * (a.dpos() @ e)
+                row[starts[j]:starts[j + 1]] = lam / d0 * (b.dpos() @ e)
+                jac.append(row)
         r = np.array(rows)
         if not with_jac:
             return r, None
-        return r, (np.array(jac) if jac else np.zeros((0, starts[-1])))
+        if not jac:
+            return r, np.zeros((0, sum(len(L.params()) for L in lights)))
+        return r, np.array(jac)
 
     def separation_cost(self, lights):
         if len(lights) < 2:
@@ -601,187 +612,3 @@ class RefineProblem:
                                        max_generations=iterations, adapt_every=20, xtol=1e-4,
                                        project=project, refresh=refresh)
         return unpack(res.x[0]), float(res.cost[0])
-
-
-def greedy_select(problem, candidates, min_gain=0.05, min_gain_total=0.005, max_lights=64,
-                  merge_distance=0.25, optimiser="lm", patience=10, progress=None,
-                  deadline=None, initial=None):
-    """Add candidates best first while they clearly lower the cost; then prune.
-
-    Each candidate is first optimised alone with the accepted luminaires held in place; only
-    if that already lowers the cost enough are all luminaires refined jointly and the
-    candidate kept.
-
-    Parameters
-    ----------
-    problem : RefineProblem
-    candidates : list of Light (best first)
-    min_gain : float
-        A candidate is kept if it lowers the cost by at least this fraction of the current
-        cost and by ``min_gain_total`` of the cost without any luminaire; a luminaire is
-        pruned if removing it raises the cost by less than these.
-    merge_distance : float, metres
-        Candidates this close to an accepted luminaire facing the same way are skipped.
-    patience : int
-        Stop after this many candidates in a row were rejected.
-    initial : list of Light, optional
-        Luminaires already accepted (e.g. from an earlier round).
-
-    Returns
-    -------
-    lights : list of Light, with ``score`` = relative cost increase without it
-    cost : float
-    trace : list of dict (what happened to each candidate)
-    """
-    if optimiser not in ("lm", "es"):
-        raise SettingsError(f"optimiser must be 'lm' or 'es', got {optimiser!r}")
-    opt = problem.levenberg_marquardt if optimiser == "lm" else problem.evolution_strategy
-    cost0 = problem.cost([])
-    lights = [L.copy() for L in (initial or [])]
-    cost = problem.cost(lights) if lights else cost0
-    trace = []
-    misses = 0
-
-    def enough(before, after):
-        return after < before * (1.0 - min_gain) and before - after > min_gain_total * cost0
-
-    for ci, cand in enumerate(candidates):
-        if progress is not None and progress(ci / max(len(candidates), 1)) is False:
-            raise Cancelled("cancelled during refinement")
-        if len(lights) >= max_lights or cost < 1e-4 * cost0 or misses >= patience:
-            break
-        if deadline is not None and time.time() > deadline:
-            trace.append({"candidate": ci, "result": "time limit"})
-            break
-        near = [L for L in lights if np.linalg.norm(L.position - cand.position) < merge_distance
-                and L.facing() @ cand.facing() > 0.5]
-        if near:
-            trace.append({"candidate": ci, "result": "near accepted luminaire"})
-            continue
-        cand = problem.with_indirect(cand)
-        fixed = problem.fixed_light(lights)
-        alone, c_alone = opt([cand], fixed=fixed, iterations=12)
-        # with fluxes free, the others' fluxes may have grown to make up for this one's
-        # light: a candidate that helps at all alone gets the joint refit too
-        if not enough(cost, c_alone) and not (problem.free_flux and c_alone < cost):
-            misses += 1
-            trace.append({"candidate": ci, "result": "rejected", "cost_before": cost,
-                          "cost_after": c_alone})
-            continue
-        trial, c_trial = opt(lights + alone)
-        if enough(cost, c_trial):
-            misses = 0
-            trace.append({"candidate": ci, "result": "kept", "cost_before": cost,
-                          "cost_after": c_trial})
-            lights, cost = trial, c_trial
-        else:
-            misses += 1
-            trace.append({"candidate": ci, "result": "rejected", "cost_before": cost,
-                          "cost_after": c_trial})
-    lights, cost = _prune(problem, lights, cost, opt, enough, min_gain_total * cost0, trace)
-    _score(problem, lights, cost)
-    return lights, cost, trace
-
-
-def _prune(problem, lights, cost, opt, enough, floor, trace):
-    """Drop luminaires the cost does not need (a later one may have taken over their job);
-    returns (lights, cost)."""
-    changed = True
-    while changed and len(lights) > 1:
-        changed = False
-        for i in range(len(lights)):
-            rest = lights[:i] + lights[i + 1:]
-            # clearly needed (removing it triples the cost): no refit of the others. Not
-            # with fluxes free: the others' refitted fluxes may take over its light (a weak
-            # ceiling light beside a wall light whose fitted flux was 5 % low: 10x the cost
-            # without a refit, 30x lower with one)
-            if not problem.free_flux and problem.cost(rest) > 3.0 * cost + floor:
-                continue
-            rest_opt, c_rest = opt(rest)
-            if not enough(c_rest, cost):
-                trace.append({"pruned": i, "cost_before": cost, "cost_after": c_rest})
-                lights, cost = rest_opt, c_rest
-                changed = True
-                break
-    return lights, cost
-
-
-def _score(problem, lights, cost):
-    """Each luminaire's score: the relative cost increase without it."""
-    for i, L in enumerate(lights):
-        rest = lights[:i] + lights[i + 1:]
-        c_rest = problem.cost(rest)
-        L.score = float((c_rest - cost) / max(c_rest, 1e-12))
-
-
-def joint_swap(opt, trial, cost, min_gain):
-    """A swap's acceptance: the set ``trial`` (the rest and a replacement) refined jointly
-    by ``opt``; (lights, cost) when that lowers ``cost`` by more than the share
-    ``min_gain``, else None."""
-    lights, c = opt(trial)
-    return (lights, c) if c < cost * (1.0 - min_gain) else None
-
-
-def swap_search(problem, lights, candidates, min_gain=0.05, merge_distance=0.25, tries=8,
-                max_evals=40, optimiser="lm", deadline=None, screen=False):
-    """Escape a poor greedy answer: replace one luminaire by another candidate.
-
-    Greedy selection cannot undo an early choice (a peak between two overlapping
-    luminaires, a ceiling light where a pendant hangs). Each luminaire, least needed first,
-    is replaced in turn by the best ``tries`` candidates that are not near another
-    luminaire; all are refined jointly and the swap is kept if the cost drops by
-    ``min_gain``. Stops after ``max_evals`` refinements.
-
-    ``screen``: each candidate is first refined alone beside the others as they stand
-    (their light fixed: a refinement of a few parameters); only one that then lowers the
-    cost is refined jointly (``locate --aim free``, where every joint refinement fits
-    position and aim of every luminaire). Each screen counts as a refinement.
-
-    Returns
-    -------
-    lights, cost, swaps (number of swaps kept)
-    """
-    opt = problem.levenberg_marquardt if optimiser == "lm" else problem.evolution_strategy
-    lights = [L.copy() for L in lights]
-    cost = problem.cost(lights)
-    evals = swaps = 0
-    improved = True
-    while improved and evals < max_evals:
-        improved = False
-        order = sorted(range(len(lights)), key=lambda i: lights[i].score)
-        for i in order:
-            rest = lights[:i] + lights[i + 1:]
-            pool = [c for c in candidates
-                    if not any(np.linalg.norm(L.position - c.position) < merge_distance
-                               and L.facing() @ c.facing() > 0.5 for L in lights)]
-            # alternatives near the luminaire first (a pendant under a ceiling light, the
-            # other of two overlapping peaks), then the best-scoring elsewhere
-            pool.sort(key=lambda c: np.linalg.norm(c.position - lights[i].position))
-            dist = [np.linalg.norm(c.position - lights[i].position) for c in pool]
-            near = [c for c, d in zip(pool, dist) if d < 1.5]
-            far = [c for c, d in zip(pool, dist) if d >= 1.5]
-            pool = near[:tries] + far[:tries // 2]
-            fixed = None
-            for cand in pool:
-                if evals >= max_evals or (deadline is not None and time.time() > deadline):
-                    return lights, cost, swaps
-                evals += 1
-                new = problem.with_indirect(cand)
-                if screen:
-                    if fixed is None:
-                        fixed = problem.fixed_light(rest)
-                    alone, c1 = opt([new], fixed=fixed)
-                    if c1 >= cost:
-                        continue
-                    evals += 1
-                    new = alone[0]
-                kept = joint_swap(opt, rest + [new], cost, min_gain)
-                if kept is not None:
-                    (lights, cost), swaps, improved = kept, swaps + 1, True
-                    break
-            if improved:
-                break
-    for i, L in enumerate(lights):
-        c_rest = problem.cost(lights[:i] + lights[i + 1:])
-        L.score = float((c_rest - cost) / max(c_rest, 1e-12))
-    return lights, cost, swaps

@@ -4,7 +4,8 @@ only luminaires that explain light, and the cost's robustness."""
 import numpy as np
 import pytest
 
-from invrad_wb.core.inverse.refine import Light, RefineProblem, greedy_select
+from invrad_wb.core.inverse.refine import Light, RefineProblem
+from invrad_wb.core.inverse.select import greedy_select
 
 
 def _points():
@@ -191,3 +192,33 @@ def test_robust_cost_ignores_hot_spots_in_the_targets():
     p.robust_scale = 100.0                                   # ~ plain least squares
     quadratic = worst_error()
     assert robust < 0.02 and quadratic > 3 * robust
+
+
+def test_greedy_selection_judges_a_luminaire_against_the_noise_not_the_empty_room():
+    """Twelve 1000 lm ceiling lights 1.5 m apart at 4 m (0.4 x the mounting height), 5 %
+    noise per point: the last one lowers the cost (the others refitted) by about a
+    quarter, some 250 noise variances, but by only 0.1 % of the cost without any
+    luminaire (the former floor was 0.5 % of it, and pruned it again). It is kept; a
+    luminaire offered where the light is already explained (it could only fit the noise)
+    is not."""
+    def light(x, y, h=4.0):
+        return Light("surface", np.array([x, y, h]), np.array([0, 0, -1.0]), 0,
+                     origin=np.array([0.0, 0.0, h]), u=np.array([1.0, 0, 0]),
+                     v=np.array([0, 1.0, 0]))
+    truth = [light(x, y) for x in (0.75, 2.25, 3.75, 5.25) for y in (0.67, 2.0, 3.33)]
+    clean = _problem(truth, flux=1000.0)
+    noisy = clean.target * (1 + 0.05 * np.random.default_rng(0).standard_normal(len(clean.target)))
+    p = RefineProblem(positions=clean.positions, normals=clean.normals, target=noisy,
+                      flux=1000.0, area=np.ones(len(noisy)), inside=lambda L: L)
+    rest = truth[:-1]
+    gain = p.levenberg_marquardt(rest)[1] - p.levenberg_marquardt(truth)[1]
+    assert gain < 0.005 * p.cost([])              # below the former floor
+    assert gain > 0.2 * p.cost(truth)
+    lights, cost, trace = greedy_select(p, [light(5.3, 3.29)], initial=rest)
+    assert len(lights) == 12 and trace[0]["result"] == "kept"
+    # (where they end is the noise's: 750 floor points do not pin lights 0.5 x the
+    # mounting height apart; a refit from the truth moves them as far)
+    assert cost < p.cost(truth)
+    # nothing left to explain: a further luminaire between the others is not kept
+    lights, cost, trace = greedy_select(p, [light(3.0, 1.3)], initial=truth)
+    assert len(lights) == 12 and trace[0]["result"] == "rejected"
