@@ -68,6 +68,29 @@ Measured 2026-11-26 01:53-02:12, fluxes free (--free-flux --seed 3; wall / CPU s
   Free flux is still 2-3 x the 30 s aim: the vote ladder (7 casts, 20-30 s wall, and 7
   more for the residual votes) and the LM refinement (aimlight.light 16 s of 88 s wall
   in a profile of the gallery) dominate.
+Measured 2026-11-26 04:21-04:43, free-flux time (commits bd31dd2, 4447b76: the symmetric
+beam as coordinate planes with the aim gradient from the same pass, the count search's
+splits skipped where no split can lower its criterion, no residual votes below the gain a
+luminaire needs, the pattern search's map test at once); before (c96e392) and after run
+alternately, room by room, the same session (CPU s, load 5-9; wall is 2-5 x CPU here):
+  free flux:   --seed 3 gallery 47.1 -> 24.3, shop 52.1 -> 40.8, lobby 78.0 -> 45.8;
+               --seed 4 lobby 42.7 -> 23.8; every luminaire the same as before (14/14 and
+               5/5: <= 1.6 cm, <= 0.27 deg, <= 1.2 % flux), 0 spurious.
+  flux given:  --seed 4 lobby 32.9 -> 24.6; --seed 3 gallery 9.3 -> 8.4, shop 11.7 ->
+               11.0, lobby 15.7 -> 9.5; the same luminaires (<= 1.2 cm, <= 0.20 deg).
+  Still over 30 s: the free-flux shop (the count search's split trials, 8 s: its
+  criterion's RMS log residual is 0.11 where the mean absolute one is 0.008) and the
+  free-flux lobby --seed 3 (its first selection is poor: the footprint pursuit and its
+  reselection, 13 s, and 14 vote casts, 10 s).
+Measured 2026-11-26 04:43-05:04, the free-flux ladder 4 x apart with --aim free (4 vote
+casts, was 7; 4447b76 -> the next commit, alternately, CPU s, load 2.8-3.6):
+  --seed 3 gallery 22.6 -> 14.9, shop 27.4 -> 21.0, lobby 39.9 -> 32.2; the same
+  luminaires as before (14/14). --seed 4 lobby 16.2 (load 4.9; 5/5, as before).
+  Seeds 5 and 6 (free flux, ladder 4 x): gallery and shop 9/9 each, 0 spurious; the
+  lobbies FAIL, and did before these changes too (c96e392 gives the same luminaires):
+  --seed 5 lobby 2/5, 3 spurious (two wall-wash spots at half their flux 11-22 cm off)
+  92.8 -> 71.6 CPU s; --seed 6 lobby 3/5, 4 spurious (a 15 deg spot and the downlight
+  not found) 116.0 -> 92.5 CPU s (c96e392 -> 4447b76, load 3.7-6.3).
 --aim fixed unchanged (checked 01:53): examples/office.ply --flux 3000 and a 5 x 4 x 3 m
 box with two cos^10 downlights (reflectance 0.5) give the same result JSON (less the
 timings) as main's 32a4396: sha256 20103b146ca106e6..., 65ad7a226ee49e01....

@@ -321,7 +321,7 @@ def _polish(scorer, canvas, k, apex, h, hn, mount, free_flux, cos_max):
         its += 1
         X = x + step * moves
         P, A = make(X)
-        ok = (A @ mount >= cos_max) & np.array([canvas.map_contains(k, p) for p in P])
+        ok = (A @ mount >= cos_max) & _on_map(canvas, k, P)
         if not ok.any():
             step /= 2
             continue
@@ -335,6 +335,27 @@ def _polish(scorer, canvas, k, apex, h, hn, mount, free_flux, cos_max):
             step /= 2
     P, A = make(x[None])
     return P[0], A[0], best[1], best[0]
+
+
+def _on_map(canvas, k, P):
+    """(n,) bool: :meth:`VoteCanvas.map_contains` of the points ``P`` (n, 3) on map ``k``,
+    the pixel test for all at once and the face test only beside the faces' border (the
+    pattern search asked 80,000 times, one point at a time: 13 s of 148 s wall in a
+    profile of bench_aim's free-flux lobby)."""
+    m = canvas.maps[k]
+    d = np.asarray(P, dtype=np.float64) - m.origin
+    i = np.floor((d @ m.u) / m.pixel).astype(np.int64)
+    j = np.floor((d @ m.v) / m.pixel).astype(np.int64)
+    out = (i >= 0) & (i < m.shape[0]) & (j >= 0) & (j < m.shape[1])
+    idx = np.flatnonzero(out)
+    out[idx] = m.mask[i[idx], j[idx]]
+    if m.face_test is None:
+        return out
+    idx = np.flatnonzero(out)
+    border = idx[~m.face_test.inner[i[idx], j[idx]]]
+    for n in border:
+        out[n] = canvas.map_contains(k, P[n])
+    return out
 
 
 def _aimed_light(canvas, k, position, aim, s, scale=1.0, score=0.0):

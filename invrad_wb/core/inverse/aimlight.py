@@ -33,6 +33,13 @@ class SymmetricBeam:
         self.gamma = np.arange(len(self.curve)) * STEP_DEG
         self.points = np.asarray(points, dtype=np.float64)
         self.normals = np.asarray(normals, dtype=np.float64)
+        # (3, k) contiguous coordinate rows: (K, k) planes of one component each, no
+        # (K, k, 3) temporaries or einsum (the refinement's light was half its time)
+        self._pT = np.ascontiguousarray(self.points.T)
+        self._nT = np.ascontiguousarray(self.normals.T)
+        #: the last gradient batch's per-luminaire terms of the aim gradient, by exact
+        #: position and aim (:meth:`aim_grad` asks right after :meth:`light`)
+        self._aim_terms = {}
 
     def light(self, C, N, flux, with_grad=False):
         """(K, k) lux of K luminaires at ``C`` (K, 3) aimed ``N`` (K, 3, unit) with fluxes
@@ -52,46 +59,63 @@ class SymmetricBeam:
         grad = np.empty((len(C), len(self.points), 3)) if with_grad else None
         step = max(1, BATCH_POINTS // max(1, len(self.points)))
         curve = self.curve
+        to_step = np.degrees(1.0) / STEP_DEG
+        px, py, pz = self._pT
+        nx, ny, nz = self._nT
+        if with_grad:
+            self._aim_terms = {}
         for b in range(0, len(C), step):
             sl = slice(b, b + step)
-            d = self.points[None] - C[sl, None]                     # luminaire -> point
-            r2 = np.maximum(np.einsum("Kkj,Kkj->Kk", d, d), 1e-12)
+            c, a = C[sl], N[sl]
+            dx = px - c[:, 0:1]                                    # luminaire -> point
+            dy = py - c[:, 1:2]
+            dz = pz - c[:, 2:3]
+            r2 = np.maximum(dx * dx + dy * dy + dz * dz, 1e-12)
             inv = 1.0 / np.sqrt(r2)
-            w = d * inv[..., None]
-            cs = -np.einsum("kj,Kkj->Kk", self.normals, w)
-            cg = np.clip(np.einsum("Kkj,Kj->Kk", w, N[sl]), -1.0, 1.0)
-            g = np.degrees(np.arccos(cg)) / STEP_DEG
+            cs = -(nx * dx + ny * dy + nz * dz) * inv
+            cg = np.clip((a[:, 0:1] * dx + a[:, 1:2] * dy + a[:, 2:3] * dz) * inv, -1.0, 1.0)
+            g = np.arccos(cg) * (to_step)
             i0 = np.minimum(g.astype(np.int64), len(curve) - 2)
-            slope = curve[i0 + 1] - curve[i0]                      # per table step
-            i_lm = curve[i0] + (g - i0) * slope
+            c0 = curve[i0]
+            slope = curve[i0 + 1] - c0                             # per table step
+            i_lm = c0 + (g - i0) * slope
             lit = cs > 1e-9
             f = np.where(lit, flux[sl, None] / r2, 0.0)
             out[sl] = f * i_lm * cs
             if with_grad:
                 sin_g = np.sqrt(np.maximum(1.0 - cg * cg, 0.0))
-                dg = np.where(sin_g > 1e-12, slope * (np.degrees(1.0) / STEP_DEG)
-                              * cs / np.maximum(sin_g, 1e-12), 0.0)     # I' cos_s / sin_g
-                t = (dg[..., None] * (N[sl, None] - cg[..., None] * w)
-                     + i_lm[..., None] * (self.normals[None] + 3.0 * cs[..., None] * w))
-                grad[sl] = (f * inv)[..., None] * t
+                on = sin_g > 1e-12
+                dg = np.where(on, slope * to_step * cs / np.where(on, sin_g, 1.0), 0.0)
+                fi = f * inv
+                # I' cos_s / sin_g (n - cos_g w) + I (n_p + 3 cos_s w), times F / r^3
+                t1 = fi * dg
+                t2 = fi * i_lm
+                tw = t2 * 3.0 * cs - t1 * cg
+                for j, (dj, nj) in enumerate(((dx, nx), (dy, ny), (dz, nz))):
+                    grad[sl, :, j] = t1 * a[:, j:j + 1] + t2 * nj + tw * (dj * inv)
+                # d E / d aim = -F cos_s I' / (r^2 sin_g) (w . d n / d p) (0 on the axis)
+                q = -np.where(lit, dg * inv, 0.0) * inv      # per lumen, times w . dn
+                for i in range(len(c)):
+                    key = (c[i].tobytes(), a[i].tobytes())
+                    self._aim_terms[key] = (q[i], dx[i] * inv[i], dy[i] * inv[i],
+                                            dz[i] * inv[i])
         return (out, grad) if with_grad else out
 
     def aim_grad(self, c, n, flux, dn):
         """(k, m) d E / d p of one luminaire at ``c`` aimed ``n`` whose aim moves with m
         parameters p as ``dn`` (m, 3) = d n / d p: ``dE/dp = -F cos_s I' / (r^2 sin_g)
-        (w . dn/dp)`` (0 on the axis)."""
-        d = self.points - np.asarray(c, dtype=np.float64)
-        r2 = np.maximum(np.einsum("kj,kj->k", d, d), 1e-12)
-        w = d / np.sqrt(r2)[:, None]
-        cs = -np.einsum("kj,kj->k", self.normals, w)
-        cg = np.clip(w @ n, -1.0, 1.0)
-        g = np.degrees(np.arccos(cg)) / STEP_DEG
-        i0 = np.minimum(g.astype(np.int64), len(self.curve) - 2)
-        slope = (self.curve[i0 + 1] - self.curve[i0]) * (np.degrees(1.0) / STEP_DEG)
-        sin_g = np.sqrt(np.maximum(1.0 - cg * cg, 0.0))
-        k = np.where((cs > 1e-9) & (sin_g > 1e-12),
-                     -flux * cs * slope / (r2 * np.maximum(sin_g, 1e-12)), 0.0)
-        return k[:, None] * (w @ np.asarray(dn, dtype=np.float64).T)
+        (w . dn/dp)`` (0 on the axis). Taken from the last gradient batch of
+        :meth:`light` where it held this luminaire (the refinement asks right after)."""
+        c = np.asarray(c, dtype=np.float64)
+        n = np.asarray(n, dtype=np.float64)
+        dn = np.asarray(dn, dtype=np.float64)
+        terms = self._aim_terms.get((c.tobytes(), n.tobytes()))
+        if terms is None:
+            self.light(c[None], n[None], 1.0, with_grad=True)
+            terms = self._aim_terms[(c.tobytes(), n.tobytes())]
+        q, wx, wy, wz = terms
+        k = flux * q
+        return np.stack([k * (wx * m[0] + wy * m[1] + wz * m[2]) for m in dn], axis=1)
 
     def lights(self, C, N, flux, V, with_grad):
         """E (K, k) where visible (``V`` (K, k) bool) and, ``with_grad``, d E / d position

@@ -38,8 +38,9 @@ from invrad_wb.core.inverse.votemaps import build_canvas
 from invrad_wb.core.inverse.locate_settings import _checked_seeds, _checked_settings, check_flux
 from invrad_wb.core.inverse.locate_placement import (_exclude_furniture_zone, _occluders,
                                                      _visible_from_brightest)
-from invrad_wb.core.inverse.locate_problem import (_ambient_estimate, _flux_ladder,
-                                                   _refine_problem, _vote_function)
+from invrad_wb.core.inverse.locate_problem import (AIM_FREE_LADDER_STEP, _ambient_estimate,
+                                                   _flux_ladder, _refine_problem,
+                                                   _vote_function)
 from invrad_wb.core.inverse.locate_fit import _postprocess
 from invrad_wb.core.inverse.locate_result import LocateResult, RoomRun, _collect
 # the pipeline's parts, each in its module; their names stay importable from here
@@ -196,7 +197,8 @@ def _locate_room(sub, room, s, flux, backend, timings, report, photometry=None,
     free = flux is None
     ladder = {}
     if free:
-        ladder = _flux_ladder(pts)
+        ladder = _flux_ladder(pts) if s.aim != "free" else _flux_ladder(
+            pts, step=AIM_FREE_LADDER_STEP)
         flux = max(ladder)
     vote_fn = _vote_function(canvas, pts, ambient, occ, s, flux, backend, timings, photometry)
     if free:

@@ -220,17 +220,22 @@ FLUX_LADDER_STEP = 2.0
 FLUX_LADDER_OCTAVES = 6
 
 
-def _flux_ladder(pts):
+#: the ladder's step with ``--aim free``: its footprint search (:mod:`.aim`) proposes
+#: every luminaire whatever its flux, the votes only add candidates beside it
+AIM_FREE_LADDER_STEP = 4.0
+
+
+def _flux_ladder(pts, step=FLUX_LADDER_STEP):
     """Fluxes (lm) to vote with when the flux is not given, largest first.
 
     The top is the lamp flux the room's targets need by the lumen method (sum(E A) / 0.5,
-    one luminaire doing it all); each next one is :data:`FLUX_LADDER_STEP` smaller, down
-    to 1/2**:data:`FLUX_LADDER_OCTAVES` of it. A luminaire of flux F gets sharp votes
-    from the rung nearest F; the refinement then fits F itself.
+    one luminaire doing it all); each next one is ``step`` (:data:`FLUX_LADDER_STEP`)
+    smaller, down to 1/2**:data:`FLUX_LADDER_OCTAVES` of it. A luminaire of flux F gets
+    sharp votes from the rung nearest F; the refinement then fits F itself.
     """
     need = float(np.sum(np.nan_to_num(pts.lux) * pts.area)) / 0.5
-    n = int(round(FLUX_LADDER_OCTAVES * np.log(2.0) / np.log(FLUX_LADDER_STEP)))
-    return [need / FLUX_LADDER_STEP ** k for k in range(n + 1)]
+    n = int(round(FLUX_LADDER_OCTAVES * np.log(2.0) / np.log(step)))
+    return [need / step ** k for k in range(n + 1)]
 
 
 def _ladder_peaks(run, s, ladder=None):

@@ -570,11 +570,12 @@ class RefineProblem:
             return w
 
         def project(x_old, x_new, _idx):
-            # per luminaire: one that would leave its plane/room keeps its place
-            old, new = unpack(x_old[0]), unpack(x_new[0])
-            kept = [L if M is None else M for L, M in
-                    zip(old, (self.inside(M) for M in new))]
-            return np.concatenate([L.params() for L in kept])[None]
+            # per luminaire: one that would leave its plane/room keeps its place (the old
+            # ones unpacked only then: most steps leave every luminaire inside)
+            moved = [self.inside(M) for M in unpack(x_new[0])]
+            if any(M is None for M in moved):
+                moved = [L if M is None else M for L, M in zip(unpack(x_old[0]), moved)]
+            return np.concatenate([L.params() for L in moved])[None]
 
         res = optim.levenberg_marquardt(
             fun, x0[None], cost=cost,

@@ -260,6 +260,10 @@ def test_symmetric_beam_against_the_photometry_and_its_gradients():
                     - beam.light(C[:1], aiming.aim_of_offset(m, ab[0] - h * e)[None],
                                  flux[0])[0]) / (2 * h) for e in np.eye(2)], axis=1)
     assert np.abs(ga - fa).max() <= 1e-5 * np.abs(fa).max()
+    # asked without a gradient batch before it (nothing kept from one): the same
+    fresh = SymmetricBeam(phot.table[0], pts, nrm)
+    np.testing.assert_allclose(fresh.aim_grad(C[0], N[0], flux[0], J), ga, rtol=1e-12,
+                               atol=1e-12 * np.abs(ga).max())
 
 
 @pytest.mark.parametrize("name", ["spot.ies", "asymmetric.ies"])
@@ -287,3 +291,31 @@ def test_footprint_scorer_light_against_the_direct_renderer(name):
         lum = Luminaire(C[i], N[i], 1300.0, photometry=phot, c0=aiming.aimed_c0(DOWN, N[i]))
         want = direct_illuminance_numpy(pts, nrm, [lum], occlusion=False)
         np.testing.assert_allclose(got[i], want, rtol=0, atol=2e-3 * want.max())
+
+
+def test_polish_map_test_agrees_with_the_canvas():
+    """The pattern search's test of many points at once (aim._on_map) says what
+    VoteCanvas.map_contains says of each, inside, on the border of and off a room's
+    surfaces (a sloped ceiling: walls whose top edge cuts pixels, where the face test
+    decides)."""
+    from invrad_wb.core.inverse.aim import _on_map
+    from invrad_wb.core.inverse.votemaps import build_canvas
+    mb = generate.MeshBuilder(0.25)
+    generate.add_prism_room(mb, [(0, 0), (4, 0), (4, 3), (0, 3)], [(0, 0, 4, 3)],
+                            height=2.5, slope=(0.2, 0.1), reflectance=0.5)
+    canvas = build_canvas(mb.scene(), 0, pixel=0.1, dummy=False)
+    rng = np.random.default_rng(4)
+    by_face_test = 0
+    for k, m in enumerate(canvas.maps):
+        if m.kind != "surface":
+            continue
+        nu, nv = m.shape
+        q = np.column_stack([rng.uniform(-0.3, nu * m.pixel + 0.3, 1000),
+                             rng.uniform(-0.3, nv * m.pixel + 0.3, 1000)])
+        P = m.origin + q[:, :1] * m.u + q[:, 1:] * m.v
+        want = np.array([canvas.map_contains(k, p) for p in P])
+        np.testing.assert_array_equal(_on_map(canvas, k, P), want)
+        i, j = (np.floor(q / m.pixel).astype(int)).T
+        on = (i >= 0) & (i < nu) & (j >= 0) & (j < nv)
+        by_face_test += int(np.sum(m.mask[i[on], j[on]] & ~want[on]))
+    assert by_face_test > 0       # points on a valid pixel that the face test rejects
