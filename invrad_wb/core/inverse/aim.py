@@ -371,8 +371,9 @@ def _aimed_light(canvas, k, position, aim, s, scale=1.0, score=0.0):
 #: hot spots of the unexplained light scored per pursuit step, and most steps
 PURSUIT_SPOTS = 4
 PURSUIT_STEPS = 24
-#: a pursuit step must remove this share of the cost without any luminaire (the greedy
-#: selection's floor, :func:`invrad_wb.core.inverse.refine.greedy_select`)
+#: a pursuit step must remove this share of the cost without any luminaire (the floor
+#: :func:`invrad_wb.core.inverse.select.greedy_select` had before its noise-aware rule;
+#: the pursuit keeps it)
 PURSUIT_MIN_GAIN_TOTAL = 0.005
 
 
