@@ -575,66 +575,54 @@ def verdict(rad, rs):
     return ok
 
 
-def _fmt(rad, key):
-    return "%.0f/%.2f" % rad[key] if key in rad else "-"
-
-
-def radiance_dimmed(ref, lums, rad, rs, spec):
-    """The grid dimmed evenly to what Radiance finds it needs (the reference at its
-    cheapest: Radiance's light scales with the output): (scale, figures) or (1, rad) where
-    the type is not dimmable or no other output passes."""
-    e = next(x for x in spec.catalogue if x.name == lums[0].extra["type"])
-    lo = e.dimming[0] if e.dimming else 1.0
-    need = lux_scale_needed(rad, rs) * 1.001
-    dim = float(np.clip(ref.dim * need, lo, 1.0))
-    if abs(dim - ref.dim) < 1e-9:
-        return 1.0, rad
-    scaled = rescaled(rad, dim / ref.dim, lums, spec.maintenance_factor)
-    if all(verdict(scaled, rs).values()) or not all(verdict(rad, rs).values()):
-        return dim / ref.dim, scaled
-    return 1.0, rad
-
-
 #: where the designs (pickled) and the Radiance jobs go: ignored by git, carried as it is
 JOBS = os.path.join(os.path.dirname(HERE), "out", "radjobs")
 
 
 def design_both(name, cat, phot, phot_paths):
-    """The grid reference's and invrad's designs of a room (cached in JOBS/<room>/)."""
+    """The grid reference's and invrad's designs of a room, each cached in
+    JOBS/<room>/<label>.pkl (delete one to redo that design and its Radiance job)."""
     import pickle
-    cache = os.path.join(JOBS, name, "designs.pkl")
-    if os.path.exists(cache):
-        with open(cache, "rb") as fh:
-            return pickle.load(fh)
+    import shutil
     build, room = ROOMS[name]
     scene = build()
     spec = room_spec(cat, room)
-    t = time.perf_counter()
-    ref, ref_lums, ref_desc, _ = grid_reference(scene, spec, phot, SPLITS[name])
-    t_ref = time.perf_counter() - t
-    t = time.perf_counter()
-    rd = design_room(scene, spec, 0, photometry=phot)
-    t_inv = time.perf_counter() - t
-    m, su = rd.metrics, rd.metrics.surfaces
-    cyl = getattr(rd, "cyl_figures", None)
-    own = (f"{m.em:.0f}/{m.u0:.2f}"
-           + "".join(f" {k} {su[k][0]:.0f}/{su[k][2]:.2f}"
-                     for k in ("surroundings", "walls", "ceiling") if k in su)
-           + (f" Ez {cyl['em_lux']:.0f}/{cyl['u0']:.2f}" if cyl else "")
-           + f" UGR {'-' if rd.ugr is None else round(rd.ugr, 1)}")
-    runs = {"grid": dict(watts=ref.watts if ref else math.inf, lums=ref_lums, s=t_ref,
-                         desc=ref_desc, dim=ref.dim if ref else None, own=None),
-            "invrad": dict(watts=rd.watts, lums=rd.luminaires, s=t_inv, dim=None, own=own,
-                           desc=f"{rd.candidate.geom.describe()}: "
-                           + ", ".join(f"{n} x {k}" for k, n in sorted(rd.schedule().items()))
-                           + f" at {100 * rd.candidate.dim:.0f} %")}
-    for label, r in runs.items():
+    runs = {}
+    for label in ("grid", "invrad"):
+        cache = os.path.join(JOBS, name, f"{label}.pkl")
+        if os.path.exists(cache):
+            with open(cache, "rb") as fh:
+                runs[label] = pickle.load(fh)
+            continue
+        t = time.perf_counter()
+        if label == "grid":
+            ref, ref_lums, ref_desc, _ = grid_reference(scene, spec, phot, SPLITS[name])
+            r = dict(watts=ref.watts if ref else math.inf, lums=ref_lums,
+                     s=time.perf_counter() - t, desc=ref_desc,
+                     dim=ref.dim if ref else None, own=None)
+        else:
+            rd = design_room(scene, spec, 0, photometry=phot)
+            m, su = rd.metrics, rd.metrics.surfaces
+            cyl = getattr(rd, "cyl_figures", None)
+            own = (f"{m.em:.0f}/{m.u0:.2f}"
+                   + "".join(f" {k} {su[k][0]:.0f}/{su[k][2]:.2f}"
+                             for k in ("surroundings", "walls", "ceiling") if k in su)
+                   + (f" Ez {cyl['em_lux']:.0f}/{cyl['u0']:.2f}" if cyl else "")
+                   + f" UGR {'-' if rd.ugr is None else round(rd.ugr, 1)}")
+            r = dict(watts=rd.watts, lums=rd.luminaires, s=time.perf_counter() - t,
+                     dim=None, own=own,
+                     desc=f"{rd.candidate.geom.describe()}: "
+                     + ", ".join(f"{n} x {k}" for k, n in sorted(rd.schedule().items()))
+                     + f" at {100 * rd.candidate.dim:.0f} %")
+        job = os.path.join(JOBS, name, label)
+        if os.path.isdir(job):
+            shutil.rmtree(job)          # a new design: its old judgement is void
         if r["lums"]:
-            r["plan"] = judge_prepare(scene, spec, r["lums"], os.path.join(JOBS, name, label),
-                                      phot_paths)
-    os.makedirs(os.path.dirname(cache), exist_ok=True)
-    with open(cache, "wb") as fh:
-        pickle.dump(runs, fh)
+            r["plan"] = judge_prepare(scene, spec, r["lums"], job, phot_paths)
+        os.makedirs(os.path.dirname(cache), exist_ok=True)
+        with open(cache, "wb") as fh:
+            pickle.dump(r, fh)
+        runs[label] = r
     return runs
 
 

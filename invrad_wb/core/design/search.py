@@ -62,6 +62,9 @@ class Candidate:
     u0: float
     shade_max: float
     ok: bool
+    #: (L,) output fraction of each luminaire where they differ (:mod:`.refine`; then
+    #: ``dim`` is the power-weighted mean output), or None: all at ``dim``
+    dims: np.ndarray = field(default=None, repr=False, compare=False)
 
     def key(self):
         g = self.geom
@@ -469,7 +472,8 @@ class RoomSearch:
     def luminaires(self, cand):
         g = cand.geom
         idx = np.asarray(cand.entries)[g.cls]
-        flux = np.array([self.entries[k].flux_lm for k in idx]) * cand.dim
+        out = cand.dim if getattr(cand, "dims", None) is None else np.asarray(cand.dims)
+        flux = np.array([self.entries[k].flux_lm for k in idx]) * out
         return luminaires_of(g.positions, g.normals, flux, self.entries, idx,
                              self.model.droom.room, self.phot, self._axes)
 
