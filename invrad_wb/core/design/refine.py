@@ -55,21 +55,24 @@ EXACT_TRIES = 3
 UGR_CUTS = 6
 
 
-def groups_of(plan, cls, rings=RINGS, tol=0.05):
-    """(L,) int group of each luminaire of a layout: its catalogue class and whether it is
-    among the ``rings`` outermost along s and along t of its row / column (positions
-    ``plan`` (L, 2), in the room's plan frame; ``tol`` m: same row)."""
+def groups_of(plan, cls, rings=None, tol=0.05):
+    """(L,) int group of each luminaire of a layout: its catalogue class and its ring
+    along s and along t (0: the outermost of its row / column, 1: the next, ...,
+    ``rings``: the rest; positions ``plan`` (L, 2) in the room's plan frame; ``tol`` m:
+    the same row)."""
+    rings = RINGS if rings is None else rings
     plan = np.asarray(plan, dtype=float)
     n = len(plan)
-    outer = np.zeros((n, 2), dtype=bool)
+    ring = np.zeros((n, 2), dtype=int)
     for ax in (0, 1):
         other = 1 - ax
         for i in range(n):
             line = np.flatnonzero(np.abs(plan[:, other] - plan[i, other]) < tol)
             v = np.sort(plan[line, ax])
             k = int(np.searchsorted(v, plan[i, ax] - 1e-9))
-            outer[i, ax] = min(k, len(v) - 1 - k) < rings
-    key = np.asarray(cls) * 4 + outer[:, 0] * 2 + outer[:, 1]
+            ring[i, ax] = min(k, len(v) - 1 - k, rings)
+    r = rings + 1
+    key = (np.asarray(cls) * r + ring[:, 0]) * r + ring[:, 1]
     _, g = np.unique(key, return_inverse=True)
     return g
 

@@ -580,3 +580,20 @@ def test_the_ugr_cutting_planes_meet_the_convex_glare_limit_at_least_power():
     ok = ((X @ lux[:, 0] >= 250 - 1e-9)
           & (ugr_from_sum((X ** 2) @ T, X @ B)[:, 0] <= 19.0 - UGR_MARGIN))
     assert x @ watts <= (X[ok] @ watts).min() + 0.05
+
+
+def test_a_floor_of_cells_that_do_not_meet_vertex_to_vertex_has_its_true_outline():
+    """The pillar room's floor strips beside the pillar are cut into cells of another size
+    than the rest (T-junctions): the shared edges run both ways and are no wall; the
+    strips are inside, the pillar outside, at any cell size."""
+    from invrad_wb.core.design.room import DesignRoom, cancel_opposite
+    for cell in (0.2, 0.25, 0.3):
+        d = DesignRoom(g.pillar_room(cell=cell), 0)
+        assert list(d.inside(np.array([[3.0, 0.5], [3.0, 3.5], [1.0, 1.0], [3.0, 2.0]]))) \
+            == [True, True, True, False]
+        assert len(d._edges) == 8                        # 4 walls and the pillar's 4 sides
+    # a 0-2 edge and a 2-0 edge from cells 0-1, 1-2: all cancels; a lone one stays
+    seg = np.array([[[0, 0], [2, 0]], [[1, 0], [0, 0]], [[2, 0], [1, 0]], [[0, 1], [0, 3]]],
+                   dtype=float)
+    left = cancel_opposite(seg)
+    assert left.shape == (1, 2, 2) and np.allclose(left[0], [[0, 1], [0, 3]])
