@@ -626,18 +626,25 @@ def design_both(name, cat, phot, phot_paths):
     return runs
 
 
-def radiance_dimmed(dim, lums, rad, rs, spec):
-    """The grid dimmed evenly to what Radiance finds it needs (the reference at its
-    cheapest: Radiance's light scales with the output): (scale, figures), (1, rad) where
-    the type is not dimmable or no other output passes."""
-    e = next(x for x in spec.catalogue if x.name == lums[0].extra["type"])
-    lo = e.dimming[0] if e.dimming else 1.0
-    new = float(np.clip(dim * lux_scale_needed(rad, rs) * 1.001, lo, 1.0))
-    if abs(new - dim) < 1e-9:
+def radiance_dimmed(lums, rad, rs, spec):
+    """A design's luminaires all dimmed by one factor to what Radiance finds it needs (a
+    design at its cheapest by the judge: Radiance's light scales with the output; the
+    same for the grid and for invrad): (scale, figures), or (1, rad) where no factor keeps
+    every output within its type's range or none passes. Each luminaire keeps its output
+    relative to the others (invrad's outer and inner rows stay apart)."""
+    f, lo = [], []
+    for lum in lums:
+        e = next(x for x in spec.catalogue if x.name == lum.extra["type"])
+        f.append(lum.flux_lm / e.flux_lm)
+        lo.append(e.dimming[0] if e.dimming else 1.0)
+    f, lo = np.array(f), np.array(lo)
+    s_min, s_max = float(np.max(np.minimum(lo, f) / f)), float(np.min(1.0 / f))
+    scale = float(np.clip(lux_scale_needed(rad, rs) * 1.001, s_min, s_max))
+    if abs(scale - 1.0) < 1e-9:
         return 1.0, rad
-    scaled = rescaled(rad, new / dim, lums, spec.maintenance_factor)
+    scaled = rescaled(rad, scale, lums, spec.maintenance_factor)
     if all(verdict(scaled, rs).values()) or not all(verdict(rad, rs).values()):
-        return new / dim, scaled
+        return scale, scaled
     return 1.0, rad
 
 
@@ -685,23 +692,23 @@ def main(names, trace=True):
             rad = judge_finish(os.path.join(JOBS, name, label), r["plan"], spec, lums) \
                 if lums else None
             if rad is None:
-                rows.append((name, label, w, False))
+                rows.append((name, label, w, False, math.inf))
                 print(f"{name:11s} {label:7s} {'-':>7s}  {desc}"
                       + ("" if not lums else " (not traced yet)"), flush=True)
                 continue
-            if r["dim"] is not None:
-                scale, rad2 = radiance_dimmed(r["dim"], lums, rad, rs, spec)
-                if scale != 1.0:
-                    print(f"{name:11s} {label:7s} {w:7.1f} as the exact model dims it:"
-                          f" Radiance Em {rad['em']:.0f}, "
-                          + ", ".join(f"{k} {_fmt(rad, k)}" for k in
-                                      ("surroundings", "walls", "ceiling", "Ez") if k in rad)
-                          + f"; dimmed evenly to Radiance's need: x {scale:.3f}", flush=True)
-                    w, rad = w * scale, rad2
-                    desc += f" -> {100 * r['dim'] * scale:.0f} % by Radiance"
+            w0, ok0 = w, all(verdict(rad, rs).values())
+            scale, rad2 = radiance_dimmed(lums, rad, rs, spec)
+            if scale != 1.0:
+                print(f"{name:11s} {label:7s} {w:7.1f} as the exact model dims it:"
+                      f" Radiance Em {rad['em']:.0f}, "
+                      + ", ".join(f"{k} {_fmt(rad, k)}" for k in
+                                  ("surroundings", "walls", "ceiling", "Ez") if k in rad)
+                      + f"; dimmed evenly to Radiance's need: x {scale:.3f}", flush=True)
+                w, rad = w * scale, rad2
+                desc += f" -> x {scale:.3f} by Radiance"
             ok = verdict(rad, rs)
             good = all(ok.values())
-            rows.append((name, label, w, good))
+            rows.append((name, label, w, good, w0 if ok0 else math.inf))
             ug = "-" if rad["ugr"] is None else f"{rad['ugr']:.1f}"
             cells = ["%.0f/%.2f" % (rad["em"], rad["u0"]), _fmt(rad, "surroundings"),
                      _fmt(rad, "walls"), _fmt(rad, "ceiling"), _fmt(rad, "Ez"), ug]
@@ -720,6 +727,12 @@ def main(names, trace=True):
     for n in iw:
         print(f"  {n:11s} invrad / grid = {iw[n] / gw[n]:.3f}" if math.isfinite(gw[n])
               else f"  {n:11s} no compliant grid")
+    g0 = {r[0]: r[4] for r in rows if r[1] == "grid"}
+    i0 = {r[0]: r[4] for r in rows if r[1] == "invrad"}
+    for n in i0:
+        if math.isfinite(g0[n]) and math.isfinite(i0[n]):
+            print(f"  {n:11s} as designed (no re-dimming by Radiance), both compliant:"
+                  f" invrad {i0[n]:.1f} W / grid {g0[n]:.1f} W = {i0[n] / g0[n]:.3f}")
     both = [n for n in iw if math.isfinite(gw[n])]
     if both:
         print(f"invrad / grid over the rooms both design: "

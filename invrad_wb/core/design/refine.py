@@ -51,8 +51,12 @@ WATTS_WINDOW = 1.15
 FAST_TRIES = 24
 #: layouts solved exactly at most (each: one exact solve per group)
 EXACT_TRIES = 3
-#: cutting planes added for UGR at most
-UGR_CUTS = 6
+#: cutting planes added for UGR at most (Kelley's method closes in slowly; each is one
+#: more small programme)
+UGR_CUTS = 40
+#: a glare sum this share over the limit's counts as met (0.004 UGR; UGR_MARGIN keeps the
+#: design below the limit)
+UGR_CUT_TOL = 1e-3
 
 
 def groups_of(plan, cls, rings=None, tol=0.05):
@@ -129,7 +133,7 @@ def solve_outputs(parts, watts, lo, hi, search, glare=None):
         # g(x) = 0.25 pi sum x^2 T - K sum x B <= 0 at every observer (convex)
         gx = 0.25 * math.pi * (x ** 2) @ T - K * (x @ B)
         worst = int(np.argmax(gx))
-        if gx[worst] <= 1e-9 * max(K * float(x @ B[:, worst]), 1e-12):
+        if gx[worst] <= UGR_CUT_TOL * max(K * float(x @ B[:, worst]), 1e-12):
             return x
         grad = 0.5 * math.pi * x * T[:, worst] - K * B[:, worst]
         A = np.vstack([A, grad])
