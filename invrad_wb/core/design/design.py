@@ -120,6 +120,21 @@ class RoomDesign:
             out[t] += 1
         return out
 
+    def type_outputs(self):
+        """{type: mean output fraction of that type's general luminaires} (their lumens
+        over the lumens at full output: one figure per type where outer and inner rows
+        are dimmed apart, :mod:`.refine`)."""
+        if self.candidate is None:
+            return {}
+        if getattr(self.candidate, "dims", None) is None:
+            return {t: self.candidate.dim for t in self.schedule()}
+        full, got = {}, {}
+        for lum, d in zip(self.luminaires, self.candidate.dims):
+            t = lum.extra.get("type")
+            full[t] = full.get(t, 0.0) + lum.flux_lm / max(d, 1e-12)
+            got[t] = got.get(t, 0.0) + lum.flux_lm
+        return {t: got[t] / full[t] for t in full}
+
     def _turned(self):
         """', C0 along the room' (or across) where the chosen type was turned."""
         o = sorted({lum.extra["orientation"] for lum in self.luminaires
@@ -390,6 +405,11 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
         n_exact += n_lp
     rd.candidate, rd.metrics, rd.exact_solves = cand, met, n_exact
     rd.luminaires = search.luminaires(cand)
+    if cand.dims is not None and np.ptp(cand.dims) > 1e-6:
+        rd.notes.append(f"outer and inner rows dimmed apart: outputs"
+                        f" {100 * cand.dims.min():.0f} to {100 * cand.dims.max():.0f} %"
+                        " (each luminaire carries its own lumens, the schedule each type's"
+                        " mean; one common level would draw more)")
     rd.grid_points = points
     rd._shade_limit = rs.shade_limit_lux
     _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search)

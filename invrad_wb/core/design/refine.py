@@ -195,14 +195,15 @@ def exact_refine(search, cand):
     lux, direct, ez, eh, T, B = [], [], [], [], [], []
     for gi in range(G):
         lums = [lum for lum, q in zip(full, groups) if q == gi]
-        t, d = m.exact(lums)
+        # each group lit alone under the whole layout's openings: the groups add up
+        t, d = m.exact(lums, covering=full)
         lux.append(t)
         direct.append(d)
         if search.cylindrical is not None:
-            z, h = search.cylindrical.evaluate(lums)
+            z, h = search.cylindrical.evaluate(lums, covering=full)
             ez.append(z)
             eh.append(h)
-        gl = search.exact_glare(lums)
+        gl = search.exact_glare(lums, covering=full)
         if gl is not None:
             T.append(gl[0])
             B.append(gl[1])

@@ -408,6 +408,11 @@ def test_a_dimmed_design_keeps_its_margin_above_every_minimum():
                   s["surroundings"][0] / rd.surface_reqs["surroundings"].lux]
         assert min(ratios) >= 1 + m - 1e-6
         assert min(ratios) <= 1 + m + 0.002
+        # the schedule's per-type output gives the watts drawn (outputs may differ per
+        # luminaire: outer and inner rows dimmed apart)
+        out = rd.type_outputs()
+        assert abs(sum(n * 26.0 * out[t] for t, n in rd.schedule().items())
+                   - rd.watts) < 1e-6 * rd.watts
         got[m] = rd
     assert _spec(room, cat=cat).design_margin == 0.01
     with pytest.raises(SettingsError, match="design_margin"):
@@ -488,8 +493,10 @@ def _box_search(size=(5.0, 4.0, 2.8), cell=0.5):
     from invrad_wb.core.design.room import DesignRoom
     from invrad_wb.core.design.search import RoomSearch
     sc = g.with_reflectances(g.box_room(size=size, cell=cell))
+    # a disk opening: its ceiling reflects as the opening (the groups' solves must add up
+    # with every group's openings in place)
     spec = _spec({"work_plane": {"lux": 500, "u0": 0.6}, "walls": {"lux": 75}},
-                 cat=[CAT[2]])
+                 cat=[dict(CAT[2], radius_m=0.25)])
     rs = spec.room_spec(0)
     droom = DesignRoom(sc, 0)
     req = rs.work_plane
