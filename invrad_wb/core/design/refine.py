@@ -51,6 +51,10 @@ WATTS_WINDOW = 1.15
 FAST_TRIES = 24
 #: layouts solved exactly at most (each: one exact solve per group)
 EXACT_TRIES = 3
+#: a layout is solved exactly while the fast programme's watts are within this factor of
+#: the best design's (the fast model has no shadows and a per-point correction learnt on
+#: other layouts)
+FAST_TRUST = 1.02
 #: cutting planes added for UGR at most (Kelley's method closes in slowly; each is one
 #: more small programme)
 UGR_CUTS = 40
@@ -261,7 +265,7 @@ def refine(search, cand, met):
     ranked.sort(key=lambda r: r[0])
     tried = 0
     for fw, c in ranked[:EXACT_TRIES]:
-        if best is not None and fw >= best[0].watts:
+        if best is not None and fw >= FAST_TRUST * best[0].watts:
             break
         tried += 1
         r = exact_refine(search, c)
