@@ -33,9 +33,11 @@ from invrad_wb.core.design.evaluate import unit_response
 from invrad_wb.core.design.search import Candidate, Metrics, margin_kept, metrics_comply
 from invrad_wb.core.output.glare import ugr_from_sum
 
-#: rows / columns from each end of a layout that form their own group (1: the outer ring
-#: and the rest)
-RINGS = 1
+#: rows / columns from each end of a layout that form their own group (2: the outer
+#: ring, the next and the rest: up to 9 groups per class; finer groups never draw more,
+#: they contain the coarser ones' answer; in a symmetric room a grid of up to 5 x 5 gets
+#: a group per symmetry orbit, which a programme per luminaire would not beat)
+RINGS = 2
 #: uniformities are kept this far above their minimums in the programme (a dimmed layout
 #: sits on its binding uniformity; another engine's figures scatter by about this much)
 U0_MARGIN = 0.01
