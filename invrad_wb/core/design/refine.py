@@ -50,9 +50,9 @@ LP_TOL = 1e-5
 #: ranked by the fast programme
 WATTS_WINDOW = 1.15
 #: fast candidates ranked at most
-FAST_TRIES = 24
+FAST_TRIES = 80
 #: layouts solved exactly at most (each: one exact solve per group)
-EXACT_TRIES = 3
+EXACT_TRIES = 4
 #: a layout is solved exactly while the fast programme's watts are within this factor of
 #: the best design's (the fast model has no shadows and a per-point correction learnt on
 #: other layouts)
