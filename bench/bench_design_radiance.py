@@ -304,7 +304,7 @@ def _leg_indirect(search, k, leg):
     return (total - direct) / (m.mf * e.flux_lm * len(x[2]))
 
 
-def grid_reference(scene, spec, phot, splits, n_exact=30):
+def grid_reference(scene, spec, phot, splits, n_exact=120):
     """The lighting designer's best regular grid: every type, one nx x ny grid with half
     spacing at the walls per rectangle of the room (an L: both ways of cutting it into two,
     every nx x ny per leg), dimmed evenly where the type allows. Ranked by the watts the
