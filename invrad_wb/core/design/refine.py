@@ -30,7 +30,8 @@ import math
 import numpy as np
 
 from invrad_wb.core.design.evaluate import unit_response
-from invrad_wb.core.design.search import Candidate, Metrics, margin_kept, metrics_comply
+from invrad_wb.core.design.search import (EXACT_ONLY, Candidate, Metrics, margin_kept,
+                                          metrics_comply)
 from invrad_wb.core.output.glare import ugr_from_sum
 
 #: rows / columns from each end of a layout that form their own group (2: the outer
@@ -49,14 +50,16 @@ LP_TOL = 1e-5
 #: fast candidates whose evenly dimmed watts are within this factor of the design's are
 #: ranked by the fast programme
 WATTS_WINDOW = 1.15
-#: fast candidates ranked at most
+#: fast candidates ranked at most (those the fast programme finds an answer for) ...
 FAST_TRIES = 80
+#: ... among this many evaluated at most
+FAST_ROWS = 300
 #: layouts solved exactly at most (each: one exact solve per group)
 EXACT_TRIES = 4
 #: a layout is solved exactly while the fast programme's watts are within this factor of
 #: the best design's (the fast model has no shadows and a per-point correction learnt on
 #: other layouts)
-FAST_TRUST = 1.02
+FAST_TRUST = 1.05
 #: cutting planes added for UGR at most (Kelley's method closes in slowly; each is one
 #: more small programme)
 UGR_CUTS = 40
@@ -182,12 +185,14 @@ def fast_watts(search, cand):
             lux[gi] += (d + m.mf * e.flux_lm * int(cols.sum())
                         * m.indirect_per_lm[e.key]) * m.correction
     w, lo, hi = _group_watts(search, cand, groups)
-    saved = search.cyl_req
+    saved = search.cyl_req, search.surf_reqs
     try:
+        # as the fast table judges: not Ez, not the surfaces it leaves to the exact checks
         search.cyl_req = None
+        search.surf_reqs = {k: v for k, v in saved[1].items() if k not in EXACT_ONLY}
         x = solve_outputs({"lux": lux, "direct": direct}, w, lo, hi, search)
     finally:
-        search.cyl_req = saved
+        search.cyl_req, search.surf_reqs = saved
     return math.inf if x is None else float(x @ w)
 
 
@@ -250,7 +255,8 @@ def refine(search, cand, met):
         ranked.append((fast_watts(search, cand), cand))
         seen.add(cand.key())
     for row in range(len(t["geom"])):
-        if len(seen) >= FAST_TRIES:
+        if (len(seen) >= FAST_ROWS
+                or sum(math.isfinite(r[0]) for r in ranked) >= FAST_TRIES):
             break
         w = float(t["watts"][row])
         if w > WATTS_WINDOW * limit:
