@@ -30,7 +30,42 @@ writes the jobs, and ``out/radjobs/run_all.sh N`` traces them N at a time (with
 ``RADBIN`` and ``RAYPATH=.:<pyradiance>/lib`` set: on a many-core machine); the next
 run reads the traced results. Radiance takes minutes per judgement on one core.
 
-Measured 2026-11-26 (shared 2-core machine at load 8; rtrace -ab 6 -ad 256 -aa 0.15,
+Measured 2026-11-26, round 5 (shared 2-core machine at load 7-8; rtrace -ab 6 -ad 256
+-aa 0.15, 1-7 min per judgement). Both designs judged by Radiance, then each dimmed by
+one factor to what Radiance finds it needs (the grid evenly, invrad's luminaires keeping
+their outputs relative to each other; not where an output sits at its type's floor); W
+as judged (as the exact model designed it); per item Radiance's mean / U0, maintained:
+
+==========  ==============  ==============  =====  ========  ========  ========  =======  =======  ====  =======
+room        invrad W        grid W          ratio  task      surround  walls     ceiling  Ez       UGR   by Rad.
+==========  ==============  ==============  =====  ========  ========  ========  =======  =======  ====  =======
+meeting     109.3 (110.3)   115.0 (115.1)   0.951  500/0.71  300/0.59  182/0.39  81/0.73  187/0.86 18.9  both
+L corridor   52.9 (52.9)     52.0 (52.3)    1.018  122/0.61  102/0.46  68/0.50   31/0.71  -        12.3  both
+lab         240.4 (240.4)   255.9 (256.3)   0.939  505/0.66  303/0.47  145/0.41  79/0.70  -        18.9  both
+classroom   350.3 (354.7)   344.9 (344.5)   1.016  500/0.60  337/0.48  216/0.41  92/0.77  -        18.9  both
+hall 6.5 m  800.0           none of 120     -      330/0.66  207/0.62  116/0.29  47/0.64  -        25.9  no: UGR
+L office    412.5           (see below)
+==========  ==============  ==============  =====  ========  ========  ========  =======  =======  ====  =======
+
+(items: invrad's design by Radiance.) What changed since the table below:
+
+* invrad dims the outer and inner rows of a layout apart (``core/design/refine.py``: a
+  linear programme on the exact model): meeting 112.1 -> 110.3 W, lab 243.1 -> 240.4 W
+  (outputs 10-49 %), L corridor 54.15 -> 52.88 W by the exact model.
+* ``DesignRoom`` found the L corridor's outline wrong (its two legs' floor cells meet at
+  T-junctions; the shared edge counted as a wall and the 1.8 x 1.8 m corner square was
+  outside): the earlier L-corridor figures (both methods) left the corner out of the work
+  plane and of the luminaire positions. With it in, the grid reference is 3 x 1 + 1 x 2
+  PN-3600 per leg at 36 %, 52.3 W; invrad's search alone 54.15 W.
+* The grid reference checks up to 120 grids exactly (30 found none in the hall or the L
+  office). The hall's catalogue has one type allowed at 6.5 m (HB-15000, not dimmable):
+  no grid of it and no invrad layout meets UGR 22 (invrad's 4 x 2: 25.9 by Radiance and
+  by invrad); the hall needs a lower-glare high-bay, not a better search.
+* Designs were made with the code of 04:15-04:55 UTC: lab and L office with one ring
+  (RINGS = 1; 2 is the default now and never draws more on the same layout), classroom
+  with up to 80 fast-ranked layouts; L corridor with the final code.
+
+Earlier, measured 2026-11-26, round 4 (shared 2-core machine at load 8; rtrace -ab 6 -ad 256 -aa 0.15,
 3-7 min per judgement; the grids' judgements had no time to run, so "grid W" is the
 exact model's, dimmed evenly to it; per item: Radiance's mean / U0, maintained).
 
