@@ -63,9 +63,12 @@ L office    411.4 (412.5)   none of 120     -      500/0.61  300/0.40  181/0.39 
   by invrad); the hall needs a lower-glare high-bay, not a better search.
 * L office: no grid of the 120 checked meets every item by the exact model; invrad's 78
   downlights and panels meet every item by Radiance but UGR, 19.7 against invrad's own
-  18.9 (the only room where the two UGRs differ by more than 0.1; the formula is the
-  same, so the background at an eye, Radiance's interreflected light against invrad's,
-  differs there: not yet found why).
+  18.9. Cause: ``glare.observers`` puts the CIE 117 observers at the middle of the
+  bounding rectangle's walls; the L's third one, (6.0, 8.5), lies on the inner corner's
+  wall (x = 6), where the two engines' interreflected light at the eye differ (Radiance
+  50.2 lx, invrad 62.5; the other eyes 106.0 / 108.2 and 96.3 / 99.5, UGR 17.10 / 17.03
+  and 19.02 / 18.90). An observer of an L belongs at the middle of a wall it stands at,
+  inside the room (not changed: ``core/output/glare.py`` is outside this helper's part).
 * Designs were made with the code of 04:15-04:55 UTC: lab and L office with one ring
   (RINGS = 1; 2 is the default now and never draws more on the same layout), classroom
   with up to 80 fast-ranked layouts; L corridor with the final code.
