@@ -30,7 +30,50 @@ writes the jobs, and ``out/radjobs/run_all.sh N`` traces them N at a time (with
 ``RADBIN`` and ``RAYPATH=.:<pyradiance>/lib`` set: on a many-core machine); the next
 run reads the traced results. Radiance takes minutes per judgement on one core.
 
-Measured 2026-11-26 (shared 2-core machine at load 8; rtrace -ab 6 -ad 256 -aa 0.15,
+Measured 2026-11-26, round 5 (shared 2-core machine at load 7-8; rtrace -ab 6 -ad 256
+-aa 0.15, 1-7 min per judgement). Both designs judged by Radiance, then each dimmed by
+one factor to what Radiance finds it needs (the grid evenly, invrad's luminaires keeping
+their outputs relative to each other; not where an output sits at its type's floor); W
+as judged (as the exact model designed it); per item Radiance's mean / U0, maintained:
+
+==========  ==============  ==============  =====  ========  ========  ========  =======  =======  ====  =======
+room        invrad W        grid W          ratio  task      surround  walls     ceiling  Ez       UGR   by Rad.
+==========  ==============  ==============  =====  ========  ========  ========  =======  =======  ====  =======
+meeting     109.3 (110.3)   115.0 (115.1)   0.951  500/0.71  300/0.59  182/0.39  81/0.73  187/0.86 18.9  both
+L corridor   52.9 (52.9)     52.0 (52.3)    1.018  122/0.61  102/0.46  68/0.50   31/0.71  -        12.3  both
+lab         240.4 (240.4)   255.9 (256.3)   0.939  505/0.66  303/0.47  145/0.41  79/0.70  -        18.9  both
+classroom   350.3 (354.7)   344.9 (344.5)   1.016  500/0.60  337/0.48  216/0.41  92/0.77  -        18.9  both
+hall 6.5 m  800.0           none of 120     -      330/0.66  207/0.62  116/0.29  47/0.64  -        25.9  no: UGR
+L office    411.4 (412.5)   none of 120     -      500/0.61  300/0.40  181/0.39  88/0.65  -        19.7  no: UGR
+==========  ==============  ==============  =====  ========  ========  ========  =======  =======  ====  =======
+
+(items: invrad's design by Radiance.) What changed since the table below:
+
+* invrad dims the outer and inner rows of a layout apart (``core/design/refine.py``: a
+  linear programme on the exact model): meeting 112.1 -> 110.3 W, lab 243.1 -> 240.4 W
+  (outputs 10-49 %), L corridor 54.15 -> 52.88 W by the exact model.
+* ``DesignRoom`` found the L corridor's outline wrong (its two legs' floor cells meet at
+  T-junctions; the shared edge counted as a wall and the 1.8 x 1.8 m corner square was
+  outside): the earlier L-corridor figures (both methods) left the corner out of the work
+  plane and of the luminaire positions. With it in, the grid reference is 3 x 1 + 1 x 2
+  PN-3600 per leg at 36 %, 52.3 W; invrad's search alone 54.15 W.
+* The grid reference checks up to 120 grids exactly (30 found none in the hall or the L
+  office). The hall's catalogue has one type allowed at 6.5 m (HB-15000, not dimmable):
+  no grid of it and no invrad layout meets UGR 22 (invrad's 4 x 2: 25.9 by Radiance and
+  by invrad); the hall needs a lower-glare high-bay, not a better search.
+* L office: no grid of the 120 checked meets every item by the exact model; invrad's 78
+  downlights and panels meet every item by Radiance but UGR, 19.7 against invrad's own
+  18.9. Cause: ``glare.observers`` puts the CIE 117 observers at the middle of the
+  bounding rectangle's walls; the L's third one, (6.0, 8.5), lies on the inner corner's
+  wall (x = 6), where the two engines' interreflected light at the eye differ (Radiance
+  50.2 lx, invrad 62.5; the other eyes 106.0 / 108.2 and 96.3 / 99.5, UGR 17.10 / 17.03
+  and 19.02 / 18.90). An observer of an L belongs at the middle of a wall it stands at,
+  inside the room (not changed: ``core/output/glare.py`` is outside this helper's part).
+* Designs were made with the code of 04:15-04:55 UTC: lab and L office with one ring
+  (RINGS = 1; 2 is the default now and never draws more on the same layout), classroom
+  with up to 80 fast-ranked layouts; L corridor with the final code.
+
+Earlier, measured 2026-11-26, round 4 (shared 2-core machine at load 8; rtrace -ab 6 -ad 256 -aa 0.15,
 3-7 min per judgement; the grids' judgements had no time to run, so "grid W" is the
 exact model's, dimmed evenly to it; per item: Radiance's mean / U0, maintained).
 
@@ -304,7 +347,7 @@ def _leg_indirect(search, k, leg):
     return (total - direct) / (m.mf * e.flux_lm * len(x[2]))
 
 
-def grid_reference(scene, spec, phot, splits, n_exact=30):
+def grid_reference(scene, spec, phot, splits, n_exact=120):
     """The lighting designer's best regular grid: every type, one nx x ny grid with half
     spacing at the walls per rectangle of the room (an L: both ways of cutting it into two,
     every nx x ny per leg), dimmed evenly where the type allows. Ranked by the watts the
@@ -575,81 +618,76 @@ def verdict(rad, rs):
     return ok
 
 
-def _fmt(rad, key):
-    return "%.0f/%.2f" % rad[key] if key in rad else "-"
-
-
-def radiance_dimmed(ref, lums, rad, rs, spec):
-    """The grid dimmed evenly to what Radiance finds it needs (the reference at its
-    cheapest: Radiance's light scales with the output): (scale, figures) or (1, rad) where
-    the type is not dimmable or no other output passes."""
-    e = next(x for x in spec.catalogue if x.name == lums[0].extra["type"])
-    lo = e.dimming[0] if e.dimming else 1.0
-    need = lux_scale_needed(rad, rs) * 1.001
-    dim = float(np.clip(ref.dim * need, lo, 1.0))
-    if abs(dim - ref.dim) < 1e-9:
-        return 1.0, rad
-    scaled = rescaled(rad, dim / ref.dim, lums, spec.maintenance_factor)
-    if all(verdict(scaled, rs).values()) or not all(verdict(rad, rs).values()):
-        return dim / ref.dim, scaled
-    return 1.0, rad
-
-
 #: where the designs (pickled) and the Radiance jobs go: ignored by git, carried as it is
 JOBS = os.path.join(os.path.dirname(HERE), "out", "radjobs")
 
 
 def design_both(name, cat, phot, phot_paths):
-    """The grid reference's and invrad's designs of a room (cached in JOBS/<room>/)."""
+    """The grid reference's and invrad's designs of a room, each cached in
+    JOBS/<room>/<label>.pkl (delete one to redo that design and its Radiance job)."""
     import pickle
-    cache = os.path.join(JOBS, name, "designs.pkl")
-    if os.path.exists(cache):
-        with open(cache, "rb") as fh:
-            return pickle.load(fh)
+    import shutil
     build, room = ROOMS[name]
     scene = build()
     spec = room_spec(cat, room)
-    t = time.perf_counter()
-    ref, ref_lums, ref_desc, _ = grid_reference(scene, spec, phot, SPLITS[name])
-    t_ref = time.perf_counter() - t
-    t = time.perf_counter()
-    rd = design_room(scene, spec, 0, photometry=phot)
-    t_inv = time.perf_counter() - t
-    m, su = rd.metrics, rd.metrics.surfaces
-    cyl = getattr(rd, "cyl_figures", None)
-    own = (f"{m.em:.0f}/{m.u0:.2f}"
-           + "".join(f" {k} {su[k][0]:.0f}/{su[k][2]:.2f}"
-                     for k in ("surroundings", "walls", "ceiling") if k in su)
-           + (f" Ez {cyl['em_lux']:.0f}/{cyl['u0']:.2f}" if cyl else "")
-           + f" UGR {'-' if rd.ugr is None else round(rd.ugr, 1)}")
-    runs = {"grid": dict(watts=ref.watts if ref else math.inf, lums=ref_lums, s=t_ref,
-                         desc=ref_desc, dim=ref.dim if ref else None, own=None),
-            "invrad": dict(watts=rd.watts, lums=rd.luminaires, s=t_inv, dim=None, own=own,
-                           desc=f"{rd.candidate.geom.describe()}: "
-                           + ", ".join(f"{n} x {k}" for k, n in sorted(rd.schedule().items()))
-                           + f" at {100 * rd.candidate.dim:.0f} %")}
-    for label, r in runs.items():
+    runs = {}
+    for label in ("grid", "invrad"):
+        cache = os.path.join(JOBS, name, f"{label}.pkl")
+        if os.path.exists(cache):
+            with open(cache, "rb") as fh:
+                runs[label] = pickle.load(fh)
+            continue
+        t = time.perf_counter()
+        if label == "grid":
+            ref, ref_lums, ref_desc, _ = grid_reference(scene, spec, phot, SPLITS[name])
+            r = dict(watts=ref.watts if ref else math.inf, lums=ref_lums,
+                     s=time.perf_counter() - t, desc=ref_desc,
+                     dim=ref.dim if ref else None, own=None)
+        else:
+            rd = design_room(scene, spec, 0, photometry=phot)
+            m, su = rd.metrics, rd.metrics.surfaces
+            cyl = getattr(rd, "cyl_figures", None)
+            own = (f"{m.em:.0f}/{m.u0:.2f}"
+                   + "".join(f" {k} {su[k][0]:.0f}/{su[k][2]:.2f}"
+                             for k in ("surroundings", "walls", "ceiling") if k in su)
+                   + (f" Ez {cyl['em_lux']:.0f}/{cyl['u0']:.2f}" if cyl else "")
+                   + f" UGR {'-' if rd.ugr is None else round(rd.ugr, 1)}")
+            r = dict(watts=rd.watts, lums=rd.luminaires, s=time.perf_counter() - t,
+                     dim=None, own=own,
+                     desc=f"{rd.candidate.geom.describe()}: "
+                     + ", ".join(f"{n} x {k}" for k, n in sorted(rd.schedule().items()))
+                     + f" at {100 * rd.candidate.dim:.0f} %")
+        job = os.path.join(JOBS, name, label)
+        if os.path.isdir(job):
+            shutil.rmtree(job)          # a new design: its old judgement is void
         if r["lums"]:
-            r["plan"] = judge_prepare(scene, spec, r["lums"], os.path.join(JOBS, name, label),
-                                      phot_paths)
-    os.makedirs(os.path.dirname(cache), exist_ok=True)
-    with open(cache, "wb") as fh:
-        pickle.dump(runs, fh)
+            r["plan"] = judge_prepare(scene, spec, r["lums"], job, phot_paths)
+        os.makedirs(os.path.dirname(cache), exist_ok=True)
+        with open(cache, "wb") as fh:
+            pickle.dump(r, fh)
+        runs[label] = r
     return runs
 
 
-def radiance_dimmed(dim, lums, rad, rs, spec):
-    """The grid dimmed evenly to what Radiance finds it needs (the reference at its
-    cheapest: Radiance's light scales with the output): (scale, figures), (1, rad) where
-    the type is not dimmable or no other output passes."""
-    e = next(x for x in spec.catalogue if x.name == lums[0].extra["type"])
-    lo = e.dimming[0] if e.dimming else 1.0
-    new = float(np.clip(dim * lux_scale_needed(rad, rs) * 1.001, lo, 1.0))
-    if abs(new - dim) < 1e-9:
+def radiance_dimmed(lums, rad, rs, spec):
+    """A design's luminaires all dimmed by one factor to what Radiance finds it needs (a
+    design at its cheapest by the judge: Radiance's light scales with the output; the
+    same for the grid and for invrad): (scale, figures), or (1, rad) where no factor keeps
+    every output within its type's range or none passes. Each luminaire keeps its output
+    relative to the others (invrad's outer and inner rows stay apart)."""
+    f, lo = [], []
+    for lum in lums:
+        e = next(x for x in spec.catalogue if x.name == lum.extra["type"])
+        f.append(lum.flux_lm / e.flux_lm)
+        lo.append(e.dimming[0] if e.dimming else 1.0)
+    f, lo = np.array(f), np.array(lo)
+    s_min, s_max = float(np.max(np.minimum(lo, f) / f)), float(np.min(1.0 / f))
+    scale = float(np.clip(lux_scale_needed(rad, rs) * 1.001, s_min, s_max))
+    if abs(scale - 1.0) < 1e-9:
         return 1.0, rad
-    scaled = rescaled(rad, new / dim, lums, spec.maintenance_factor)
+    scaled = rescaled(rad, scale, lums, spec.maintenance_factor)
     if all(verdict(scaled, rs).values()) or not all(verdict(rad, rs).values()):
-        return new / dim, scaled
+        return scale, scaled
     return 1.0, rad
 
 
@@ -697,23 +735,23 @@ def main(names, trace=True):
             rad = judge_finish(os.path.join(JOBS, name, label), r["plan"], spec, lums) \
                 if lums else None
             if rad is None:
-                rows.append((name, label, w, False))
+                rows.append((name, label, w, False, math.inf))
                 print(f"{name:11s} {label:7s} {'-':>7s}  {desc}"
                       + ("" if not lums else " (not traced yet)"), flush=True)
                 continue
-            if r["dim"] is not None:
-                scale, rad2 = radiance_dimmed(r["dim"], lums, rad, rs, spec)
-                if scale != 1.0:
-                    print(f"{name:11s} {label:7s} {w:7.1f} as the exact model dims it:"
-                          f" Radiance Em {rad['em']:.0f}, "
-                          + ", ".join(f"{k} {_fmt(rad, k)}" for k in
-                                      ("surroundings", "walls", "ceiling", "Ez") if k in rad)
-                          + f"; dimmed evenly to Radiance's need: x {scale:.3f}", flush=True)
-                    w, rad = w * scale, rad2
-                    desc += f" -> {100 * r['dim'] * scale:.0f} % by Radiance"
+            w0, ok0 = w, all(verdict(rad, rs).values())
+            scale, rad2 = radiance_dimmed(lums, rad, rs, spec)
+            if scale != 1.0:
+                print(f"{name:11s} {label:7s} {w:7.1f} as the exact model dims it:"
+                      f" Radiance Em {rad['em']:.0f}, "
+                      + ", ".join(f"{k} {_fmt(rad, k)}" for k in
+                                  ("surroundings", "walls", "ceiling", "Ez") if k in rad)
+                      + f"; dimmed evenly to Radiance's need: x {scale:.3f}", flush=True)
+                w, rad = w * scale, rad2
+                desc += f" -> x {scale:.3f} by Radiance"
             ok = verdict(rad, rs)
             good = all(ok.values())
-            rows.append((name, label, w, good))
+            rows.append((name, label, w, good, w0 if ok0 else math.inf))
             ug = "-" if rad["ugr"] is None else f"{rad['ugr']:.1f}"
             cells = ["%.0f/%.2f" % (rad["em"], rad["u0"]), _fmt(rad, "surroundings"),
                      _fmt(rad, "walls"), _fmt(rad, "ceiling"), _fmt(rad, "Ez"), ug]
@@ -732,6 +770,12 @@ def main(names, trace=True):
     for n in iw:
         print(f"  {n:11s} invrad / grid = {iw[n] / gw[n]:.3f}" if math.isfinite(gw[n])
               else f"  {n:11s} no compliant grid")
+    g0 = {r[0]: r[4] for r in rows if r[1] == "grid"}
+    i0 = {r[0]: r[4] for r in rows if r[1] == "invrad"}
+    for n in i0:
+        if math.isfinite(g0[n]) and math.isfinite(i0[n]):
+            print(f"  {n:11s} as designed (no re-dimming by Radiance), both compliant:"
+                  f" invrad {i0[n]:.1f} W / grid {g0[n]:.1f} W = {i0[n] / g0[n]:.3f}")
     both = [n for n in iw if math.isfinite(gw[n])]
     if both:
         print(f"invrad / grid over the rooms both design: "

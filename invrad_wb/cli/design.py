@@ -47,9 +47,11 @@ def schedule_csv(result):
                 "efficacy_lm_per_w"])
     cat = {e.name: e for e in result.spec.catalogue}
     for r in result.rooms:
-        dim = r.candidate.dim if r.candidate is not None else 1.0
+        dim0 = r.candidate.dim if r.candidate is not None else 1.0
+        outputs = r.type_outputs()
         for t, n in sorted(r.schedule().items()):
             e = cat[t]
+            dim = outputs.get(t, dim0)
             w.writerow([r.name, t, n, f"{e.flux_lm * dim:.0f}", f"{e.watts * dim:.2f}",
                         f"{dim:.3f}", f"{n * e.watts * dim:.2f}", f"{e.efficacy:.1f}"])
     return buf.getvalue()

@@ -189,17 +189,19 @@ class CylindricalGrid:
                                  bvh=m.bvh, occlusion=occl, backend=m.backend)
         return ez, eh
 
-    def indirect(self, luminaires):
-        """Interreflected (ez (k,), eh (k,)) lux of the new installation."""
+    def indirect(self, luminaires, covering=None):
+        """Interreflected (ez (k,), eh (k,)) lux of the new installation (``covering``:
+        :meth:`.evaluate.RoomModel.solve`)."""
         m, k = self.model, len(self.points)
         if not luminaires:
             return np.zeros(k), np.zeros(k)
-        return self.gather(m.solve(luminaires))
+        return self.gather(m.solve(luminaires, covering))
 
-    def evaluate(self, luminaires):
-        """Maintained (ez (k,), eh (k,)) lux of ``luminaires`` at the points."""
+    def evaluate(self, luminaires, covering=None):
+        """Maintained (ez (k,), eh (k,)) lux of ``luminaires`` at the points (``covering``:
+        :meth:`.evaluate.RoomModel.solve`)."""
         dz, dh = self.direct(luminaires)
-        iz, ih = self.indirect(luminaires)
+        iz, ih = self.indirect(luminaires, covering)
         return self.model.mf * (dz + iz), self.model.mf * (dh + ih)
 
 

@@ -15,6 +15,7 @@ import numpy as np
 from invrad_wb.errors import Cancelled, SettingsError
 from invrad_wb.core.accel.workers import map_rooms
 from invrad_wb.core.design.evaluate import RoomModel, surface_grids
+from invrad_wb.core.design.refine import refine
 from invrad_wb.core.design.room import DesignRoom
 from invrad_wb.core.design.accent import SPOT_TOLERANCE, find_goals, light_spots, within
 from invrad_wb.core.design.accents import light_spots_aimed
@@ -118,6 +119,21 @@ class RoomDesign:
             out.setdefault(t, 0)
             out[t] += 1
         return out
+
+    def type_outputs(self):
+        """{type: mean output fraction of that type's general luminaires} (their lumens
+        over the lumens at full output: one figure per type where outer and inner rows
+        are dimmed apart, :mod:`.refine`)."""
+        if self.candidate is None:
+            return {}
+        if getattr(self.candidate, "dims", None) is None:
+            return {t: self.candidate.dim for t in self.schedule()}
+        full, got = {}, {}
+        for lum, d in zip(self.luminaires, self.candidate.dims):
+            t = lum.extra.get("type")
+            full[t] = full.get(t, 0.0) + lum.flux_lm / max(d, 1e-12)
+            got[t] = got.get(t, 0.0) + lum.flux_lm
+        return {t: got[t] / full[t] for t in full}
 
     def _turned(self):
         """', C0 along the room' (or across) where the chosen type was turned."""
@@ -382,8 +398,18 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
         rd.notes.append(f"no position in this room suits a {rs.mounting.kind} mounting")
         return rd
     cand, met, n_exact = run_search(search)
+    if cand is not None:
+        # the same and the next cheapest layouts with their outer and inner rows dimmed
+        # apart, where the types dim (a linear programme on the exact model)
+        cand, met, n_lp = refine(search, cand, met)
+        n_exact += n_lp
     rd.candidate, rd.metrics, rd.exact_solves = cand, met, n_exact
     rd.luminaires = search.luminaires(cand)
+    if cand.dims is not None and np.ptp(cand.dims) > 1e-6:
+        rd.notes.append(f"outer and inner rows dimmed apart: outputs"
+                        f" {100 * cand.dims.min():.0f} to {100 * cand.dims.max():.0f} %"
+                        " (each luminaire carries its own lumens, the schedule each type's"
+                        " mean; one common level would draw more)")
     rd.grid_points = points
     rd._shade_limit = rs.shade_limit_lux
     _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search)
@@ -420,11 +446,12 @@ def _redim_with_accents(rd, model, search, parts, accents, req, rs):
         return
     e0, e1 = (search.entries[k] for k in cand.entries)
     floor = max(e0.dimming[0], e1.dimming[0]) if search.dimming else 1.0
-    if cand.dim <= floor + 1e-9:
+    lowest = cand.dim if cand.dims is None else float(np.min(cand.dims))
+    if lowest <= floor + 1e-9:
         return
     (G, Gd), (A, Ad) = parts
     spots = [sp for sp in rd.spots if sp.goal.kind == "spot"]
-    for f in np.linspace(floor / cand.dim, 1.0, REDIM_STEPS + 1):
+    for f in np.linspace(floor / lowest, 1.0, REDIM_STEPS + 1):
         met = Metrics.of(f * G + A, f * Gd + Ad, model.layout)
         if (met.em < req.lux * 1.001 or not metrics_comply(met, search)
                 or not margin_kept(met, search)):
@@ -439,7 +466,8 @@ def _redim_with_accents(rd, model, search, parts, accents, req, rs):
     if f >= 1.0 - 1e-9:
         return
     rd.candidate = Candidate(cand.geom, cand.entries, cand.dim * f, cand.watts * f, met.em,
-                             met.u0, met.shade_max, True)
+                             met.u0, met.shade_max, True,
+                             dims=None if cand.dims is None else cand.dims * f)
     rd.luminaires = search.luminaires(rd.candidate) + accents
     rd.metrics = met
     for sp in rd.spots:

@@ -401,15 +401,19 @@ class RoomModel:
         return patch
 
     # ------------------------------------------------------------------ exact
-    def solve(self, luminaires):
+    def solve(self, luminaires, covering=None):
         """Patch exitance (P,) of luminaires' light: their direct light on the patches and
         the radiosity solve, with the ceiling behind their luminous openings reflecting
-        as an opening (:data:`OPENING_REFLECTANCE`), not as ceiling."""
+        as an opening (:data:`OPENING_REFLECTANCE`), not as ceiling. ``covering``: the
+        luminaires whose openings cover the ceiling (default: ``luminaires``; a part of
+        an installation lit alone, with the whole installation's openings in place,
+        adds up to the whole: the reflectances stay those of the whole)."""
         rad = self.rad
         e = rad.patch_direct(luminous_samples(luminaires), self.bvh, self.bvh is not None,
                              self.backend)
         m = self.mesh
-        share = covered_share(m.triangles, m.face_normals, luminaires)
+        share = covered_share(m.triangles, m.face_normals,
+                              luminaires if covering is None else covering)
         if not share.any():
             return rad.solve(e)
         cov = np.bincount(rad.face_patch[rad.face_patch >= 0],
@@ -423,11 +427,11 @@ class RoomModel:
         finally:
             rad.patch_reflectance = rho
 
-    def exact(self, luminaires):
+    def exact(self, luminaires, covering=None):
         """Maintained illuminance (k,) lux at the receivers: direct with shadows plus a
-        radiosity solve; and the direct part alone."""
+        radiosity solve; and the direct part alone (``covering``: :meth:`solve`)."""
         occl = self.bvh is not None
-        b = self.solve(luminaires)
+        b = self.solve(luminaires, covering)
         luminaires = luminous_samples(luminaires)
         indirect = self._gather(b)
         direct = direct_illuminance(self.points, self.normals, luminaires, bvh=self.bvh,
@@ -449,13 +453,14 @@ class RoomModel:
                                     occlusion=occl, backend=self.backend)
         return self.mf * (direct + self.indirect_at(lifted, normals, luminaires))
 
-    def indirect_at(self, points, normals, luminaires):
+    def indirect_at(self, points, normals, luminaires, covering=None):
         """Interreflected illuminance (lux, new installation) at any receivers in the
-        room, e.g. an observer's eye for the background luminance of UGR."""
+        room, e.g. an observer's eye for the background luminance of UGR (``covering``:
+        :meth:`solve`)."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         near = nearest_site(self.mesh.face_centroids, points)
         op = self.rad.gather(points, normals, self.rad.face_patch[near])
-        return op(self.solve(luminaires))
+        return op(self.solve(luminaires, covering))
 
     def calibrate(self, key, luminaires, fast_lux):
         """Learn the indirect light per lumen of a catalogue entry (``key``; None: skip) from

@@ -51,6 +51,48 @@ def merge_collinear(segments, tol=1e-6):
     return np.array(out)
 
 
+def cancel_opposite(segments, tol=1e-6):
+    """Oriented 2-D boundary segments (k, 2, 2) less the stretches that two faces share
+    with opposite directions: a mesh whose neighbouring floor cells do not meet vertex to
+    vertex (a T-junction, cells of different sizes) leaves both sides of their common edge
+    as "boundary"; they run opposite ways (each face's winding) and cancel. Returns the
+    merged, oriented segments of what is left (the true outline)."""
+    seg = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
+    if len(seg) == 0:
+        return seg
+    d = seg[:, 1] - seg[:, 0]
+    ang = np.mod(np.arctan2(d[:, 1], d[:, 0]), np.pi)
+    ang = np.where(ang > np.pi - 1e-9, 0.0, ang)
+    u = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    off = seg[:, 0, 0] * -u[:, 1] + seg[:, 0, 1] * u[:, 0]
+    key = np.stack([np.round(ang / 1e-7), np.round(off / tol)], axis=1)
+    out = []
+    for k in np.unique(key, axis=0):
+        sel = np.flatnonzero(np.all(key == k, axis=1))
+        uu = u[sel[0]]
+        base = seg[sel[0], 0] - (seg[sel[0], 0] @ uu) * uu
+        a, b = seg[sel, 0] @ uu, seg[sel, 1] @ uu
+        sign = np.where(b >= a, 1, -1)
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        cuts = np.unique(np.round(np.r_[lo, hi] / tol) * tol)
+        net = [int(np.sum(sign[(lo <= c0 + tol) & (hi >= c1 - tol)]))
+               for c0, c1 in zip(cuts[:-1], cuts[1:])]
+        run = None
+        for (c0, c1), n in zip(zip(cuts[:-1], cuts[1:]), net + [0]):
+            if run is not None and (n != run[2] or c0 > run[1] + tol):
+                s0, s1 = (run[0], run[1]) if run[2] > 0 else (run[1], run[0])
+                out.append([base + s0 * uu, base + s1 * uu])
+                run = None
+            if n != 0 and run is None:
+                run = [c0, c1, n]
+            elif n != 0:
+                run[1] = c1
+        if run is not None:
+            s0, s1 = (run[0], run[1]) if run[2] > 0 else (run[1], run[0])
+            out.append([base + s0 * uu, base + s1 * uu])
+    return np.array(out).reshape(-1, 2, 2)
+
+
 def in_polygon(polygon, xy):
     """(k,) bool: plan points ``xy`` (k, 2) inside a plan polygon (c, 2) (even-odd)."""
     p = np.asarray(polygon, dtype=np.float64)
@@ -89,8 +131,10 @@ class DesignRoom:
         self.ceiling_tri = scene.vertices[scene.faces[np.flatnonzero(sel & (nz < _DOWN))]]
         self.top_z = float(scene.vertices[np.unique(scene.faces[sel])][:, 2].max())
         self.floor_area = float(scene.face_areas[floor].sum())
-        self._edges = merge_collinear(boundary_edges(scene.vertices,
-                                                     scene.faces[floor])[..., :2])
+        # the floor's outline; stretches between cells that do not meet vertex to vertex
+        # are shared (opposite windings), not walls
+        self._edges = merge_collinear(cancel_opposite(boundary_edges(
+            scene.vertices, scene.faces[floor])[..., :2]))
         c = self.ceiling_tri
         self._flat_ceiling = (len(c) > 0 and np.ptp(c[..., 2]) < 1e-6)
         #: the room's :class:`~invrad_wb.core.model.scene.NoMountZone` s

@@ -62,6 +62,9 @@ class Candidate:
     u0: float
     shade_max: float
     ok: bool
+    #: (L,) output fraction of each luminaire where they differ (:mod:`.refine`; then
+    #: ``dim`` is the power-weighted mean output), or None: all at ``dim``
+    dims: np.ndarray = field(default=None, repr=False, compare=False)
 
     def key(self):
         g = self.geom
@@ -310,10 +313,11 @@ class RoomSearch:
             return np.where(np.isnan(u).all(axis=1), np.nan,
                             np.nanmax(np.where(np.isnan(u), -np.inf, u), axis=1))
 
-    def exact_glare(self, luminaires):
+    def exact_glare(self, luminaires, covering=None):
         """(total (O,), background lux (O,)) of luminaires: the glare sums of
         :func:`unit_glare` and the maintained interreflected light at the eyes by an exact
-        solve; ``ugr_from_sum(f^2 total, f lb)`` is the UGR at output fraction f."""
+        solve; ``ugr_from_sum(f^2 total, f lb)`` is the UGR at output fraction f
+        (``covering``: :meth:`.evaluate.RoomModel.solve`)."""
         if not self.obs or not luminaires:
             return None
         eyes = np.array([e for e, _ in self.obs])
@@ -326,7 +330,7 @@ class RoomSearch:
                 total[o] += lum.flux_lm ** 2 * unit_glare(
                     eye, view, lum.position[None], lum.normal[None], self._area(e),
                     self.phot.get(e.name), lum.c0)[0]
-        lb = self.model.mf * self.model.indirect_at(eyes, views, luminaires)
+        lb = self.model.mf * self.model.indirect_at(eyes, views, luminaires, covering)
         return total, lb
 
     def _calibrate_all(self):
@@ -469,7 +473,8 @@ class RoomSearch:
     def luminaires(self, cand):
         g = cand.geom
         idx = np.asarray(cand.entries)[g.cls]
-        flux = np.array([self.entries[k].flux_lm for k in idx]) * cand.dim
+        out = cand.dim if getattr(cand, "dims", None) is None else np.asarray(cand.dims)
+        flux = np.array([self.entries[k].flux_lm for k in idx]) * out
         return luminaires_of(g.positions, g.normals, flux, self.entries, idx,
                              self.model.droom.room, self.phot, self._axes)
 

@@ -200,9 +200,11 @@ def schedule_rows(result):
     cat = {e.name: e for e in result.spec.catalogue}
     rows = []
     for r in result.rooms:
-        dim = r.candidate.dim if r.candidate is not None else 1.0
+        dim0 = r.candidate.dim if r.candidate is not None else 1.0
+        outputs = r.type_outputs()
         for t, n in sorted(r.schedule().items()):
             e = cat[t]
+            dim = outputs.get(t, dim0)
             rows.append({"room": r.name, "type": t, "count": n,
                          "flux_lm": round(e.flux_lm * dim), "watts": round(e.watts * dim, 2),
                          "dim_percent": round(100 * dim), "watts_total":

@@ -408,6 +408,11 @@ def test_a_dimmed_design_keeps_its_margin_above_every_minimum():
                   s["surroundings"][0] / rd.surface_reqs["surroundings"].lux]
         assert min(ratios) >= 1 + m - 1e-6
         assert min(ratios) <= 1 + m + 0.002
+        # the schedule's per-type output gives the watts drawn (outputs may differ per
+        # luminaire: outer and inner rows dimmed apart)
+        out = rd.type_outputs()
+        assert abs(sum(n * 26.0 * out[t] for t, n in rd.schedule().items())
+                   - rd.watts) < 1e-6 * rd.watts
         got[m] = rd
     assert _spec(room, cat=cat).design_margin == 0.01
     with pytest.raises(SettingsError, match="design_margin"):
@@ -478,3 +483,124 @@ def test_the_ceiling_behind_a_luminous_opening_reflects_as_the_opening():
     assert np.all(b_open[part] < 0.85 * b_point[part])
     total = lambda b: float(np.sum(b * model.rad.patch_area))        # noqa: E731
     assert total(b_open) < total(b_point)
+
+
+# ----------------------------------------------------------------------------- refine
+def _box_search(size=(5.0, 4.0, 2.8), cell=0.5):
+    """RoomSearch of a box room (500 lx / 0.6, walls 75 lx) with one dimmable type."""
+    from invrad_wb.core.design.design import _with_surroundings
+    from invrad_wb.core.design.evaluate import RoomModel, surface_grids
+    from invrad_wb.core.design.room import DesignRoom
+    from invrad_wb.core.design.search import RoomSearch
+    sc = g.with_reflectances(g.box_room(size=size, cell=cell))
+    # a disk opening: its ceiling reflects as the opening (the groups' solves must add up
+    # with every group's openings in place)
+    spec = _spec({"work_plane": {"lux": 500, "u0": 0.6}, "walls": {"lux": 75}},
+                 cat=[dict(CAT[2], radius_m=0.25)])
+    rs = spec.room_spec(0)
+    droom = DesignRoom(sc, 0)
+    req = rs.work_plane
+    pts, _ = droom.grid(req.height_m, req.margin_m)
+    surfaces = surface_grids(sc, 0, droom)
+    rs = _with_surroundings(rs, droom, req, surfaces, type("RD", (), {"notes": []})())
+    model = RoomModel(sc, droom, pts, spec.maintenance_factor, surfaces=surfaces)
+    search = RoomSearch(model, req, rs, spec.entries_for(rs, size[2]), {}, mixed=False)
+    search.margin = spec.design_margin
+    search._calibrate_all()
+    return search
+
+
+def test_groups_of_a_grid_are_its_corners_edges_and_middle():
+    from invrad_wb.core.design.refine import groups_of
+    s, t = np.meshgrid(np.arange(4.0), np.arange(3.0), indexing="ij")
+    plan = np.c_[s.ravel(), t.ravel()]
+    grp = groups_of(plan, np.zeros(len(plan), int))
+    corner = grp[0]
+    assert len(set(grp)) == 4
+    assert {grp[i] for i in (0, 2, 9, 11)} == {corner}            # the four corners
+    assert len({grp[i] for i in (1, 10)}) == 1                    # ends of the middle rows
+    assert grp[4] == grp[7] and grp[4] not in (corner, grp[1])    # the middle
+    # a class of its own stays apart from the same ring of the other class
+    cls = (plan[:, 0] == 0).astype(int)
+    assert grp[0] != groups_of(plan, cls)[0] or len(set(groups_of(plan, cls))) > 4
+
+
+def test_per_group_dimming_meets_the_room_on_the_exact_model_for_no_more_power():
+    """The programme's result is a real design: an independent exact solve of its
+    luminaires gives its figures (light adds up), every requirement is met with the
+    margin, the outputs stay within the dimming range, and it never draws more than the
+    same layout dimmed evenly."""
+    from invrad_wb.core.design.refine import exact_refine
+    from invrad_wb.core.design.search import Metrics, _finalise, metrics_comply
+    search = _box_search()
+    t = search.table()
+    rows = [r for r in np.flatnonzero(t["ok"])][:2]
+    assert rows
+    better = 0
+    for r in rows:
+        cand = search.candidate(t, r)
+        even, _ = _finalise(search, cand, search.check(cand))
+        got = exact_refine(search, cand)
+        if not even.ok:
+            continue
+        assert got is not None
+        c, met = got
+        assert c.ok and metrics_comply(met, search)
+        assert c.watts <= even.watts * (1 + 1e-6)
+        better += c.watts < even.watts * 0.999
+        assert np.all(c.dims >= 0.1 - 1e-9) and np.all(c.dims <= 1 + 1e-9)
+        lums = search.luminaires(c)
+        assert np.allclose([x.flux_lm for x in lums], 3500 * c.dims)
+        assert abs(sum(26.0 * d for d in c.dims) - c.watts) < 1e-6
+        total, direct = search.model.exact(lums)
+        ind = Metrics.of(total, direct, search.model.layout)
+        assert abs(ind.em - met.em) < 1e-6 * met.em and abs(ind.u0 - met.u0) < 1e-6
+        assert ind.em >= 500 * (1 + search.margin) - 1e-3
+    assert better, "dimming per group saved nothing in any layout"
+
+
+def test_the_ugr_cutting_planes_meet_the_convex_glare_limit_at_least_power():
+    """Two groups, a mean to meet and a glare limit ``0.25 pi sum x^2 T <= 10^(u/8) x.B``
+    that the plain programme's answer breaks: the cuts end at an answer that meets it,
+    as cheap as the best of a fine brute-force search."""
+    from types import SimpleNamespace
+    from invrad_wb.core.design.evaluate import Layout
+    from invrad_wb.core.design.refine import UGR_MARGIN, solve_outputs
+    from invrad_wb.core.output.glare import ugr_from_sum
+    lux = np.array([[300.0, 300.0], [200.0, 200.0]])    # two points, two groups
+    search = SimpleNamespace(model=SimpleNamespace(layout=Layout(2, {}, 2)), margin=0.0,
+                             req=SimpleNamespace(lux=250.0, u0=0.0), surf_reqs={},
+                             rs=SimpleNamespace(shade_limit_lux=5.0), cyl_req=None,
+                             ugr_max=19.0)
+    watts = np.array([10.0, 9.0])      # group 0 is the cheaper light per watt ...
+    T = np.array([[1e4], [1e2]])        # ... but glares far more
+    B = np.array([[20.0], [20.0]])
+    parts = {"lux": lux, "direct": 0.5 * lux}
+    lo, hi = np.full(2, 0.1), np.ones(2)
+    plain = solve_outputs(parts, watts, lo, hi, search)
+    assert ugr_from_sum((plain ** 2) @ T, plain @ B)[0] > 19.0
+    x = solve_outputs(parts, watts, lo, hi, search, glare=(T, B))
+    assert x is not None
+    assert ugr_from_sum((x ** 2) @ T, x @ B)[0] <= 19.0 - UGR_MARGIN + 1e-3
+    a, b = np.meshgrid(np.linspace(0.1, 1, 901), np.linspace(0.1, 1, 901), indexing="ij")
+    X = np.c_[a.ravel(), b.ravel()]
+    ok = ((X @ lux[:, 0] >= 250 - 1e-9)
+          & (ugr_from_sum((X ** 2) @ T, X @ B)[:, 0] <= 19.0 - UGR_MARGIN))
+    assert x @ watts <= (X[ok] @ watts).min() + 0.05
+
+
+def test_a_floor_of_cells_that_do_not_meet_vertex_to_vertex_has_its_true_outline():
+    """The pillar room's floor strips beside the pillar are cut into cells of another size
+    than the rest (T-junctions): the shared edges run both ways and are no wall; the
+    strips are inside, the pillar outside, at any cell size."""
+    from invrad_wb.core.design.room import DesignRoom, cancel_opposite
+    for cell in (0.2, 0.25, 0.3):
+        d = DesignRoom(g.pillar_room(cell=cell), 0)
+        assert list(d.inside(np.array([[3.0, 0.5], [3.0, 3.5], [1.0, 1.0], [3.0, 2.0]]))) \
+            == [True, True, True, False]
+        assert len(d._edges) == 8                        # 4 walls and the pillar's 4 sides
+    # a 0-2 edge and a 2-0 edge from cells 0-1, 1-2: all cancels; a lone one stays
+    seg = np.array([[[0, 0], [2, 0]], [[1, 0], [0, 0]], [[2, 0], [1, 0]], [[0, 1], [0, 3]]],
+                   dtype=float)
+    left = cancel_opposite(seg)
+    assert left.shape == (1, 2, 2) and np.allclose(left[0], [[0, 1], [0, 3]])

@@ -1,0 +1,284 @@
+"""Per-group dimming of a layout: the least power of given positions, solved as a linear
+programme on the exact model.
+
+A regular grid dimmed evenly wastes light: its middle luminaires light the work plane
+best, its outer ones the walls and the work plane's edge. Light adds up (radiosity is
+linear), so with the luminaires of a layout split into groups (the outer and the inner
+rows and columns, per catalogue class) and one exact solve per group, every requirement
+is linear in the groups' outputs ``x``:
+
+* a mean (work plane, walls, ceiling, surroundings, Ez) at least its minimum (x (1 +
+  the design margin)): ``sum_g x_g mean_g >= lux``;
+* a uniformity ``Emin / Em >= u0`` at every point ``j``: ``sum_g x_g (E_gj - u0 mean_g)
+  >= 0``;
+* the direct light on a point that must stay dark at most its limit;
+
+and the power ``sum_g x_g W_g`` is minimised over ``x_g`` within each type's dimming range
+(:func:`scipy.optimize.linprog`, HiGHS). UGR is not linear (its glare sum grows with
+``x^2``, its background with ``x``) but its constraint ``0.25 pi sum_g x_g^2 T_g <=
+10^(limit / 8) sum_g x_g B_g`` is convex: cutting planes at each solution that breaks it
+(Kelley) until it holds. Every figure of the result is the exact model's (the groups'
+solves added up), judged by :func:`.search.metrics_comply` like any other design.
+
+Which layouts: the search's own design and the fast model's cheapest candidates (those
+within :data:`WATTS_WINDOW` of it, even ones that miss a uniformity when dimmed evenly:
+brighter outer rows may meet it), ranked first by the same programme on the fast model
+(no solves), then the best :data:`EXACT_TRIES` solved exactly.
+"""
+import math
+
+import numpy as np
+
+from invrad_wb.core.design.evaluate import unit_response
+from invrad_wb.core.design.search import (EXACT_ONLY, Candidate, Metrics, margin_kept,
+                                          metrics_comply)
+from invrad_wb.core.output.glare import ugr_from_sum
+
+#: rows / columns from each end of a layout that form their own group (2: the outer
+#: ring, the next and the rest: up to 9 groups per class; finer groups never draw more,
+#: they contain the coarser ones' answer; in a symmetric room a grid of up to 5 x 5 gets
+#: a group per symmetry orbit, which a programme per luminaire would not beat)
+RINGS = 2
+#: uniformities are kept this far above their minimums in the programme (a dimmed layout
+#: sits on its binding uniformity; another engine's figures scatter by about this much)
+U0_MARGIN = 0.01
+#: UGR is kept this far below its limit in the programme (the report's UGR sums each
+#: luminaire's glare apart and differs from the glare sums by a few hundredths)
+UGR_MARGIN = 0.1
+#: relative allowance for the solver's feasibility tolerance on the means
+LP_TOL = 1e-5
+#: fast candidates whose evenly dimmed watts are within this factor of the design's are
+#: ranked by the fast programme
+WATTS_WINDOW = 1.15
+#: fast candidates ranked at most (those the fast programme finds an answer for) ...
+FAST_TRIES = 80
+#: ... among this many evaluated at most
+FAST_ROWS = 300
+#: layouts solved exactly at most (each: one exact solve per group)
+EXACT_TRIES = 4
+#: a layout is solved exactly while the fast programme's watts are within this factor of
+#: the best design's (the fast model has no shadows and a per-point correction learnt on
+#: other layouts)
+FAST_TRUST = 1.05
+#: cutting planes added for UGR at most (Kelley's method closes in slowly; each is one
+#: more small programme)
+UGR_CUTS = 40
+#: a glare sum this share over the limit's counts as met (0.004 UGR; UGR_MARGIN keeps the
+#: design below the limit)
+UGR_CUT_TOL = 1e-3
+
+
+def groups_of(plan, cls, rings=None, tol=0.05):
+    """(L,) int group of each luminaire of a layout: its catalogue class and its ring
+    along s and along t (0: the outermost of its row / column, 1: the next, ...,
+    ``rings``: the rest; positions ``plan`` (L, 2) in the room's plan frame; ``tol`` m:
+    the same row)."""
+    rings = RINGS if rings is None else rings
+    plan = np.asarray(plan, dtype=float)
+    n = len(plan)
+    ring = np.zeros((n, 2), dtype=int)
+    for ax in (0, 1):
+        other = 1 - ax
+        for i in range(n):
+            line = np.flatnonzero(np.abs(plan[:, other] - plan[i, other]) < tol)
+            v = np.sort(plan[line, ax])
+            k = int(np.searchsorted(v, plan[i, ax] - 1e-9))
+            ring[i, ax] = min(k, len(v) - 1 - k, rings)
+    r = rings + 1
+    key = (np.asarray(cls) * r + ring[:, 0]) * r + ring[:, 1]
+    _, g = np.unique(key, return_inverse=True)
+    return g
+
+
+def solve_outputs(parts, watts, lo, hi, search, glare=None):
+    """The least-power outputs ``x`` (G,) of groups, or None where none meets the room.
+
+    ``parts``: dict with ``lux`` (G, k) maintained lux at the model's points at full
+    output, ``direct`` (G, k) its direct part, optionally ``ez`` (G, c) maintained Ez;
+    ``watts`` (G,) rated power per group; ``lo``, ``hi`` (G,) output range; ``glare``:
+    (T (G, O), B (G, O)) glare sums and maintained background lux per group at full output,
+    or None (UGR not constrained)."""
+    from scipy.optimize import linprog
+    lay = search.model.layout
+    # a hair above the margin: HiGHS meets constraints to about 1e-7 relative
+    k1 = (1.0 + search.margin) * (1.0 + LP_TOL)
+    L = np.asarray(parts["lux"], dtype=float)
+    rows, rhs = [], []
+
+    def mean_and_uniformity(block, w, lux, u0):
+        m = block @ w / max(float(w.sum()), 1e-12)                 # (G,)
+        rows.append(-m)
+        rhs.append(-lux * k1)
+        if u0 > 0:
+            rows.extend(-(block - (u0 + U0_MARGIN) * m[:, None]).T)
+            rhs.extend([0.0] * block.shape[1])
+
+    wp = L[:, :lay.n_wp]
+    mean_and_uniformity(wp, np.ones(lay.n_wp), search.req.lux, search.req.u0)
+    for name, r in search.surf_reqs.items():
+        if name in lay.parts:
+            sl, w = lay.parts[name]
+            mean_and_uniformity(L[:, sl], w, r.lux, r.u0)
+    D = np.asarray(parts["direct"], dtype=float)
+    if D.shape[1] > lay.shade0:
+        rows.extend(D[:, lay.shade0:].T)
+        rhs.extend([search.rs.shade_limit_lux] * (D.shape[1] - lay.shade0))
+    if search.cyl_req is not None and parts.get("ez") is not None:
+        ez = np.asarray(parts["ez"], dtype=float)
+        mean_and_uniformity(ez, np.ones(ez.shape[1]), search.cyl_req["lux"],
+                            search.cyl_req["u0"])
+    A, b = np.array(rows), np.array(rhs)
+    ugr_max = search.ugr_max if glare is not None else None
+    bounds = list(zip(lo, hi))
+    for _ in range(UGR_CUTS + 1):
+        res = linprog(watts, A_ub=A, b_ub=b, bounds=bounds, method="highs")
+        if res.status != 0:
+            return None
+        x = np.clip(res.x, lo, hi)
+        if ugr_max is None:
+            return x
+        T, B = glare
+        K = 10.0 ** ((ugr_max - UGR_MARGIN) / 8.0)
+        # g(x) = 0.25 pi sum x^2 T - K sum x B <= 0 at every observer (convex)
+        gx = 0.25 * math.pi * (x ** 2) @ T - K * (x @ B)
+        worst = int(np.argmax(gx))
+        if gx[worst] <= UGR_CUT_TOL * max(K * float(x @ B[:, worst]), 1e-12):
+            return x
+        grad = 0.5 * math.pi * x * T[:, worst] - K * B[:, worst]
+        A = np.vstack([A, grad])
+        b = np.append(b, grad @ x - gx[worst])
+    return None
+
+
+def _group_watts(search, cand, groups):
+    """(G,) rated watts, (G,) lowest and (G,) highest output of each group."""
+    g = cand.geom
+    idx = np.asarray(cand.entries)[g.cls]
+    G = int(groups.max()) + 1
+    w = np.bincount(groups, weights=[search.entries[k].watts for k in idx], minlength=G)
+    lo, hi = np.ones(G), np.ones(G)
+    for gi in range(G):
+        e = search.entries[int(idx[groups == gi][0])]
+        if search.dimming:
+            lo[gi], hi[gi] = e.dimming
+    return w, lo, hi
+
+
+def fast_watts(search, cand):
+    """Watts of a layout with per-group outputs by the fast model (no solve; surfaces,
+    Ez and UGR as the fast model knows them: Ez not), or inf where none meets it."""
+    m, g = search.model, cand.geom
+    groups = groups_of(g.plan, g.cls)
+    idx = np.asarray(cand.entries)[g.cls]
+    G = int(groups.max()) + 1
+    lux = np.zeros((G, len(m.points)))
+    direct = np.zeros((G, len(m.points)))
+    for k in np.unique(idx):
+        e = search.entries[k]
+        sel = idx == k
+        r = unit_response(m.points, m.normals, g.positions[sel], g.normals[sel], e.radius_m,
+                          search.phot.get(e.name), search._c0(e))
+        for gi in np.unique(groups[sel]):
+            cols = groups[sel] == gi
+            d = m.mf * e.flux_lm * r[:, cols].sum(axis=1)
+            direct[gi] += d
+            lux[gi] += (d + m.mf * e.flux_lm * int(cols.sum())
+                        * m.indirect_per_lm[e.key]) * m.correction
+    w, lo, hi = _group_watts(search, cand, groups)
+    saved = search.cyl_req, search.surf_reqs
+    try:
+        # as the fast table judges: not Ez, not the surfaces it leaves to the exact checks
+        search.cyl_req = None
+        search.surf_reqs = {k: v for k, v in saved[1].items() if k not in EXACT_ONLY}
+        x = solve_outputs({"lux": lux, "direct": direct}, w, lo, hi, search)
+    finally:
+        search.cyl_req, search.surf_reqs = saved
+    return math.inf if x is None else float(x @ w)
+
+
+def exact_refine(search, cand):
+    """(Candidate with per-luminaire outputs ``dims``, Metrics) of a layout dimmed per
+    group at least power on the exact model, or None where no outputs meet the room."""
+    m, g = search.model, cand.geom
+    groups = groups_of(g.plan, g.cls)
+    G = int(groups.max()) + 1
+    full = search.luminaires(Candidate(g, cand.entries, 1.0, 0.0, 0, 0, 0, False))
+    lux, direct, ez, eh, T, B = [], [], [], [], [], []
+    for gi in range(G):
+        lums = [lum for lum, q in zip(full, groups) if q == gi]
+        # each group lit alone under the whole layout's openings: the groups add up
+        t, d = m.exact(lums, covering=full)
+        lux.append(t)
+        direct.append(d)
+        if search.cylindrical is not None:
+            z, h = search.cylindrical.evaluate(lums, covering=full)
+            ez.append(z)
+            eh.append(h)
+        gl = search.exact_glare(lums, covering=full)
+        if gl is not None:
+            T.append(gl[0])
+            B.append(gl[1])
+    parts = {"lux": np.array(lux), "direct": np.array(direct),
+             "ez": np.array(ez) if ez else None}
+    glare = (np.array(T), np.array(B)) if T and search.ugr_max is not None else None
+    w, lo, hi = _group_watts(search, cand, groups)
+    x = solve_outputs(parts, w, lo, hi, search, glare)
+    if x is None:
+        return None
+    met = Metrics.of(x @ parts["lux"], x @ parts["direct"], m.layout)
+    if T:
+        met.glare = ((x ** 2) @ np.array(T), x @ np.array(B))
+        u = ugr_from_sum(*met.glare)
+        met.ugr = None if np.isnan(u).all() else float(np.nanmax(u))
+    if ez:
+        met.cyl = (x @ np.array(ez), x @ np.array(eh))
+    watts = float(x @ w)
+    dims = x[groups]
+    ok = bool(metrics_comply(met, search) and margin_kept(met, search))
+    c = Candidate(g, cand.entries, watts / max(float(w.sum()), 1e-12), watts, met.em,
+                  met.u0, met.shade_max, ok, dims=dims)
+    return c, met
+
+
+def refine(search, cand, met):
+    """The search's design ``(cand, met)`` or a cheaper compliant layout dimmed per group
+    (see the module docstring): returns (Candidate, Metrics, tried) with ``tried`` the
+    layouts solved exactly."""
+    if not search.dimming or not any(e.dimming[0] < 1.0 for e in search.entries):
+        return cand, met, 0
+    best = (cand, met) if cand is not None and cand.ok else None
+    limit = best[0].watts if best else math.inf
+    t = search.table()
+    pairs = search._pairs()
+    seen, ranked = set(), []
+    if cand is not None:
+        ranked.append((fast_watts(search, cand), cand))
+        seen.add(cand.key())
+    for row in range(len(t["geom"])):
+        if (len(seen) >= FAST_ROWS
+                or sum(math.isfinite(r[0]) for r in ranked) >= FAST_TRIES):
+            break
+        w = float(t["watts"][row])
+        if w > WATTS_WINDOW * limit:
+            break
+        pair = pairs[t["pair"][row]]
+        if not all(search.entries[k].dimming[0] < 1.0 for k in pair):
+            continue
+        c = search.candidate(t, row)
+        if c.key() in seen or c.u0 < search.req.u0 - 0.25:
+            continue
+        seen.add(c.key())
+        ranked.append((fast_watts(search, c), c))
+    ranked = [r for r in ranked if math.isfinite(r[0])]
+    ranked.sort(key=lambda r: r[0])
+    tried = 0
+    for fw, c in ranked[:EXACT_TRIES]:
+        if best is not None and fw >= FAST_TRUST * best[0].watts:
+            break
+        tried += 1
+        r = exact_refine(search, c)
+        if r is not None and r[0].ok and (best is None or r[0].watts < best[0].watts - 1e-9):
+            best = r
+    if best is None:
+        return cand, met, tried
+    return best[0], best[1], tried
