@@ -158,13 +158,50 @@ def ugr_from_sum(total, background_lux):
 def observers(droom, eye_height=EYE_HEIGHT_M, inset_m=0.5):
     """CIE 117 observer positions of a room: the middle of each wall of its bounding
     rectangle (``inset_m`` inside), seated eye height, looking along the room's axes.
-    Returns [(eye (3,), view (3,)), ...] (only eyes inside the room)."""
+
+    In a room that is not a rectangle (an L) the middle of a side of the bounding
+    rectangle may fall outside the floor or on a wall of the inner corner (an eye in the
+    wall, which sees half the room). Such an eye moves along its line, ``inset_m`` from
+    its side, to the middle of the longest stretch of that line that keeps ``inset_m``
+    from every wall: the middle of the wall that is really there. Returns
+    [(eye (3,), view (3,)), ...] (sides with no such stretch give no observer)."""
     (ls, lt), ax = droom.size, droom.axes
     z = droom.floor_z + eye_height
     out = []
-    for st, view in (((inset_m, lt / 2), ax[0]), ((ls - inset_m, lt / 2), -ax[0]),
-                     ((ls / 2, inset_m), ax[1]), ((ls / 2, lt - inset_m), -ax[1])):
-        xy = droom.to_world(np.array([st]))[0]
-        if droom.inside(xy[None])[0]:
-            out.append((np.array([xy[0], xy[1], z]), np.array([view[0], view[1], 0.0])))
+    for (s0, t0), along, view in (((inset_m, lt / 2), 1, ax[0]),
+                                  ((ls - inset_m, lt / 2), 1, -ax[0]),
+                                  ((ls / 2, inset_m), 0, ax[1]),
+                                  ((ls / 2, lt - inset_m), 0, -ax[1])):
+        st = np.array([s0, t0], dtype=np.float64)
+        xy = droom.to_world(st[None])[0]
+        if droom.wall_distance(xy[None])[0] < inset_m - 1e-6:
+            xy = _clear_middle(droom, st, along, inset_m)
+            if xy is None:
+                continue
+        out.append((np.array([xy[0], xy[1], z]), np.array([view[0], view[1], 0.0])))
     return out
+
+
+#: spacing (metres) at which an observer's line is searched for its clear stretches
+_OBSERVER_STEP_M = 0.02
+
+
+def _clear_middle(droom, st, along, inset_m):
+    """World XY of the middle of the longest stretch of the plan line through ``st``
+    along axis ``along`` (0: s, 1: t) that keeps ``inset_m`` from every wall; None."""
+    length = float(droom.size[along])
+    n = max(int(np.ceil(length / _OBSERVER_STEP_M)), 2) + 1
+    u = np.linspace(0.0, length, n)
+    pts = np.tile(st, (n, 1))
+    pts[:, along] = u
+    xy = droom.to_world(pts)
+    clear = droom.wall_distance(xy) >= inset_m - 1e-6
+    if not clear.any():
+        return None
+    # runs of clear samples: (start, end) indices, the longest kept
+    edges = np.diff(np.r_[0, clear.astype(np.int8), 0])
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    k = int(np.argmax(u[ends] - u[starts]))
+    mid = pts[0].copy()
+    mid[along] = 0.5 * (u[starts[k]] + u[ends[k]])
+    return droom.to_world(mid[None])[0]

@@ -106,3 +106,29 @@ def test_vectorised_glare_terms_match_the_scalar_formula():
         want = ugr(lums, eye, view, 120.0)
         got = float(ugr_from_sum(2000.0 ** 2 * terms.sum(), 120.0))
         assert got == pytest.approx(want, abs=1e-9)
+
+
+def test_observers_of_an_l_room_stand_clear_of_every_wall():
+    from invrad_wb.core.design.room import DesignRoom
+    from invrad_wb.core.synthetic import generate as g
+    # 8 x 6 m with a 4 x 3 m corner cut out: the middle of the cut side of the bounding
+    # rectangle (4, 5.5) lies on the inner corner's wall, (7.5, 3) outside the floor
+    dr = DesignRoom(g.l_room(size=(8.0, 6.0, 3.0), cut=(4.0, 3.0), cell=0.25), 0)
+    obs = observers(dr)
+    assert len(obs) == 4
+    eyes = np.array([e[:2] for e, _ in obs])
+    assert np.all(dr.wall_distance(eyes) >= 0.5 - 1e-6)
+    for eye, view in obs:
+        # with its back to a wall 0.5 m behind it, looking into the room
+        back = eye[:2] - view[:2] * 0.55
+        assert not dr.inside(back[None])[0]
+        assert dr.inside((eye[:2] + view[:2] * 1.0)[None])[0]
+    # the two that moved stand in the middle of the wall that is really there: the right
+    # wall (x = 8, y 0..3) and the top wall (y = 6, x 0..4)
+    got = np.array(sorted(map(tuple, eyes)))
+    want = np.array(sorted([(0.5, 3.0), (7.5, 1.5), (4.0, 0.5), (2.0, 5.5)]))
+    assert np.allclose(got, want, atol=0.03)
+    # a rectangle keeps the middles of its walls, exactly
+    box = DesignRoom(g.box_room(size=(6.0, 4.0, 3.0), cell=0.5), 0)
+    mids = sorted((round(float(e[0]), 9), round(float(e[1]), 9)) for e, _ in observers(box))
+    assert mids == sorted([(0.5, 2.0), (5.5, 2.0), (3.0, 0.5), (3.0, 3.5)])
