@@ -398,11 +398,35 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
         rd.notes.append(f"no position in this room suits a {rs.mounting.kind} mounting")
         return rd
     cand, met, n_exact = run_search(search)
+    tries = [(cand, met)]
     if cand is not None:
         # the same and the next cheapest layouts with their outer and inner rows dimmed
         # apart, where the types dim (a linear programme on the exact model)
-        cand, met, n_lp = refine(search, cand, met)
+        refined, rmet, n_lp = refine(search, cand, met)
         n_exact += n_lp
+        if refined is not cand:
+            tries.insert(0, (refined, rmet))
+    notes = list(rd.notes)
+    for k, (c, m) in enumerate(tries):
+        # the programme knows the general lighting only: accents (painted spots) add
+        # light and glare, which may take a design dimmed apart, made to the limits,
+        # below U0 or over the UGR limit; then the search's evenly dimmed design stands
+        rd.notes, rd.spots, rd.accent_watts = list(notes), [], 0.0
+        _finish_room(scene, rd, model, droom, rs, entries, photometry, req, search,
+                     general, points, cyl, c, m, n_exact)
+        if rd.compliant or k == len(tries) - 1:
+            break
+    rd.rated_watts = sum(_entry_watts(entries, lum) for lum in rd.luminaires)
+    rd.operating_hours = rs.operating_hours
+    _explain(rd, search, general)
+    rd.seconds = time.perf_counter() - t0
+    return rd
+
+
+def _finish_room(scene, rd, model, droom, rs, entries, photometry, req, search, general,
+                 points, cyl, cand, met, n_exact):
+    """The room's design from the search's layout ``cand``: its luminaires, the painted
+    spots' accents, Ez and UGR of the whole installation."""
     rd.candidate, rd.metrics, rd.exact_solves = cand, met, n_exact
     rd.luminaires = search.luminaires(cand)
     if cand.dims is not None and np.ptp(cand.dims) > 1e-6:
@@ -422,11 +446,6 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
     rd.ugr_limit = rs.ugr_max
     rd.ugr = _room_ugr(model, droom, rd.luminaires)
     _ugr_note(rd, droom)
-    rd.rated_watts = sum(_entry_watts(entries, lum) for lum in rd.luminaires)
-    rd.operating_hours = rs.operating_hours
-    _explain(rd, search, general)
-    rd.seconds = time.perf_counter() - t0
-    return rd
 
 
 #: re-dimming after accents tries the general lighting's output in this many steps
