@@ -73,8 +73,37 @@ def fzk_stair_and_opening():
         v = np.array(shape.geometry.verts, dtype=np.float64).reshape(-1, 3)   # a copy: see
         del shape                                                 # roomzones.body_vertices
         out.append((name, (v[:, :2].min(0), v[:, :2].max(0)),
-                    v[:, 2].max() if name == "stair" else (v[:, 2].min(), v[:, 2].max())))
+                    v[:, 2].max() if name == "stair" else (v[:, 2].min(), v[:, 2].max()),
+                    _plan_hull(v[:, :2])))
     return out
+
+
+def _plan_hull(xy):
+    """Convex hull (h, 2), counter-clockwise, of plan points (Andrew's monotone chain)."""
+    pts = sorted(set(map(tuple, np.round(xy, 9))))
+
+    def half(seq):
+        h = []
+        for p in seq:
+            while len(h) >= 2 and ((h[-1][0] - h[-2][0]) * (p[1] - h[-2][1])
+                                   - (h[-1][1] - h[-2][1]) * (p[0] - h[-2][0])) <= 0:
+                h.pop()
+            h.append(p)
+        return h
+    lower, upper = half(pts), half(pts[::-1])
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def _in_hull(hull, p, margin=0.0):
+    """(k,) bool: plan points p (k, 2) inside a counter-clockwise convex hull or within
+    ``margin`` of it."""
+    a, b = hull, np.roll(hull, -1, axis=0)
+    cross = ((b[:, 0] - a[:, 0])[None] * (p[:, 1:2] - a[:, 1][None])
+             - (b[:, 1] - a[:, 1])[None] * (p[:, 0:1] - a[:, 0][None]))
+    ab = b - a
+    t = np.clip(((p[:, None, :] - a[None]) * ab[None]).sum(-1) / (ab * ab).sum(-1)[None], 0, 1)
+    dist = np.linalg.norm(p[:, None, :] - (a[None] + t[..., None] * ab[None]), axis=-1)
+    return np.all(cross > 0, axis=1) | (dist.min(axis=1) < margin)
 
 
 class FreeCADTestCase(unittest.TestCase):
@@ -124,9 +153,10 @@ class FreeCADTestCase(unittest.TestCase):
         on the ceiling's level over the slab opening above the Wohnen (no ceiling there:
         only pendants hung below it). Both read from the IFC file, not from invrad."""
         p = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
-        for name, (lo, hi), z_top in fzk_stair_and_opening():
+        for name, (lo, hi), z_top, hull in fzk_stair_and_opening():
             inside = np.all((p[:, :2] > lo) & (p[:, :2] < hi), axis=1)
-            if name == "stair":
+            if name == "stair":     # over the stair: within its plan (the spiral's hull),
+                inside = _in_hull(hull, p[:, :2], margin=0.1)   # or a body's width of it
                 self.assertFalse(inside.any(), f"luminaire over the stair: {p[inside]}")
             else:      # at the Wohnen's ceiling or in the slab (the Galerie's roof is higher)
                 bad = inside & (p[:, 2] > z_top[0] - 0.1) & (p[:, 2] < z_top[1] + 0.1)

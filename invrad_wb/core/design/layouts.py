@@ -120,14 +120,15 @@ def mount(droom, plan, mounting, radius_m, wp_top_z):
     Points outside the room, within ``WALL_CLEARANCE_M + radius_m`` of a wall, or less than
     ``WORK_PLANE_CLEARANCE_M`` above the work plane are invalid. The room's no-mount zones
     (:meth:`~invrad_wb.core.design.room.DesignRoom.no_mount_at`) hold nothing where
-    nothing may be mounted (a stair); under a slab opening, where there is no ceiling, a
+    nothing may be mounted (a stair), nor within the wall clearance and the luminaire's
+    radius of it (its body kept off the stair, as off a wall); under a slab opening, where there is no ceiling, a
     ceiling position becomes a pendant :data:`VOID_PENDANT_DROP_M` below the ceiling's
     level (hung from the structure above), facing down.
     """
     xy = droom.to_world(plan)
     zc, nc = droom.ceiling_at(xy)
     ok = np.isfinite(zc) & (droom.wall_distance(xy) >= WALL_CLEARANCE_M + radius_m)
-    blocked, void = droom.no_mount_at(xy)
+    blocked, void = droom.no_mount_at(xy, WALL_CLEARANCE_M + radius_m)
     ok &= ~blocked
     if mounting.kind == "pendant":
         z = np.full(len(xy), droom.floor_z + mounting.height_m)

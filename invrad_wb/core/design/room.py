@@ -186,10 +186,11 @@ class DesignRoom:
         d = distance_to_segments(np.c_[xy, np.zeros(len(xy))], seg)
         return np.where(self.inside(xy), d, -d)
 
-    def no_mount_at(self, xy):
+    def no_mount_at(self, xy, clearance_m=0.0):
         """Where plan points (world XY, (k, 2)) fall in the room's no-mount zones:
         ``(blocked, void)`` (k,) bool, inside a zone where nothing may be mounted (a
-        stair) and inside one where only a pendant may hang (a slab opening above)."""
+        stair; or within ``clearance_m`` of it: a luminaire's body kept off it) and
+        inside one where only a pendant may hang (a slab opening above)."""
         xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
         blocked = np.zeros(len(xy), dtype=bool)
         void = np.zeros(len(xy), dtype=bool)
@@ -198,6 +199,12 @@ class DesignRoom:
             if z.pendants:
                 void |= inside
             else:
+                if clearance_m > 0 and len(xy):
+                    p = np.asarray(z.polygon, dtype=np.float64)
+                    seg = np.stack([p, np.roll(p, -1, axis=0)], axis=1)
+                    seg = np.concatenate([seg, np.zeros(seg.shape[:2] + (1,))], axis=2)
+                    d = distance_to_segments(np.c_[xy, np.zeros(len(xy))], seg)
+                    inside = inside | (d < clearance_m)
                 blocked |= inside
         return blocked, void & ~blocked
 
