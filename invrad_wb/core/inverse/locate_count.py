@@ -23,7 +23,9 @@ A change is kept when it lowers the Bayesian information criterion of the fit,
 
     BIC = k ln(m) + p ln(k)
 
-with k the lit voting points, m the area-weighted mean square of the log residual and p
+with k the lit voting points, m the area-weighted mean square of the log residual (each
+residual clipped at :data:`OUTLIER_CLIP` robust standard deviations: a gross error at a
+few points is not a luminaire's light) and p
 the number of fitted parameters (per luminaire its position on its surface, 2, or in
 mid-air, 3, and its flux). The noise level enters through m: the gain a luminaire must
 bring, k ln(m_before / m_after) > 3 ln(k), is a fixed number of noise variances. m is held
@@ -62,13 +64,35 @@ EXTENDED_RADII = (0.75, 1.0, 1.25, 1.5)
 #: at most this many accepted changes per room (a bound on the time spent)
 MAX_CHANGES = 40
 
+#: residuals beyond this many robust standard deviations count as that many in the
+#: criterion (:func:`robust_mean_square`): gross errors at a few points, not light
+OUTLIER_CLIP = 4.0
+
+
+def robust_mean_square(r, w):
+    """Area-weighted (``w``, summing to 1) mean square of the log residuals ``r``, each
+    clipped at :data:`OUTLIER_CLIP` times their robust scale (1.4826 times the median
+    absolute residual, at least :data:`MODEL_FLOOR`).
+
+    A luminaire's light changes the residual at the many points it lights; a gross error
+    at a few points (a target vertex whose shadow ray grazed a mesh edge, a faulty
+    reading) is not light a further luminaire should explain. Unclipped, two such
+    vertices among 2998 (l_room, direct light, 16 % and 12 % off) raised the mean square
+    of the true arrangement to 1.5 times the floor, and a third luminaire of 102 lm that
+    moved the other's visibility off the edge paid for itself. With Gaussian noise the
+    clip touches about 1 point in 16000."""
+    r = np.abs(np.asarray(r, dtype=np.float64))
+    s = max(1.4826 * float(np.median(r)), MODEL_FLOOR) if len(r) else MODEL_FLOOR
+    r = np.minimum(r, OUTLIER_CLIP * s)
+    return float(np.sum(w * r * r))
+
 
 def _mean_square(prob, lights):
-    """Area-weighted mean square of the log residual over the points (the separation term
-    left out)."""
+    """Area-weighted robust mean square of the log residual over the points
+    (:func:`robust_mean_square`; the separation term left out)."""
     vis = [prob.visibility(L) for L in lights]
     r, _ = prob.residuals(lights, vis)
-    return float(np.sum(prob.w_area * r * r))
+    return robust_mean_square(r, prob.w_area)
 
 
 def _params(lights):
