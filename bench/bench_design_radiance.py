@@ -41,10 +41,10 @@ room        invrad W        grid W          ratio  task      surround  walls    
 ==========  ==============  ==============  =====  ========  ========  ========  =======  =======  ====  =======
 meeting     109.3 (110.3)   115.0 (115.1)   0.951  500/0.71  300/0.59  182/0.39  81/0.73  187/0.86 18.9  both
 L corridor   52.9 (52.9)     52.0 (52.3)    1.018  122/0.61  102/0.46  68/0.50   31/0.71  -        12.3  both
-lab         240.4 (240.4)   255.9 (256.3)   0.939  505/0.66  303/0.47  145/0.41  79/0.70  -        18.9  both
-classroom   350.3 (354.7)   344.9 (344.5)   1.016  500/0.60  337/0.48  216/0.41  92/0.77  -        18.9  both
+lab         238.7 (238.7)   255.9 (256.3)   0.933  505/0.73  303/0.51  144/0.41  78/0.72  -        18.9  both
+classroom   350.2 (354.7)   344.9 (344.5)   1.015  500/0.60  337/0.48  216/0.41  92/0.76  -        18.8  both
 hall 6.5 m  800.0           none of 120     -      330/0.66  207/0.62  116/0.29  47/0.64  -        25.9  no: UGR
-L office    411.4 (412.5)   none of 120     -      500/0.61  300/0.40  181/0.39  88/0.65  -        19.7  no: UGR
+L office    430.4 (433.2)   none of 120     -      500/0.62  311/0.49  223/0.47  95/0.74  -        18.4  invrad
 ==========  ==============  ==============  =====  ========  ========  ========  =======  =======  ====  =======
 
 (items: invrad's design by Radiance.) What changed since the table below:
@@ -61,17 +61,32 @@ L office    411.4 (412.5)   none of 120     -      500/0.61  300/0.40  181/0.39 
   office). The hall's catalogue has one type allowed at 6.5 m (HB-15000, not dimmable):
   no grid of it and no invrad layout meets UGR 22 (invrad's 4 x 2: 25.9 by Radiance and
   by invrad); the hall needs a lower-glare high-bay, not a better search.
-* L office: no grid of the 120 checked meets every item by the exact model; invrad's 78
-  downlights and panels meet every item by Radiance but UGR, 19.7 against invrad's own
-  18.9. Cause: ``glare.observers`` puts the CIE 117 observers at the middle of the
-  bounding rectangle's walls; the L's third one, (6.0, 8.5), lies on the inner corner's
-  wall (x = 6), where the two engines' interreflected light at the eye differ (Radiance
-  50.2 lx, invrad 62.5; the other eyes 106.0 / 108.2 and 96.3 / 99.5, UGR 17.10 / 17.03
-  and 19.02 / 18.90). An observer of an L belongs at the middle of a wall it stands at,
-  inside the room (not changed: ``core/output/glare.py`` is outside this helper's part).
-* Designs were made with the code of 04:15-04:55 UTC: lab and L office with one ring
-  (RINGS = 1; 2 is the default now and never draws more on the same layout), classroom
-  with up to 80 fast-ranked layouts; L corridor with the final code.
+* L office (redesigned and judged 05:13-05:21 UTC, after ``glare.observers`` moved an
+  eye that falls on a wall of an L to the middle of its line's longest stretch 0.5 m
+  clear of every wall): invrad's 9 downlights and 51 panels at 28 % (433.2 W by the
+  exact model, x 0.994 by Radiance: 430.4 W) meet every item by Radiance, UGR 18.4 for
+  19. Its four observers, UGR invrad / Radiance at the designed output (background
+  illuminance at the eye, maintained, invrad / Radiance): (0.5, 4.5) looking +x 18.39 /
+  18.42 (82.4 / 81.6 lx); (11.5, 2.25) -x 18.03 / 18.00 (87.2 / 88.2); (6.0, 0.5) +y
+  17.29 / 17.33 (90.1 / 89.1); (3.0, 8.5) -y 18.19 / 18.14 (79.6 / 80.7): within 0.05
+  everywhere. Before (three observers: (11.5, 4.5) lay on the inner corner's wall y =
+  4.5 and was dropped as outside, (6.0, 8.5) lay on the wall x = 6): 65 downlights and
+  13 panels at 40 %, 411.4 W (412.5), UGR 19.7 by Radiance against invrad's 18.9, from
+  that eye in the wall (background Radiance 50.2, invrad 62.5 lx). The grid reference
+  (redone with the new observers) still finds no grid of the 120 checked that meets
+  every item by the exact model, so there is no ratio to give: every one of them fails
+  UGR (the lowest 20.3 for 19; 82 fail UGR alone, the rest U0, Em or the surroundings'
+  U0 as well; counted 05:29-05:32 UTC by wrapping ``metrics_comply``).
+* Lab and classroom redesigned 05:22-05:28 UTC with the final refine settings (RINGS =
+  2, up to 80 fast-ranked layouts; before: lab with one ring, 240.4 W, 0.939): lab 63
+  DL-1200N with outer and inner rows apart, 238.7 W (0.933 x grid, U0 0.66 -> 0.73);
+  classroom the same 44 luminaires as before (350.2 W, 1.015 x grid: a 9 x 8 grid of
+  DL-1200N beats invrad's mix of 12 downlights and 32 panels there). Meeting and L
+  corridor: designs of 04:15-04:55 UTC (the corridor with the final code); hall: no
+  compliant layout of its one allowed type (above). Grid references of the box rooms
+  were not redone (their observers are unchanged: the middles of the walls).
+* The figures of 05:13-05:32 UTC were measured at load 1-3 (lab 67 s, classroom 76 s,
+  L office 147 s per invrad design; Radiance 64-115 s per judgement).
 
 Earlier, measured 2026-11-26, round 4 (shared 2-core machine at load 8; rtrace -ab 6 -ad 256 -aa 0.15,
 3-7 min per judgement; the grids' judgements had no time to run, so "grid W" is the
