@@ -21,26 +21,32 @@ _UP = 0.99
 _DOWN = -0.3
 
 
-def merge_collinear(segments, tol=1e-6):
-    """Merge 2-D segments (k, 2, 2) that lie on one line and touch or overlap: a floor
-    outline from a fine mesh (hundreds of boundary edges) becomes its few walls."""
-    seg = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
-    if len(seg) == 0:
-        return seg
+def _lines(seg, tol):
+    """The lines 2-D segments (k, 2, 2) lie on: yields (indices of the segments on one
+    line, its unit direction (2,) with angle in [0, pi), its point nearest the origin)."""
     d = seg[:, 1] - seg[:, 0]
     ang = np.mod(np.arctan2(d[:, 1], d[:, 0]), np.pi)
     ang = np.where(ang > np.pi - 1e-9, 0.0, ang)
     u = np.stack([np.cos(ang), np.sin(ang)], axis=1)
     off = seg[:, 0, 0] * -u[:, 1] + seg[:, 0, 1] * u[:, 0]
     key = np.stack([np.round(ang / 1e-7), np.round(off / tol)], axis=1)
-    out = []
     for k in np.unique(key, axis=0):
         sel = np.flatnonzero(np.all(key == k, axis=1))
         uu = u[sel[0]]
+        yield sel, uu, seg[sel[0], 0] - (seg[sel[0], 0] @ uu) * uu
+
+
+def merge_collinear(segments, tol=1e-6):
+    """Merge 2-D segments (k, 2, 2) that lie on one line and touch or overlap: a floor
+    outline from a fine mesh (hundreds of boundary edges) becomes its few walls."""
+    seg = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
+    if len(seg) == 0:
+        return seg
+    out = []
+    for sel, uu, base in _lines(seg, tol):
         t = np.sort(np.stack([seg[sel, 0] @ uu, seg[sel, 1] @ uu], axis=1), axis=1)
         t = t[np.argsort(t[:, 0])]
         start, end = t[0]
-        base = seg[sel[0], 0] - (seg[sel[0], 0] @ uu) * uu
         for a, b in t[1:]:
             if a <= end + tol:
                 end = max(end, b)
@@ -60,17 +66,8 @@ def cancel_opposite(segments, tol=1e-6):
     seg = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
     if len(seg) == 0:
         return seg
-    d = seg[:, 1] - seg[:, 0]
-    ang = np.mod(np.arctan2(d[:, 1], d[:, 0]), np.pi)
-    ang = np.where(ang > np.pi - 1e-9, 0.0, ang)
-    u = np.stack([np.cos(ang), np.sin(ang)], axis=1)
-    off = seg[:, 0, 0] * -u[:, 1] + seg[:, 0, 1] * u[:, 0]
-    key = np.stack([np.round(ang / 1e-7), np.round(off / tol)], axis=1)
     out = []
-    for k in np.unique(key, axis=0):
-        sel = np.flatnonzero(np.all(key == k, axis=1))
-        uu = u[sel[0]]
-        base = seg[sel[0], 0] - (seg[sel[0], 0] @ uu) * uu
+    for sel, uu, base in _lines(seg, tol):
         a, b = seg[sel, 0] @ uu, seg[sel, 1] @ uu
         sign = np.where(b >= a, 1, -1)
         lo, hi = np.minimum(a, b), np.maximum(a, b)
