@@ -200,3 +200,20 @@ def test_deep_dimming_counts_each_luminaire_not_the_type_mean():
                               0.8 * 15 * 26.0, 500.0, 0.6, 0.0, True)
     assert not acc.deep_dimming
     assert [g["deep"] for g in D.output_groups(acc, CAT)] == [False, False]
+
+
+def test_the_cli_schedule_csv_and_console_line_give_the_groups():
+    import csv
+    import io
+    from invrad_wb.cli.design import _dimmed_words, schedule_csv
+    rd = _room(GRID, OUTPUTS)
+    text = schedule_csv(_result(rd))
+    assert text.startswith("room,type,count,flux_lm,watts_each,dim,watts_total")
+    rows = list(csv.DictReader(io.StringIO(text)))
+    assert [(r["group"], int(r["count"]), r["dim"]) for r in rows] == [
+        ("A", 1, "1.000"), ("B", 2, "0.892"), ("C", 2, "0.465"), ("D", 4, "0.111"),
+        ("E", 6, "0.100")]
+    assert sum(float(r["watts_total"]) for r in rows) == pytest.approx(rd.watts, abs=0.02)
+    assert _dimmed_words(rd) == ", dimmed apart to 10-100 % (32 % of the rated power)"
+    assert _dimmed_words(_room(GRID, np.full(15, 0.32), dims=False)) == ", dimmed to 32 %"
+    assert _dimmed_words(_room(GRID, np.ones(15), dims=False)) == ""
