@@ -155,7 +155,7 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
     panel_h = min(4.2, panel_w * span[1] / span[0])
     # the key of a room dimmed apart: one line per group (two columns beyond three)
     keyed = [g for g in groups or [] if g["label"]]
-    key_in = 0.15 * max(0, (len(keyed) if len(keyed) <= 3 else -(-len(keyed) // 2)) - 1)
+    key_in = 0.15 * max(0, -(-len(keyed) // _key_columns(keyed)) - 1) if keyed else 0.0
     h = max(2.6, (2 * panel_h + 1.7) if stacked else panel_h + 1.25) + key_in
     fig = _figure(w, h)
     ax, ax2 = fig.subplots(2, 1) if stacked else fig.subplots(1, 2)
@@ -175,7 +175,8 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
         a_.set_xlabel("x (m)", fontsize=7)
         a_.set_ylabel("y (m)", fontsize=7)
         a_.tick_params(labelsize=6.5)
-    bottom = ((0.17 * (h - key_in) + key_in) / h) if rd.luminaires else 0.1
+    # room under the panels for the x label and the key (its group lines)
+    bottom = ((min(0.17 * (h - key_in), 0.95) + key_in) / h) if rd.luminaires else 0.1
     fig.subplots_adjust(wspace=0.3, hspace=0.45, bottom=bottom)
     if m is not None:
         bar = fig.colorbar(m, ax=[ax, ax2], shrink=0.8, pad=0.03)
@@ -195,31 +196,46 @@ def dimming_plan_png(rd, edges, types, groups):
 def dimming_plan_figure(rd, edges, types, groups):
     """The commissioning plan of a room dimmed apart: its outline and luminaires at the
     page's width, each marked with its dimming group's letter, and the groups' key (type,
-    output, lm and W each, count) beside it."""
+    output, lm and W each, count) beside it (under it where its lines are too long)."""
+    from matplotlib.lines import Line2D
     lo, hi = np.min(edges, axis=(0, 1)), np.max(edges, axis=(0, 1))
     span = np.maximum(hi - lo, 1e-6)
-    w, key_w = 8.0, 3.1
-    panel_w = w - key_w - 0.7
+    keyed = [g for g in groups if g["label"]]
+    texts = [_group_key_text(g) for g in keyed]
+    line_in = 0.19                          # a key line at 8 pt, inches
+    # the key's width at 8 pt (about 0.06 in a character) and its marker
+    key_w = 0.45 + 0.06 * max([len(t) for t in texts] or [0])
+    below = key_w > 4.3
+    w = 8.0
+    panel_w = w - 0.9 if below else w - key_w - 0.7
     panel_h = min(5.0, panel_w * span[1] / span[0])
-    h = max(2.4, panel_h + 0.9)
+    key_h = line_in * (len(texts) + 1)
+    h = max(2.4, panel_h + 0.9 + (key_h + 0.2 if below else 0), key_h + 0.5)
     fig = _figure(w, h)
-    ax = fig.add_axes([0.6 / w, 0.55 / h, panel_w / w, (h - 0.85) / h])
+    bottom = (key_h + 0.75) if below else 0.55
+    ax = fig.add_axes([0.6 / w, bottom / h, panel_w / w, (h - bottom - 0.3) / h])
     _outline(ax, edges)
     _plot_luminaires(ax, rd.luminaires, types)
-    ax.set_aspect("equal", anchor="W")
+    ax.set_aspect("equal", anchor="W" if not below else "C")
     ax.set_xlabel("x (m)", fontsize=7)
     ax.set_ylabel("y (m)", fontsize=7)
     ax.tick_params(labelsize=6.5)
     ax.set_title(f"{rd.name}: dimming groups", fontsize=8)
-    from matplotlib.lines import Line2D
-    keyed = [g for g in groups if g["label"]]
     handles = [Line2D([], [], ls="", marker=_marker(types, g["type"]), ms=5, mfc="white",
                       mec="black", mew=1.0) for g in keyed]
-    fig.legend(handles, [_group_key_text(g) for g in keyed], loc="upper left",
-               bbox_to_anchor=((w - key_w) / w, 1 - 0.3 / h), fontsize=8, frameon=False,
+    fig.legend(handles, texts, loc="upper left",
+               bbox_to_anchor=(0.6 / w, (key_h + 0.2) / h) if below
+               else ((w - key_w) / w, 1 - 0.3 / h), fontsize=8, frameon=False,
                title="group: output of the rated flux", title_fontsize=8)
     _label_luminaires(fig, ax, rd.luminaires, groups, max_size=9.0)
     return fig
+
+
+def _key_columns(groups):
+    """Columns of a room plan's group key: two beyond three groups where two lines fit
+    the figure's width side by side (about 55 characters each at 7 pt)."""
+    longest = max([len(_group_key_text(g)) for g in groups] or [0])
+    return 2 if len(groups) > 3 and longest <= 55 else 1
 
 
 def _room_legend(fig, ax, types, groups):
@@ -232,7 +248,7 @@ def _room_legend(fig, ax, types, groups):
                           mec="black", mew=1.0) for g in groups]
         labels = [_group_key_text(g) for g in groups]
         title = "dimming groups (letters on the plan; output of the rated flux)"
-        ncol = 1 if len(groups) <= 3 else 2
+        ncol = _key_columns(groups)
     else:
         out = {g["type"]: g["percent"] for g in groups}
         labels = [f"{t} at {out[t]} %" if out.get(t, 100) != 100 else t for t in labels]
