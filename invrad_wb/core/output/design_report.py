@@ -105,13 +105,28 @@ def _group_key_text(g):
             f" {g['flux_lm']:.0f} lm, {g['watts']:.1f} W each")
 
 
-def _label_luminaires(fig, ax, luminaires, groups, max_size=7.0):
-    """Write each luminaire's dimming-group letter inside its marker (rooms dimmed apart);
-    markers and letters are sized to the closest two luminaires on the figure, so that no
-    two labels overlap, between a floor and a ceiling size (4.5 pt to ``max_size``)."""
+#: a marker's size (points) per point of the letter written in it, by marker: a triangle
+#: or a star holds a letter only near its centre
+_MARKER_SCALE = {"o": 1.6, "s": 1.5, "D": 1.9, "h": 1.7, "^": 2.3, "v": 2.3, "P": 2.3,
+                 "*": 2.7, "X": 2.3}
+
+
+#: the smallest letter written on a plan (points)
+MIN_LABEL_PT = 4.5
+
+
+def _label_fits(fig, ax, luminaires, groups):
+    """Whether the group letters fit in their markers at ``MIN_LABEL_PT`` without two
+    markers overlapping (see :func:`_label_luminaires`)."""
+    return _label_size(fig, ax, luminaires, groups)[0] >= MIN_LABEL_PT - 1e-9
+
+
+def _label_size(fig, ax, luminaires, groups):
+    """(letter size in points before clipping, {luminaire index: letter}, marker lines)."""
     labels = {i: g["label"] for g in groups if g["label"] for i in g["members"]}
+    lines = [ln for ln in ax.get_lines() if ln.get_gid() == "luminaires"]
     if not labels:
-        return
+        return np.inf, labels, lines
     ax.apply_aspect()
     p = np.array([luminaires[i].position[:2] for i in labels], dtype=float)
     px = ax.transData.transform(p) * 72.0 / fig.dpi          # points on the page
@@ -119,16 +134,42 @@ def _label_luminaires(fig, ax, luminaires, groups, max_size=7.0):
     if len(px) > 1:
         d = np.linalg.norm(px[:, None] - px[None], axis=2)
         gap = float(np.min(d[np.triu_indices(len(px), 1)]))
+    scale = max(_MARKER_SCALE.get(ln.get_marker(), 2.3) for ln in lines) if lines else 1.6
     width = max(len(s) for s in labels.values())
-    # a label's box (letters about 0.65 em wide, a marker 1.6 em) fits in the gap
-    size = float(np.clip(gap / (1.7 + 0.65 * (width - 1)), 4.5, max_size))
-    for line in ax.get_lines():
-        if line.get_gid() == "luminaires":
-            line.set_markersize(1.6 * size + 0.65 * size * (width - 1))
-            line.set_markeredgewidth(1.0)
+    # a marker (scale x the letter's size, wider by 0.65 em a further letter) fits the gap
+    return gap / (scale + 0.1 + 0.65 * (width - 1)), labels, lines
+
+
+def _label_luminaires(fig, ax, luminaires, groups, max_size=7.0, force=False):
+    """Write each luminaire's dimming-group letter inside its marker (rooms dimmed apart);
+    markers and letters are sized to the closest two luminaires on the figure, so that no
+    two markers (nor letters) overlap, between ``MIN_LABEL_PT`` and ``max_size``; a
+    triangle's letter sits at its centroid. Where they would not fit at the smallest size
+    nothing is written (unless ``force``: then at the smallest size); returns whether
+    letters were written."""
+    from matplotlib.transforms import offset_copy
+    size, labels, lines = _label_size(fig, ax, luminaires, groups)
+    if not labels or (size < MIN_LABEL_PT - 1e-9 and not force):
+        return False
+    size = float(np.clip(size, MIN_LABEL_PT, max_size))
+    width = max(len(s) for s in labels.values())
+    p = np.array([luminaires[i].position[:2] for i in labels], dtype=float)
+    for line in lines:
+        line.set_markersize(_MARKER_SCALE.get(line.get_marker(), 2.3) * size
+                            + 0.65 * size * (width - 1))
+        line.set_markeredgewidth(1.0)
+    shift = {}
+    for line in lines:
+        ms = line.get_markersize()
+        dy = {"^": -ms / 6.0, "v": ms / 6.0}.get(line.get_marker(), 0.0)
+        for xy in np.column_stack(line.get_data()):
+            shift[tuple(np.round(xy, 9))] = dy
     for s, q in zip(labels.values(), p):
+        dy = shift.get(tuple(np.round(q, 9)), 0.0)
+        tr = offset_copy(ax.transData, fig=fig, y=dy, units="points") if dy else ax.transData
         ax.text(q[0], q[1], s, fontsize=size, ha="center", va="center", zorder=6,
-                fontweight="bold", gid="group-label")
+                fontweight="bold", gid="group-label", transform=tr)
+    return True
 
 
 def room_plan_png(rd, edges, lux_max, types, groups=None):
@@ -183,8 +224,10 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
         bar.set_label("maintained illuminance (lx)", fontsize=7)
         bar.ax.tick_params(labelsize=6.5)
     if rd.luminaires:
-        _room_legend(fig, ax, types, groups or [])
-        _label_luminaires(fig, ax, rd.luminaires, groups or [])
+        fits = _label_fits(fig, ax, rd.luminaires, groups or [])
+        _room_legend(fig, ax, types, groups or [], fits)
+        if fits:
+            _label_luminaires(fig, ax, rd.luminaires, groups or [])
     return fig
 
 
@@ -227,7 +270,7 @@ def dimming_plan_figure(rd, edges, types, groups):
                bbox_to_anchor=(0.6 / w, (key_h + 0.2) / h) if below
                else ((w - key_w) / w, 1 - 0.3 / h), fontsize=8, frameon=False,
                title="group: output of the rated flux", title_fontsize=8)
-    _label_luminaires(fig, ax, rd.luminaires, groups, max_size=9.0)
+    _label_luminaires(fig, ax, rd.luminaires, groups, max_size=9.0, force=True)
     return fig
 
 
@@ -238,16 +281,18 @@ def _key_columns(groups):
     return 2 if len(groups) > 3 and longest <= 55 else 1
 
 
-def _room_legend(fig, ax, types, groups):
+def _room_legend(fig, ax, types, groups, lettered=True):
     """The plan's key: per type (and its output where the room dims it evenly), or per
-    dimming group (letter, type, output, lm and W each, count) where it dims apart."""
+    dimming group (letter, type, output, lm and W each, count) where it dims apart
+    (``lettered``: the letters are on this plan, else on the commissioning plan only)."""
     from matplotlib.lines import Line2D
     handles, labels = ax.get_legend_handles_labels()
     if any(g["label"] for g in groups):
         handles = [Line2D([], [], ls="", marker=_marker(types, g["type"]), ms=5, mfc="white",
                           mec="black", mew=1.0) for g in groups]
         labels = [_group_key_text(g) for g in groups]
-        title = "dimming groups (letters on the plan; output of the rated flux)"
+        title = ("dimming groups (letters on the plan; output of the rated flux)" if lettered
+                 else "dimming groups (too close to letter here: see the commissioning plan)")
         ncol = _key_columns(groups)
     else:
         out = {g["type"]: g["percent"] for g in groups}
@@ -568,7 +613,8 @@ def room_rows(result):
 
 def _output_text(r):
     """The general lighting's output as the room table gives it: '32 %' where it is dimmed
-    evenly, '10 to 100 % (dimmed apart, 32 % of the rated power)' where not."""
+    evenly, '10 to 100 % (dimmed apart; 32 % of the rated power on average)' where
+    not."""
     x = 100 * r.general_outputs()
     if not len(x):
         return "-"

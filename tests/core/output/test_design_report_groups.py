@@ -128,10 +128,14 @@ def test_plans_letter_each_luminaire_with_its_own_output(which):
             assert f"{g['label']}: {g['count']} x DL-3500 at {g['percent']} %" in legend_text
 
 
-def test_labels_of_a_dense_room_do_not_overlap_and_stay_readable():
+@pytest.mark.parametrize("types", [["DL-1000", "DL-3500"],            # a square
+                                   ["a", "b", "c", "DL-3500"]])       # a triangle
+def test_labels_of_a_dense_room_do_not_overlap_and_stay_readable(types):
     """A 6 x 4 m room with a luminaire every 0.3 m (an extreme panel array), dimmed apart
-    in rings: on the room plan (the small panel) no two letters overlap, none is smaller
-    than 4.5 pt, and each sits on its marker."""
+    in rings: where letters are written no two letters nor markers overlap, none is
+    smaller than 4.5 pt, and each sits on its marker. The room plan's small panel has
+    room for letters in squares, not in triangles: then its key sends the reader to the
+    commissioning plan, which has them."""
     xs, ys = np.arange(0.45, 5.6, 0.3), np.arange(0.45, 3.6, 0.3)
     pos = np.array([(x, y) for y in ys for x in xs])
     ring = np.minimum.reduce([pos[:, 0] - xs[0], xs[-1] - pos[:, 0], pos[:, 1] - ys[0],
@@ -140,13 +144,16 @@ def test_labels_of_a_dense_room_do_not_overlap_and_stay_readable():
     rd = _room(pos, out)
     groups = D.output_groups(rd, CAT)
     assert [g["label"] for g in groups] == ["A", "B", "C"]
-    for make in (lambda: D.room_plan_figure(rd, rd.outline, 800.0, ["DL-1000", "DL-3500"],
-                                            groups),
-                 lambda: D.dimming_plan_figure(rd, rd.outline, ["DL-1000", "DL-3500"],
-                                               groups)):
+    lettered = []
+    for make in (lambda: D.room_plan_figure(rd, rd.outline, 800.0, types, groups),
+                 lambda: D.dimming_plan_figure(rd, rd.outline, types, groups)):
         fig = make()
         renderer = fig.canvas.get_renderer()
         labels = _group_labels(fig)
+        if not labels:
+            assert len(types) == 4
+            assert "see the commissioning plan" in fig.legends[0].get_title().get_text()
+            continue
         assert len(labels) == len(pos)
         boxes = np.array([t.get_window_extent(renderer).extents for t in labels])
         assert min(t.get_fontsize() for t in labels) >= 4.5
@@ -155,10 +162,19 @@ def test_labels_of_a_dense_room_do_not_overlap_and_stay_readable():
                 & (y0[:, None] < y1[None]) & (y0[None] < y1[:, None]))
         np.fill_diagonal(over, False)
         assert not over.any()
+        # nor do the markers: closer than their size apart they would touch
+        ms = [ln.get_markersize() for ln in fig.axes[0].get_lines()
+              if ln.get_gid() == "luminaires"]
+        xy = fig.axes[0].transData.transform(pos) * 72.0 / fig.dpi
+        d = np.linalg.norm(xy[:, None] - xy[None], axis=2)
+        assert np.min(d[np.triu_indices(len(xy), 1)]) > max(ms)
         # each letter's box around its luminaire's marker centre
         ax = labels[0].axes
         c = ax.transData.transform(np.array([t.get_position() for t in labels]))
         assert np.all((x0 <= c[:, 0]) & (c[:, 0] <= x1) & (y0 <= c[:, 1]) & (c[:, 1] <= y1))
+        lettered.append(fig)
+    # the commissioning plan always, the room plan where squares hold the letters
+    assert len(lettered) == (2 if len(types) == 2 else 1)
 
 
 def test_an_evenly_dimmed_room_reads_as_before():
