@@ -528,8 +528,11 @@ def _redim_with_accents(rd, model, search, parts, accents, req, rs):
     for sp in rd.spots:
         sp.achieved_mean += (f - 1.0) * sp.base_mean
         sp.base_mean *= f
-    rd.notes.append(f"general lighting dimmed to {100 * rd.candidate.dim:.0f} % with the"
-                    " accents' light on the work plane")
+    x = 100 * rd.general_outputs()
+    level = (f"{x.min():.0f} %" if round(x.min()) == round(x.max())
+             else f"{x.min():.0f} to {x.max():.0f} % (each luminaire by the same factor)")
+    rd.notes.append(f"general lighting dimmed to {level} with the accents' light on the"
+                    " work plane")
 
 
 def _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search=None):
