@@ -626,8 +626,11 @@ def _output_text(r):
 
 
 def _deep_text(r):
-    """'9 of 15 DL-3500 below 50 %' per type (each luminaire's own output), or ''."""
-    return "; ".join(f"{low} of {n} {t}" for t, (low, n) in sorted(r.deep_dimmed().items())
+    """'9 of 15 DL-3500 below 50 %' per type (each luminaire's own output; 'all 4 ...',
+    'the DL-3500 ...'), or ''."""
+    return "; ".join(f"the {t}" if n == 1 else f"all {n} {t}" if low == n
+                     else f"{low} of {n} {t}"
+                     for t, (low, n) in sorted(r.deep_dimmed().items())
                      ) + (f" below {100 * DEEP_DIMMING:.0f} %" if r.deep_dimming else "")
 
 

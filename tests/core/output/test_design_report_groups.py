@@ -209,6 +209,10 @@ def test_deep_dimming_counts_each_luminaire_not_the_type_mean():
     even = _room(GRID, np.full(15, 0.32), dims=False)
     assert even.deep_dimmed() == {"DL-3500": (15, 15)}
     assert "all 15 DL-3500 at 32 %" in deep_dimming_note(even)
+    assert D._deep_text(even) == "all 15 DL-3500 below 50 %"
+    one = _room(GRID[:1], [0.3])
+    assert D._deep_text(one) == "the DL-3500 below 50 %"
+    assert "the DL-3500 at 30 %" in deep_dimming_note(one)
     # accents (after the general lighting) are not general lighting: not counted
     acc = _room(np.r_[GRID, [[5.5, 3.5]]], np.r_[np.full(15, 0.8), 0.2], dims=False)
     acc.candidate = Candidate(SimpleNamespace(positions=np.c_[GRID, np.zeros(15)],
