@@ -80,6 +80,9 @@ CL_CHUNK_ELLIPSES = 1 << 16
 #: Lighting design: a spot (an accent target) is met when its maintained mean lux is within
 #: this fraction of its target mean (invrad_wb.core.design.accent; the design report says it).
 SPOT_TOLERANCE = 0.10
+#: general lighting dimmed below this fraction of its rated output is flagged (a smaller
+#: type would do with less installed power): each luminaire's own output counts
+DEEP_DIMMING = 0.5
 #: where the EN 12464-1 minimums of walls and ceilings come from (the design report says
 #: so); the design's table of room types re-exports it
 SURFACE_REFERENCE = "EN 12464-1:2021 5.2.3"

@@ -40,21 +40,35 @@ def add_parser(sub):
 
 
 def schedule_csv(result):
-    """The luminaire schedule of a design as CSV text (one row per room and type)."""
+    """The luminaire schedule of a design as CSV text: one row per room, type and output
+    setting (a type dimmed apart has a row per dimming group, its letter as in the report
+    in the last column; lm and W each at that output, W total its luminaires' own
+    watts)."""
+    from invrad_wb.core.output.design_report import output_groups
     buf = io.StringIO()
     w = csv.writer(buf)
     w.writerow(["room", "type", "count", "flux_lm", "watts_each", "dim", "watts_total",
-                "efficacy_lm_per_w"])
+                "efficacy_lm_per_w", "group"])
     cat = {e.name: e for e in result.spec.catalogue}
     for r in result.rooms:
-        dim0 = r.candidate.dim if r.candidate is not None else 1.0
-        outputs = r.type_outputs()
-        for t, n in sorted(r.schedule().items()):
-            e = cat[t]
-            dim = outputs.get(t, dim0)
-            w.writerow([r.name, t, n, f"{e.flux_lm * dim:.0f}", f"{e.watts * dim:.2f}",
-                        f"{dim:.3f}", f"{n * e.watts * dim:.2f}", f"{e.efficacy:.1f}"])
+        for g in output_groups(r, result.spec.catalogue):
+            w.writerow([r.name, g["type"], g["count"], f"{g['flux_lm']:.0f}",
+                        f"{g['watts']:.2f}", f"{g['fraction']:.3f}",
+                        f"{g['watts_total']:.2f}", f"{cat[g['type']].efficacy:.1f}",
+                        g["label"]])
     return buf.getvalue()
+
+
+def _dimmed_words(r):
+    """', dimmed to 32 %', or ', dimmed apart to 10-100 % (32 % of the rated power)'
+    where the luminaires run at outputs of their own, or ''."""
+    x = 100 * r.general_outputs()
+    if not len(x) or x.min() >= 100 - 1e-6:
+        return ""
+    if round(x.min()) == round(x.max()):
+        return f", dimmed to {x.min():.0f} %"
+    return (f", dimmed apart to {x.min():.0f}-{x.max():.0f} %"
+            f" ({100 * r.candidate.dim:.0f} % of the rated power)")
 
 
 def _print_room(r):
@@ -65,7 +79,7 @@ def _print_room(r):
     types = ", ".join(f"{n} x {t}" for t, n in sorted(r.schedule().items()))
     verdict = "meets" if r.compliant else "DOES NOT MEET"
     print(f"{r.name}: {types} ({r.candidate.geom.describe()}"
-          + (f", dimmed to {100 * r.candidate.dim:.0f} %" if r.candidate.dim < 1 else "")
+          + _dimmed_words(r)
           + f"): Em {m.em:.0f} lx (>= {q.lux:g}), U0 {m.u0:.2f} (>= {q.u0:g}),"
           + "".join(f" {k} Em {m.surfaces[k][0]:.0f} lx (>= {s.lux:g})"
                     f" U0 {m.surfaces[k][2]:.2f} (>= {s.u0:g}),"

@@ -12,6 +12,7 @@ import time
 
 import numpy as np
 
+from invrad_wb.constants import DEEP_DIMMING
 from invrad_wb.errors import Cancelled, SettingsError
 from invrad_wb.core.accel.workers import map_rooms
 from invrad_wb.core.design.evaluate import RoomModel, surface_grids
@@ -24,9 +25,6 @@ from invrad_wb.core.design.search import (Candidate, Metrics, RoomSearch, margin
 
 #: shade points per room at most (deterministic subsample beyond)
 MAX_SHADE_POINTS = 2000
-#: general lighting dimmed below this fraction of its rated output is flagged (a smaller
-#: type would do with less installed power)
-DEEP_DIMMING = 0.5
 
 
 @dataclass
@@ -72,10 +70,34 @@ class RoomDesign:
             return None
         return self.w_per_m2 / (self.metrics.em / 100.0)
 
+    def general_outputs(self):
+        """Each general luminaire's output (fraction of its rated flux), in the order of
+        ``luminaires`` (accents, appended after them, are not general lighting): one
+        level where the type is dimmed evenly, each luminaire's own where its rows are
+        dimmed apart (:mod:`.refine`)."""
+        c = self.candidate
+        if c is None:
+            return np.zeros(0)
+        n = len(c.geom.positions)
+        if getattr(c, "dims", None) is not None:
+            return np.asarray(c.dims, dtype=float)[:n]
+        return np.full(n, float(c.dim))
+
+    def deep_dimmed(self):
+        """{type: (luminaires below ``DEEP_DIMMING``, luminaires of that type)} of the
+        general lighting, types with none below left out."""
+        out = {}
+        for lum, x in zip(self.luminaires, self.general_outputs()):
+            t = lum.extra.get("type")
+            low, n = out.get(t, (0, 0))
+            out[t] = (low + int(x < DEEP_DIMMING - 1e-9), n + 1)
+        return {t: v for t, v in out.items() if v[0]}
+
     @property
     def deep_dimming(self):
-        """The general lighting runs below ``DEEP_DIMMING`` of its rated output."""
-        return self.candidate is not None and self.candidate.dim < DEEP_DIMMING - 1e-9
+        """Some general luminaire runs below ``DEEP_DIMMING`` of its rated output (each
+        luminaire's own output counts, not its type's mean)."""
+        return bool(self.deep_dimmed())
 
     @property
     def energy_kwh(self):
@@ -341,18 +363,32 @@ def _explain(rd, search, entries):
         rd.notes.append(f"a point that must stay dark receives {m.shade_max:.1f} lx"
                         f" (limit {search.rs.shade_limit_lux:g} lx)")
     if rd.deep_dimming:
-        types = ", ".join(sorted({search.entries[k].name for k in c.entries}))
-        rd.notes.append(f"deep dimming: the general lighting ({types}) runs at"
-                        f" {100 * c.dim:.0f} % of its rated output; installed"
-                        f" {rd.rated_watts:.0f} W for {rd.watts:.0f} W drawn: a smaller type"
-                        " (fewer rated watts) would be the better choice where the catalogue"
-                        " has one")
+        rd.notes.append(deep_dimming_note(rd))
     if c.ok and m.em > 1.5 * r.lux and c.dim >= 1.0:
         weakest = min(entries, key=lambda e: e.flux_lm)
         rd.notes.append(f"Em {m.em:.0f} lx is {m.em / r.lux:.1f} x the {r.lux:.0f} lx"
                         f" required: fewer luminaires would not be uniform enough and the"
                         f" catalogue has nothing weaker than {weakest.name}"
                         f" ({weakest.flux_lm:.0f} lm) or dimmable")
+
+
+def deep_dimming_note(rd):
+    """The deep-dimming note of a room: how many general luminaires of each type run below
+    ``DEEP_DIMMING`` (each luminaire's own output), e.g. '9 of 15 DL-3500 run below 50 %
+    (10 to 46 %)'."""
+    x = rd.general_outputs()
+    types = [lum.extra.get("type") for lum in rd.luminaires[:len(x)]]
+    parts = []
+    for t, (low, n) in sorted(rd.deep_dimmed().items()):
+        lows = [v for v, u in zip(x, types) if u == t and v < DEEP_DIMMING - 1e-9]
+        lo, hi = 100 * min(lows), 100 * max(lows)
+        at = f"at {lo:.0f} %" if round(lo) == round(hi) else f"at {lo:.0f} to {hi:.0f} %"
+        parts.append(f"the {t} {at}" if n == 1 else f"all {n} {t} {at}" if low == n
+                     else f"{low} of {n} {t} {at}")
+    return (f"deep dimming: {'; '.join(parts)} of the rated output (below"
+            f" {100 * DEEP_DIMMING:.0f} %); installed {rd.rated_watts:.0f} W for"
+            f" {rd.watts:.0f} W drawn: a smaller type (fewer rated watts) would be the"
+            " better choice where the catalogue has one")
 
 
 def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimming=True,
@@ -432,8 +468,8 @@ def _finish_room(scene, rd, model, droom, rs, entries, photometry, req, search, 
     if cand.dims is not None and np.ptp(cand.dims) > 1e-6:
         rd.notes.append(f"outer and inner rows dimmed apart: outputs"
                         f" {100 * cand.dims.min():.0f} to {100 * cand.dims.max():.0f} %"
-                        " (each luminaire carries its own lumens, the schedule each type's"
-                        " mean; one common level would draw more)")
+                        " (each luminaire carries its own lumens; the schedule has a row"
+                        " per output group; one common level would draw more)")
     rd.grid_points = points
     rd._shade_limit = rs.shade_limit_lux
     _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search)
@@ -492,8 +528,11 @@ def _redim_with_accents(rd, model, search, parts, accents, req, rs):
     for sp in rd.spots:
         sp.achieved_mean += (f - 1.0) * sp.base_mean
         sp.base_mean *= f
-    rd.notes.append(f"general lighting dimmed to {100 * rd.candidate.dim:.0f} % with the"
-                    " accents' light on the work plane")
+    x = 100 * rd.general_outputs()
+    level = (f"{x.min():.0f} %" if round(x.min()) == round(x.max())
+             else f"{x.min():.0f} to {x.max():.0f} % (each luminaire by the same factor)")
+    rd.notes.append(f"general lighting dimmed to {level} with the accents' light on the"
+                    " work plane")
 
 
 def _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search=None):

@@ -22,7 +22,7 @@ import numpy as np
 
 from invrad_wb.core.geometry.outline import inside_outline, outline_raster
 from invrad_wb.core.io.atomic import atomic_dir
-from invrad_wb.constants import SPOT_TOLERANCE, SURFACE_REFERENCE
+from invrad_wb.constants import DEEP_DIMMING, SPOT_TOLERANCE, SURFACE_REFERENCE
 from invrad_wb.core.output import document
 from invrad_wb.core.output.figures import figure as _fig, iso_levels, png as _png
 
@@ -40,21 +40,150 @@ def _outline(ax, droom_edges):
         ax.plot([a[0], b[0]], [a[1], b[1]], color="0.15", lw=1.6)
 
 
-def _plot_luminaires(ax, luminaires, types):
+_MARKERS = "osD^vP*Xh"
+
+
+def _marker(types, t):
+    return _MARKERS[types.index(t) % len(_MARKERS)] if t in types else "o"
+
+
+def _plot_luminaires(ax, luminaires, types, ms=8):
     """Luminaires by type; ``types`` is the whole report's list so that a type keeps its
     marker on every figure."""
-    markers = "osD^vP*Xh"
-    for i, t in enumerate(types):
+    for t in types:
         p = np.array([lum.position for lum in luminaires if lum.extra.get("type") == t])
         if len(p):
-            ax.plot(p[:, 0], p[:, 1], markers[i % len(markers)], ms=8, mfc="white",
-                    mec="black", mew=1.4, label=t, zorder=5)
+            ax.plot(p[:, 0], p[:, 1], _marker(types, t), ms=ms, mfc="white",
+                    mec="black", mew=1.4, label=t, zorder=5, gid="luminaires")
 
 
-def room_plan_png(rd, edges, lux_max, types):
-    """PNG bytes of a room's work-plane plan: false colour, labelled iso-lux lines and the
-    luminaires in one panel, the values at the calculation points in a second one beside it
-    (below it for a long room), so that no number sits under a marker or an iso-lux label."""
+def _group_letter(i):
+    """'A'..'Z', then 'AA', 'AB', ... (a room with more than 26 dimming groups)."""
+    return chr(65 + i) if i < 26 else _group_letter(i // 26 - 1) + chr(65 + i % 26)
+
+
+def output_groups(r, catalogue):
+    """Dimming groups of a room: its luminaires of one type at one output setting (a whole
+    per cent of the type's rated flux; each luminaire's own flux counts, not the type's
+    mean), in catalogue order and brightest first. A list of dicts: type, percent,
+    fraction (the members' mean output), count, flux_lm and watts (each, at that output),
+    watts_total (the members' own watts summed), members (indices into
+    ``r.luminaires``), deep (general lighting below ``DEEP_DIMMING``) and label: 'A',
+    'B', ... where some type of the room is dimmed apart (more than one output), else ''
+    (the type names the group)."""
+    cat = {e.name: e for e in catalogue}
+    order = [e.name for e in catalogue]
+    groups = {}
+    for i, lum in enumerate(r.luminaires):
+        t = lum.extra.get("type")
+        e = cat[t]
+        x = lum.flux_lm / max(e.flux_lm, 1e-12)
+        groups.setdefault((t, int(round(100 * x))), []).append((i, x))
+    keys = sorted(groups, key=lambda k: (order.index(k[0]) if k[0] in order else len(order),
+                                         -k[1]))
+    apart = len({t for t, _ in keys}) < len(keys)
+    n_general = len(r.general_outputs())
+    out = []
+    for j, k in enumerate(keys):
+        e, xs = cat[k[0]], np.array([x for _, x in groups[k]])
+        out.append({"type": k[0], "percent": k[1], "fraction": float(xs.mean()),
+                    "count": len(xs),
+                    "flux_lm": float(e.flux_lm * xs.mean()),
+                    "watts": float(e.watts * xs.mean()),
+                    "watts_total": float(e.watts * xs.sum()),
+                    "members": [i for i, _ in groups[k]],
+                    # general lighting below DEEP_DIMMING (accents are not flagged)
+                    "deep": any(i < n_general and x < DEEP_DIMMING - 1e-9
+                                for i, x in groups[k]),
+                    "label": _group_letter(j) if apart else ""})
+    return out
+
+
+def _group_key_text(g):
+    """A dimming group as the plan's key gives it."""
+    return (f"{g['label']}: {g['count']} x {g['type']} at {g['percent']} %,"
+            f" {g['flux_lm']:.0f} lm, {g['watts']:.1f} W each")
+
+
+#: a marker's size (points) per point of the letter written in it, by marker: a triangle
+#: or a star holds a letter only near its centre
+_MARKER_SCALE = {"o": 1.6, "s": 1.5, "D": 1.9, "h": 1.7, "^": 2.3, "v": 2.3, "P": 2.3,
+                 "*": 2.7, "X": 2.3}
+
+
+#: the smallest letter written on a plan (points)
+MIN_LABEL_PT = 4.5
+
+
+def _label_fits(fig, ax, luminaires, groups):
+    """Whether the group letters fit in their markers at ``MIN_LABEL_PT`` without two
+    markers overlapping (see :func:`_label_luminaires`)."""
+    return _label_size(fig, ax, luminaires, groups)[0] >= MIN_LABEL_PT - 1e-9
+
+
+def _label_size(fig, ax, luminaires, groups):
+    """(letter size in points before clipping, {luminaire index: letter}, marker lines)."""
+    labels = {i: g["label"] for g in groups if g["label"] for i in g["members"]}
+    lines = [ln for ln in ax.get_lines() if ln.get_gid() == "luminaires"]
+    if not labels:
+        return np.inf, labels, lines
+    ax.apply_aspect()
+    p = np.array([luminaires[i].position[:2] for i in labels], dtype=float)
+    px = ax.transData.transform(p) * 72.0 / fig.dpi          # points on the page
+    gap = np.inf
+    if len(px) > 1:
+        d = np.linalg.norm(px[:, None] - px[None], axis=2)
+        gap = float(np.min(d[np.triu_indices(len(px), 1)]))
+    scale = max(_MARKER_SCALE.get(ln.get_marker(), 2.3) for ln in lines) if lines else 1.6
+    width = max(len(s) for s in labels.values())
+    # a marker (scale x the letter's size, wider by 0.65 em a further letter) fits the gap
+    return gap / (scale + 0.1 + 0.65 * (width - 1)), labels, lines
+
+
+def _label_luminaires(fig, ax, luminaires, groups, max_size=7.0, force=False):
+    """Write each luminaire's dimming-group letter inside its marker (rooms dimmed apart);
+    markers and letters are sized to the closest two luminaires on the figure, so that no
+    two markers (nor letters) overlap, between ``MIN_LABEL_PT`` and ``max_size``; a
+    triangle's letter sits at its centroid. Where they would not fit at the smallest size
+    nothing is written (unless ``force``: then at the smallest size); returns whether
+    letters were written."""
+    from matplotlib.transforms import offset_copy
+    size, labels, lines = _label_size(fig, ax, luminaires, groups)
+    if not labels or (size < MIN_LABEL_PT - 1e-9 and not force):
+        return False
+    size = float(np.clip(size, MIN_LABEL_PT, max_size))
+    width = max(len(s) for s in labels.values())
+    p = np.array([luminaires[i].position[:2] for i in labels], dtype=float)
+    for line in lines:
+        line.set_markersize(_MARKER_SCALE.get(line.get_marker(), 2.3) * size
+                            + 0.65 * size * (width - 1))
+        line.set_markeredgewidth(1.0)
+    shift = {}
+    for line in lines:
+        ms = line.get_markersize()
+        dy = {"^": -ms / 6.0, "v": ms / 6.0}.get(line.get_marker(), 0.0)
+        for xy in np.column_stack(line.get_data()):
+            shift[tuple(np.round(xy, 9))] = dy
+    for s, q in zip(labels.values(), p):
+        dy = shift.get(tuple(np.round(q, 9)), 0.0)
+        tr = offset_copy(ax.transData, fig=fig, y=dy, units="points") if dy else ax.transData
+        ax.text(q[0], q[1], s, fontsize=size, ha="center", va="center", zorder=6,
+                fontweight="bold", gid="group-label", transform=tr)
+    return True
+
+
+def room_plan_png(rd, edges, lux_max, types, groups=None):
+    """PNG bytes of :func:`room_plan_figure`."""
+    return _png(room_plan_figure(rd, edges, lux_max, types, groups))
+
+
+def room_plan_figure(rd, edges, lux_max, types, groups=None):
+    """A room's work-plane plan: false colour, labelled iso-lux lines and the luminaires in
+    one panel, the values at the calculation points in a second one beside it (below it for
+    a long room), so that no number sits under a marker or an iso-lux label. ``groups``
+    (:func:`output_groups`): a room dimmed apart gets each luminaire's group letter in its
+    marker and the groups' key (type, output, lm, W, count) under the plan; an evenly
+    dimmed one its types' output in the legend."""
     pts, lux = rd.grid_points, rd.metrics.lux[:len(rd.grid_points)]
     lo, hi = np.min(edges, axis=(0, 1)), np.max(edges, axis=(0, 1))
     span = np.maximum(hi - lo, 1e-6)
@@ -65,7 +194,11 @@ def room_plan_png(rd, edges, lux_max, types):
     w = 8.0
     panel_w = w - 1.3 if stacked else (w - 1.6) / 2
     panel_h = min(4.2, panel_w * span[1] / span[0])
-    fig = _figure(w, max(2.6, (2 * panel_h + 1.7) if stacked else panel_h + 1.25))
+    # the key of a room dimmed apart: one line per group (two columns beyond three)
+    keyed = [g for g in groups or [] if g["label"]]
+    key_in = 0.15 * max(0, -(-len(keyed) // _key_columns(keyed)) - 1) if keyed else 0.0
+    h = max(2.6, (2 * panel_h + 1.7) if stacked else panel_h + 1.25) + key_in
+    fig = _figure(w, h)
     ax, ax2 = fig.subplots(2, 1) if stacked else fig.subplots(1, 2)
     m = _false_colour(ax, pts, lux, lux_max, rd.requirement.lux, edges)
     _outline(ax, edges)
@@ -83,16 +216,90 @@ def room_plan_png(rd, edges, lux_max, types):
         a_.set_xlabel("x (m)", fontsize=7)
         a_.set_ylabel("y (m)", fontsize=7)
         a_.tick_params(labelsize=6.5)
-    fig.subplots_adjust(wspace=0.3, hspace=0.45, bottom=0.17 if rd.luminaires else 0.1)
+    # room under the panels for the x label and the key (its group lines)
+    bottom = ((min(0.17 * (h - key_in), 0.95) + key_in) / h) if rd.luminaires else 0.1
+    fig.subplots_adjust(wspace=0.3, hspace=0.45, bottom=bottom)
     if m is not None:
         bar = fig.colorbar(m, ax=[ax, ax2], shrink=0.8, pad=0.03)
         bar.set_label("maintained illuminance (lx)", fontsize=7)
         bar.ax.tick_params(labelsize=6.5)
     if rd.luminaires:
-        fig.legend(*ax.get_legend_handles_labels(), loc="lower center", fontsize=7,
-                   ncol=min(len(types), 5), frameon=False, title="luminaires",
-                   title_fontsize=7)
-    return _png(fig)
+        fits = _label_fits(fig, ax, rd.luminaires, groups or [])
+        _room_legend(fig, ax, types, groups or [], fits)
+        if fits:
+            _label_luminaires(fig, ax, rd.luminaires, groups or [])
+    return fig
+
+
+def dimming_plan_png(rd, edges, types, groups):
+    """PNG bytes of :func:`dimming_plan_figure`."""
+    return _png(dimming_plan_figure(rd, edges, types, groups))
+
+
+def dimming_plan_figure(rd, edges, types, groups):
+    """The commissioning plan of a room dimmed apart: its outline and luminaires at the
+    page's width, each marked with its dimming group's letter, and the groups' key (type,
+    output, lm and W each, count) beside it (under it where its lines are too long)."""
+    from matplotlib.lines import Line2D
+    lo, hi = np.min(edges, axis=(0, 1)), np.max(edges, axis=(0, 1))
+    span = np.maximum(hi - lo, 1e-6)
+    keyed = [g for g in groups if g["label"]]
+    texts = [_group_key_text(g) for g in keyed]
+    line_in = 0.19                          # a key line at 8 pt, inches
+    # the key's width at 8 pt (about 0.06 in a character) and its marker
+    key_w = 0.45 + 0.06 * max([len(t) for t in texts] or [0])
+    below = key_w > 4.3
+    w = 8.0
+    panel_w = w - 0.9 if below else w - key_w - 0.7
+    panel_h = min(5.0, panel_w * span[1] / span[0])
+    key_h = line_in * (len(texts) + 1)
+    h = max(2.4, panel_h + 0.9 + (key_h + 0.2 if below else 0), key_h + 0.5)
+    fig = _figure(w, h)
+    bottom = (key_h + 0.75) if below else 0.55
+    ax = fig.add_axes([0.6 / w, bottom / h, panel_w / w, (h - bottom - 0.3) / h])
+    _outline(ax, edges)
+    _plot_luminaires(ax, rd.luminaires, types)
+    ax.set_aspect("equal", anchor="W" if not below else "C")
+    ax.set_xlabel("x (m)", fontsize=7)
+    ax.set_ylabel("y (m)", fontsize=7)
+    ax.tick_params(labelsize=6.5)
+    ax.set_title(f"{rd.name}: dimming groups", fontsize=8)
+    handles = [Line2D([], [], ls="", marker=_marker(types, g["type"]), ms=5, mfc="white",
+                      mec="black", mew=1.0) for g in keyed]
+    fig.legend(handles, texts, loc="upper left",
+               bbox_to_anchor=(0.6 / w, (key_h + 0.2) / h) if below
+               else ((w - key_w) / w, 1 - 0.3 / h), fontsize=8, frameon=False,
+               title="group: output of the rated flux", title_fontsize=8)
+    _label_luminaires(fig, ax, rd.luminaires, groups, max_size=9.0, force=True)
+    return fig
+
+
+def _key_columns(groups):
+    """Columns of a room plan's group key: two beyond three groups where two lines fit
+    the figure's width side by side (about 55 characters each at 7 pt)."""
+    longest = max([len(_group_key_text(g)) for g in groups] or [0])
+    return 2 if len(groups) > 3 and longest <= 55 else 1
+
+
+def _room_legend(fig, ax, types, groups, lettered=True):
+    """The plan's key: per type (and its output where the room dims it evenly), or per
+    dimming group (letter, type, output, lm and W each, count) where it dims apart
+    (``lettered``: the letters are on this plan, else on the commissioning plan only)."""
+    from matplotlib.lines import Line2D
+    handles, labels = ax.get_legend_handles_labels()
+    if any(g["label"] for g in groups):
+        handles = [Line2D([], [], ls="", marker=_marker(types, g["type"]), ms=5, mfc="white",
+                          mec="black", mew=1.0) for g in groups]
+        labels = [_group_key_text(g) for g in groups]
+        title = ("dimming groups (letters on the plan; output of the rated flux)" if lettered
+                 else "dimming groups (too close to letter here: see the commissioning plan)")
+        ncol = _key_columns(groups)
+    else:
+        out = {g["type"]: g["percent"] for g in groups}
+        labels = [f"{t} at {out[t]} %" if out.get(t, 100) != 100 else t for t in labels]
+        title, ncol = "luminaires", min(len(types), 5)
+    fig.legend(handles, labels, loc="lower center", fontsize=7, ncol=ncol,
+               frameon=False, title=title, title_fontsize=7)
 
 
 def _false_colour(ax, pts, lux, lux_max, required, edges=None):
@@ -169,8 +376,15 @@ def storeys(rooms, step=0.5):
     return [(min(r.floor_z for r in rs), rs) for _, rs in sorted(out.items())]
 
 
-def floor_plan_png(rooms, z, types):
-    """PNG bytes of one storey's rooms in plan: outlines, luminaires, Em per room."""
+def floor_plan_png(rooms, z, types, catalogue=None):
+    """PNG bytes of :func:`floor_plan_figure`."""
+    return _png(floor_plan_figure(rooms, z, types, catalogue))
+
+
+def floor_plan_figure(rooms, z, types, catalogue=None):
+    """One storey's rooms in plan: outlines, luminaires, Em per room; with ``catalogue``,
+    each luminaire of a room dimmed apart carries its dimming group's letter (the room's
+    groups in the schedule)."""
     allp = np.concatenate([r.outline.reshape(-1, 2) for r in rooms])
     span = allp.max(axis=0) - allp.min(axis=0)
     fig = _figure(9.0, max(3.5, min(10.0, 9.0 * span[1] / max(span[0], 1e-6) + 0.8)))
@@ -192,23 +406,29 @@ def floor_plan_png(rooms, z, types):
                  fontsize=10)
     if lums:
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
-    return _png(fig)
+    if catalogue is not None and lums:
+        groups, k = [], 0
+        for r in rooms:
+            for g in output_groups(r, catalogue):
+                groups.append({**g, "members": [k + i for i in g["members"]]})
+            k += len(r.luminaires)
+        _label_luminaires(fig, ax, lums, groups, max_size=9.0)
+    return fig
 
 
 def schedule_rows(result):
-    """Rows of the luminaire schedule: one per room and type (dicts)."""
+    """Rows of the luminaire schedule: one per room, type and output setting (dicts; a
+    type dimmed apart has a row per dimming group, its letter as on the plans, lm and W
+    each at that output, W total its members' own watts)."""
     cat = {e.name: e for e in result.spec.catalogue}
     rows = []
     for r in result.rooms:
-        dim0 = r.candidate.dim if r.candidate is not None else 1.0
-        outputs = r.type_outputs()
-        for t, n in sorted(r.schedule().items()):
-            e = cat[t]
-            dim = outputs.get(t, dim0)
-            rows.append({"room": r.name, "type": t, "count": n,
-                         "flux_lm": round(e.flux_lm * dim), "watts": round(e.watts * dim, 2),
-                         "dim_percent": round(100 * dim), "watts_total":
-                         round(n * e.watts * dim, 2), "efficacy": round(e.efficacy, 1)})
+        for g in output_groups(r, result.spec.catalogue):
+            rows.append({"room": r.name, "group": g["label"], "type": g["type"],
+                         "count": g["count"], "flux_lm": round(g["flux_lm"]),
+                         "watts": round(g["watts"], 2), "dim_percent": g["percent"],
+                         "watts_total": round(g["watts_total"], 2),
+                         "efficacy": round(cat[g["type"]].efficacy, 1)})
     return rows
 
 
@@ -367,8 +587,13 @@ def room_rows(result):
                        rated_wpm2=f"{r.w_per_m2:.2f}",
                        wpm2_100lx=("-" if r.w_per_m2_100lx is None
                                    else f"{r.w_per_m2_100lx:.2f}"),
-                       output=f"{100 * r.candidate.dim:.0f}",
-                       deep_dimming=r.deep_dimming,
+                       output=_output_text(r),
+                       deep_dimming=r.deep_dimming, deep_text=_deep_text(r),
+                       groups=[{**g, "flux_lm": f"{g['flux_lm']:.0f}",
+                                "watts": f"{g['watts']:.1f}",
+                                "watts_total": f"{g['watts_total']:.1f}"}
+                               for g in output_groups(r, result.spec.catalogue)
+                               if g["label"]],
                        energy=(None if r.energy_kwh is None else f"{r.energy_kwh:.0f}"),
                        hours=(None if r.operating_hours is None
                               else f"{r.operating_hours:g}"),
@@ -384,6 +609,29 @@ def room_rows(result):
                               for s in r.spots if s.goal.kind == "spot"])
         rows.append(row)
     return rows
+
+
+def _output_text(r):
+    """The general lighting's output as the room table gives it: '32 %' where it is dimmed
+    evenly, '10 to 100 % (dimmed apart; 32 % of the rated power on average)' where
+    not."""
+    x = 100 * r.general_outputs()
+    if not len(x):
+        return "-"
+    lo, hi = float(np.min(x)), float(np.max(x))
+    if round(lo) == round(hi):
+        return f"{lo:.0f} %"
+    return (f"{lo:.0f} to {hi:.0f} % (dimmed apart; {100 * r.candidate.dim:.0f} % of the"
+            " rated power on average)")
+
+
+def _deep_text(r):
+    """'9 of 15 DL-3500 below 50 %' per type (each luminaire's own output; 'all 4 ...',
+    'the DL-3500 ...'), or ''."""
+    return "; ".join(f"the {t}" if n == 1 else f"all {n} {t}" if low == n
+                     else f"{low} of {n} {t}"
+                     for t, (low, n) in sorted(r.deep_dimmed().items())
+                     ) + (f" below {100 * DEEP_DIMMING:.0f} %" if r.deep_dimming else "")
 
 
 def _surface_text(r, part):
@@ -415,14 +663,19 @@ def write_design_report(result, out_dir, title="Lighting design", project=None, 
     sched = schedule_rows(result)
     types = [e.name for e in result.spec.catalogue]
     with atomic_dir(out_dir) as tmp:
-        plans, floors = {}, []
+        plans, floors, dimming = {}, [], {}
         for r in designed:
             name = f"plan_room{r.room}.png"
-            _write(tmp, name, room_plan_png(r, r.outline, lux_max, types))
+            groups = output_groups(r, result.spec.catalogue)
+            _write(tmp, name, room_plan_png(r, r.outline, lux_max, types, groups))
             plans[r.name] = name
+            if any(g["label"] for g in groups):
+                name = f"dimming_room{r.room}.png"
+                _write(tmp, name, dimming_plan_png(r, r.outline, types, groups))
+                dimming[r.name] = name
         for i, (z, rooms) in enumerate(storeys(result.rooms)):
             name = f"floor_plan_{i}.png"
-            _write(tmp, name, floor_plan_png(rooms, z, types))
+            _write(tmp, name, floor_plan_png(rooms, z, types, result.spec.catalogue))
             floors.append({"file": name, "z": f"{z:.2f}"})
         sheets = datasheet_rows(result)
         for sh in sheets:
@@ -439,6 +692,7 @@ def write_design_report(result, out_dir, title="Lighting design", project=None, 
         html = document.render_page(
             _TEMPLATE, title=title, project=project, date=datetime.date.today().isoformat(),
             mf=result.spec.maintenance_factor, rooms=rows, plans=plans, schedule=sched,
+            dimming_plans=dimming,
             total_w=f"{result.watts:.1f}", total_wpm2=f"{result.watts / max(area, 1e-9):.2f}",
             rated_w=f"{result.rated_watts:.1f}",
             rated_wpm2=f"{result.rated_watts / max(area, 1e-9):.2f}",

@@ -1,0 +1,239 @@
+"""The design report of a layout dimmed apart (issue 22): the schedule has a row per
+(type, output) group that adds up to the design's count and power, the plans letter each
+luminaire with its own group, and the deep-dimming note counts luminaires, not the type's
+mean. Made-up designs (no search): fast."""
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from invrad_wb.core.design.design import DesignResult, RoomDesign, deep_dimming_note
+from invrad_wb.core.design.search import Candidate
+from invrad_wb.core.design.spec import CatalogueEntry
+from invrad_wb.core.model.luminaires import Luminaire
+from invrad_wb.core.output import design_report as D
+
+CAT = [CatalogueEntry("DL-1000", 1000.0, 8.5, radius_m=0.3),
+       CatalogueEntry("DL-3500", 3500.0, 26.0, radius_m=0.3, dimming=(0.1, 1.0))]
+
+
+def _room(positions, outputs, types=None, size=(6.0, 4.0), dims=True):
+    """A designed room of luminaires at ``positions`` (k, 2) running at ``outputs`` (k,)
+    of their type's rated flux; ``dims``: dimmed apart (the programme's per-luminaire
+    outputs), else all at one common output."""
+    positions, outputs = np.asarray(positions, float), np.asarray(outputs, float)
+    types = types or ["DL-3500"] * len(outputs)
+    cat = {e.name: e for e in CAT}
+    lums = [Luminaire(np.array([p[0], p[1], 2.95]), np.array([0.0, 0.0, -1.0]),
+                      cat[t].flux_lm * x, 0.3, room=0, extra={"type": t})
+            for p, x, t in zip(positions, outputs, types)]
+    rated = np.array([cat[t].watts for t in types])
+    watts = float(outputs @ rated)
+    geom = SimpleNamespace(positions=np.c_[positions, np.full(len(positions), 2.95)],
+                           describe=lambda: "made up")
+    cand = Candidate(geom, (1, 1), watts / rated.sum(), watts, 500.0, 0.6, 0.0, True,
+                     dims=outputs if dims else None)
+    w, h = size
+    outline = np.array([[[0, 0], [w, 0]], [[w, 0], [w, h]], [[w, h], [0, h]],
+                        [[0, h], [0, 0]]], dtype=float)
+    gx, gy = np.meshgrid(np.linspace(0.5, w - 0.5, 8), np.linspace(0.5, h - 0.5, 6))
+    pts = np.c_[gx.ravel(), gy.ravel(), np.full(gx.size, 0.75)]
+    lux = 500.0 + 50.0 * np.sin(pts[:, 0])
+    rd = RoomDesign(0, "office", SimpleNamespace(lux=500.0, u0=0.6), lums, candidate=cand,
+                    area_m2=w * h, size_m=(w, h), grid_points=pts, outline=outline,
+                    metrics=SimpleNamespace(lux=lux, em=float(lux.mean()),
+                                            u0=float(lux.min() / lux.mean()),
+                                            emin=float(lux.min()), shade_max=0.0,
+                                            surface_ok=lambda reqs: {}),
+                    rated_watts=float(rated.sum()))
+    return rd
+
+
+# the office of examples/office_design.json as designed (15 x DL-3500 on a 5 x 3 grid,
+# outputs 10 to 100 %, 123.7 W): the centre, the centre row, the middle column, the
+# corners and edges of the outer ring
+GRID = np.array([(x, y) for y in (1.2, 2.0, 2.8) for x in (1.29, 2.15, 3.0, 3.86, 4.71)])
+OUTPUTS = np.array([0.10, 0.111, 0.465, 0.111, 0.10,
+                    0.10, 0.892, 1.00, 0.892, 0.10,
+                    0.10, 0.111, 0.465, 0.111, 0.10])
+
+
+def _result(*rooms):
+    return DesignResult(list(rooms), SimpleNamespace(catalogue=CAT))
+
+
+def test_the_schedule_has_a_row_per_output_group_adding_up_to_the_design():
+    rd = _room(GRID, OUTPUTS)
+    rows = D.schedule_rows(_result(rd))
+    # five settings, brightest first, lettered
+    assert [(r["group"], r["dim_percent"], r["count"]) for r in rows] == [
+        ("A", 100, 1), ("B", 89, 2), ("C", 46, 2), ("D", 11, 4), ("E", 10, 6)]
+    assert sum(r["count"] for r in rows) == len(rd.luminaires) == 15
+    assert sum(r["watts_total"] for r in rows) == pytest.approx(rd.watts, abs=0.02)
+    for r in rows:
+        assert r["watts"] == pytest.approx(26.0 * r["dim_percent"] / 100, abs=0.15)
+        assert r["flux_lm"] == pytest.approx(3500.0 * r["dim_percent"] / 100, abs=20)
+        assert r["watts_total"] == pytest.approx(r["count"] * r["watts"], rel=0.01)
+    # the rated (installed) power is every luminaire at full output, as before
+    assert rd.rated_watts == pytest.approx(15 * 26.0)
+
+
+def test_two_types_one_dimmed_apart_and_evenly_dimmed_rooms():
+    """A room with two types keeps one unlettered row per type where each is at one level;
+    an evenly dimmed room gets no letters and one row per type."""
+    types = ["DL-1000"] * 4 + ["DL-3500"] * 4
+    pos = np.array([(x, y) for y in (1.0, 3.0) for x in (1.0, 2.5, 3.5, 5.0)])
+    mixed = _room(pos, [1.0] * 4 + [0.6] * 4, types, dims=False)
+    rows = D.schedule_rows(_result(mixed))
+    assert [(r["type"], r["group"], r["count"], r["dim_percent"]) for r in rows] == [
+        ("DL-1000", "", 4, 100), ("DL-3500", "", 4, 60)]
+    assert sum(r["watts_total"] for r in rows) == pytest.approx(mixed.watts, abs=0.02)
+    # the same with the DL-3500 dimmed apart: every group lettered, DL-1000 included
+    apart = _room(pos, [1.0] * 4 + [0.6, 0.3, 0.3, 0.6], types)
+    rows = D.schedule_rows(_result(apart))
+    assert [(r["type"], r["group"], r["count"], r["dim_percent"]) for r in rows] == [
+        ("DL-1000", "A", 4, 100), ("DL-3500", "B", 2, 60), ("DL-3500", "C", 2, 30)]
+    assert sum(r["watts_total"] for r in rows) == pytest.approx(apart.watts, abs=0.02)
+
+
+def _group_labels(fig):
+    return [t for ax in fig.axes for t in ax.texts if t.get_gid() == "group-label"]
+
+
+@pytest.mark.parametrize("which", ["room", "dimming", "floor"])
+def test_plans_letter_each_luminaire_with_its_own_output(which):
+    rd = _room(GRID, OUTPUTS)
+    groups = D.output_groups(rd, CAT)
+    types = [e.name for e in CAT]
+    fig = (D.room_plan_figure(rd, rd.outline, 800.0, types, groups) if which == "room"
+           else D.dimming_plan_figure(rd, rd.outline, types, groups) if which == "dimming"
+           else D.floor_plan_figure([rd], 0.0, types, CAT))
+    labels = _group_labels(fig)
+    assert len(labels) == 15
+    letter = {g["percent"]: g["label"] for g in groups}
+    xy = np.array([lum.position[:2] for lum in rd.luminaires])
+    on = []
+    for t in labels:
+        # written on a luminaire, the letter of that luminaire's own output
+        d = np.linalg.norm(xy - np.asarray(t.get_position()), axis=1)
+        i = int(np.argmin(d))
+        assert d[i] < 1e-9
+        on.append(i)
+        assert t.get_text() == letter[round(100 * rd.luminaires[i].flux_lm / 3500.0)]
+    assert sorted(on) == list(range(15))
+    # the key names every group with its output, lm and W
+    legend_text = " ".join(x.get_text() for lg in fig.legends for x in lg.get_texts())
+    if which != "floor":
+        for g in groups:
+            assert f"{g['label']}: {g['count']} x DL-3500 at {g['percent']} %" in legend_text
+
+
+@pytest.mark.parametrize("types", [["DL-1000", "DL-3500"],            # a square
+                                   ["a", "b", "c", "DL-3500"]])       # a triangle
+def test_labels_of_a_dense_room_do_not_overlap_and_stay_readable(types):
+    """A 6 x 4 m room with a luminaire every 0.3 m (an extreme panel array), dimmed apart
+    in rings: where letters are written no two letters nor markers overlap, none is
+    smaller than 4.5 pt, and each sits on its marker. The room plan's small panel has
+    room for letters in squares, not in triangles: then its key sends the reader to the
+    commissioning plan, which has them."""
+    xs, ys = np.arange(0.45, 5.6, 0.3), np.arange(0.45, 3.6, 0.3)
+    pos = np.array([(x, y) for y in ys for x in xs])
+    ring = np.minimum.reduce([pos[:, 0] - xs[0], xs[-1] - pos[:, 0], pos[:, 1] - ys[0],
+                              ys[-1] - pos[:, 1]]) / 0.3
+    out = np.where(ring < 0.5, 0.9, np.where(ring < 1.5, 0.6, 0.25))
+    rd = _room(pos, out)
+    groups = D.output_groups(rd, CAT)
+    assert [g["label"] for g in groups] == ["A", "B", "C"]
+    lettered = []
+    for make in (lambda: D.room_plan_figure(rd, rd.outline, 800.0, types, groups),
+                 lambda: D.dimming_plan_figure(rd, rd.outline, types, groups)):
+        fig = make()
+        renderer = fig.canvas.get_renderer()
+        labels = _group_labels(fig)
+        if not labels:
+            assert len(types) == 4
+            assert "see the commissioning plan" in fig.legends[0].get_title().get_text()
+            continue
+        assert len(labels) == len(pos)
+        boxes = np.array([t.get_window_extent(renderer).extents for t in labels])
+        assert min(t.get_fontsize() for t in labels) >= 4.5
+        x0, y0, x1, y1 = boxes.T
+        over = ((x0[:, None] < x1[None]) & (x0[None] < x1[:, None])
+                & (y0[:, None] < y1[None]) & (y0[None] < y1[:, None]))
+        np.fill_diagonal(over, False)
+        assert not over.any()
+        # nor do the markers: closer than their size apart they would touch
+        ms = [ln.get_markersize() for ln in fig.axes[0].get_lines()
+              if ln.get_gid() == "luminaires"]
+        xy = fig.axes[0].transData.transform(pos) * 72.0 / fig.dpi
+        d = np.linalg.norm(xy[:, None] - xy[None], axis=2)
+        assert np.min(d[np.triu_indices(len(xy), 1)]) > max(ms)
+        # each letter's box around its luminaire's marker centre
+        ax = labels[0].axes
+        c = ax.transData.transform(np.array([t.get_position() for t in labels]))
+        assert np.all((x0 <= c[:, 0]) & (c[:, 0] <= x1) & (y0 <= c[:, 1]) & (c[:, 1] <= y1))
+        lettered.append(fig)
+    # the commissioning plan always, the room plan where squares hold the letters
+    assert len(lettered) == (2 if len(types) == 2 else 1)
+
+
+def test_an_evenly_dimmed_room_reads_as_before():
+    rd = _room(GRID, np.full(15, 0.32), dims=False)
+    groups = D.output_groups(rd, CAT)
+    assert [(g["label"], g["count"], g["percent"]) for g in groups] == [("", 15, 32)]
+    fig = D.room_plan_figure(rd, rd.outline, 800.0, [e.name for e in CAT], groups)
+    assert not _group_labels(fig)
+    assert [x.get_text() for x in fig.legends[0].get_texts()] == ["DL-3500 at 32 %"]
+    assert not _group_labels(D.floor_plan_figure([rd], 0.0, [e.name for e in CAT], CAT))
+    assert D._output_text(rd) == "32 %"
+
+
+def test_deep_dimming_counts_each_luminaire_not_the_type_mean():
+    # the office: 12 of 15 below 50 %
+    rd = _room(GRID, OUTPUTS)
+    assert rd.deep_dimming and rd.deep_dimmed() == {"DL-3500": (12, 15)}
+    note = deep_dimming_note(rd)
+    assert "12 of 15 DL-3500 at 10 to 46 %" in note and "32 %" not in note
+    assert D._deep_text(rd) == "12 of 15 DL-3500 below 50 %"
+    assert D._output_text(rd).startswith("10 to 100 % (dimmed apart")
+    # the type's mean output is 66 %, above the limit, yet 7 luminaires run at 30 %:
+    # the type mean hid them
+    half = _room(GRID, [1.0] * 8 + [0.3] * 7)
+    assert half.candidate.dim > 0.6
+    assert half.deep_dimmed() == {"DL-3500": (7, 15)}
+    assert "7 of 15 DL-3500 at 30 %" in deep_dimming_note(half)
+    # two types, each luminaire at or above 60 % of its own type's rated flux: none
+    two = _room(GRID[:8], [1.0] * 4 + [0.6] * 4, ["DL-1000"] * 4 + ["DL-3500"] * 4)
+    assert not two.deep_dimming and two.deep_dimmed() == {}
+    # evenly dimmed below 50 %: all of them
+    even = _room(GRID, np.full(15, 0.32), dims=False)
+    assert even.deep_dimmed() == {"DL-3500": (15, 15)}
+    assert "all 15 DL-3500 at 32 %" in deep_dimming_note(even)
+    assert D._deep_text(even) == "all 15 DL-3500 below 50 %"
+    one = _room(GRID[:1], [0.3])
+    assert D._deep_text(one) == "the DL-3500 below 50 %"
+    assert "the DL-3500 at 30 %" in deep_dimming_note(one)
+    # accents (after the general lighting) are not general lighting: not counted
+    acc = _room(np.r_[GRID, [[5.5, 3.5]]], np.r_[np.full(15, 0.8), 0.2], dims=False)
+    acc.candidate = Candidate(SimpleNamespace(positions=np.c_[GRID, np.zeros(15)],
+                                              describe=lambda: ""), (1, 1), 0.8,
+                              0.8 * 15 * 26.0, 500.0, 0.6, 0.0, True)
+    assert not acc.deep_dimming
+    assert [g["deep"] for g in D.output_groups(acc, CAT)] == [False, False]
+
+
+def test_the_cli_schedule_csv_and_console_line_give_the_groups():
+    import csv
+    import io
+    from invrad_wb.cli.design import _dimmed_words, schedule_csv
+    rd = _room(GRID, OUTPUTS)
+    text = schedule_csv(_result(rd))
+    assert text.startswith("room,type,count,flux_lm,watts_each,dim,watts_total")
+    rows = list(csv.DictReader(io.StringIO(text)))
+    assert [(r["group"], int(r["count"]), r["dim"]) for r in rows] == [
+        ("A", 1, "1.000"), ("B", 2, "0.892"), ("C", 2, "0.465"), ("D", 4, "0.111"),
+        ("E", 6, "0.100")]
+    assert sum(float(r["watts_total"]) for r in rows) == pytest.approx(rd.watts, abs=0.02)
+    assert _dimmed_words(rd) == ", dimmed apart to 10-100 % (32 % of the rated power)"
+    assert _dimmed_words(_room(GRID, np.full(15, 0.32), dims=False)) == ", dimmed to 32 %"
+    assert _dimmed_words(_room(GRID, np.ones(15), dims=False)) == ""
