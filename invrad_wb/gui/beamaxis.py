@@ -12,6 +12,11 @@ NativeIFC) that lacks one (``InitGui.py``'s observer calls :func:`redraw_later`)
   document and its view objects are complete);
 * after undo and redo (an undone removal makes the fixture's view object anew).
 
+On the first document it also installs :mod:`invrad_wb.app.aimsync`'s observer: NativeIFC
+makes a fixture's object only when its space is expanded (a document opened from an
+``.ifc``), and that observer gives it its aim properties and beam axis then; and a
+moved fixture's aim point follows it.
+
 This module imports nothing at its top (the observer imports it for every document); the
 drawing code is imported when a document holds aimed fixtures.
 """
@@ -56,6 +61,10 @@ def redraw_later(doc):
     import FreeCAD
     if not FreeCAD.GuiUp:
         return
+    # the observer that completes NativeIFC fixtures made lazily (a file opened from its
+    # .ifc) and keeps a moved fixture's aim (imports nothing at its top either)
+    from invrad_wb.app import aimsync
+    aimsync.install()
     name = doc.Name
     from PySide import QtCore
 
