@@ -157,6 +157,8 @@ def follow_placement(obj, old_placement=None, old_tilt=None, old_pan=None, old_a
     if "LightDirection" in obj.PropertiesList:
         _set(obj, "LightDirection", FreeCAD.Vector(*(float(x) for x in aim)), _same_vec)
     _write_ifc_aim(obj)
+    from invrad_wb.app.fixturebody import draw_beam_axis
+    draw_beam_axis(obj)                # its new length (GUI only)
 
 
 def follow_aim(obj, old_tilt=None, old_pan=None):
@@ -381,12 +383,12 @@ def complete_created(doc, names, done_projects=None):
             continue
         done.add(key)
         new += expand_aimed_fixtures(doc, proj)
+    for obj in new:        # their geometry and placement first (the recompute has been)
+        obj.recompute()
     n = 0
     for obj in native + new:
         if complete_native_fixture(obj):
             n += 1
-    for obj in new:                    # their geometry (the recompute has been)
-        obj.recompute()
     return n
 
 

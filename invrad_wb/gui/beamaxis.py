@@ -39,8 +39,8 @@ def aimed_fixtures(doc):
 
 
 def redraw(doc):
-    """Draw the beam axis of each aimed fixture of ``doc`` that shows none; the number
-    drawn (0 without the GUI)."""
+    """Draw the beam axis of each aimed fixture of ``doc`` (again: it may show none, or one
+    to an aim point that undo changed back); the number drawn (0 without the GUI)."""
     import FreeCAD
     objs = aimed_fixtures(doc)
     if not objs or not FreeCAD.GuiUp:
@@ -50,7 +50,8 @@ def redraw(doc):
     from invrad_wb.app import fixturebody
     n = 0
     for obj in objs:
-        if not fixturebody.has_beam_axis(obj) and fixturebody.draw_beam_axis(obj):
+        # every one, not only those without: an undone move changed its aim point back
+        if fixturebody.draw_beam_axis(obj):
             n += 1
     return n
 
