@@ -146,6 +146,7 @@ def follow_placement(obj, old_placement=None, old_tilt=None, old_pan=None, old_a
     m = mount_normal(obj, old_placement, old_tilt, old_pan)
     aim, _ = light_axes(obj.Placement)
     tilt, pan = tilt_pan(aim, m)
+    turned = not (_same_float(tilt, obj.Tilt) and (tilt <= 1e-6 or _same_float(pan, obj.Pan)))
     throw = DEFAULT_THROW_MM
     if old_aim is not None and old_placement is not None:
         throw = max((old_aim - old_placement.Base).Length, MIN_THROW_MM * 2)
@@ -156,7 +157,8 @@ def follow_placement(obj, old_placement=None, old_tilt=None, old_pan=None, old_a
     _set(obj, "AimPoint", hit, _same_vec)
     if "LightDirection" in obj.PropertiesList:
         _set(obj, "LightDirection", FreeCAD.Vector(*(float(x) for x in aim)), _same_vec)
-    _write_ifc_aim(obj)
+    if turned:
+        _write_ifc_aim(obj)
     from invrad_wb.app.fixturebody import draw_beam_axis
     draw_beam_axis(obj)                # its new length (GUI only)
 
@@ -323,6 +325,8 @@ class _Observer:
             return
         old = self.before.pop(key, None)
         if old is None or not _live_aimed(obj):
+            if prop != "Placement" and _undone_native(obj):
+                _write_ifc_aim(obj)    # the IFC's set as the undone (or redone) document's
             return
         pl, tilt, pan, aim = old
         self.busy.add(key)
@@ -344,6 +348,18 @@ def _key(obj):
         return obj.Document.Name, obj.Name
     except Exception:
         return None
+
+
+def _undone_native(obj):
+    """A NativeIFC aimed fixture whose document undoes or redoes (NativeIFC writes its
+    placement back into the IFC itself; invrad's set, not)."""
+    from invrad_wb.app import nativeifc
+    from invrad_wb.app.fixturebody import is_aimed_fixture
+    try:
+        return bool(obj.Document.Transacting) and nativeifc.is_native(obj) and \
+            is_aimed_fixture(obj)
+    except Exception:
+        return False
 
 
 def _live_aimed(obj):

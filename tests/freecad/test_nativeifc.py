@@ -462,3 +462,31 @@ class TestAimedFixturesOpenedFromTheIfc(FreeCADTestCase):
                         ifc_tools.create_children(o, recursive=False, assemblies=True)
             doc.recompute()
         self.assertAimed(doc)
+
+    def test_a_moved_native_fixture_keeps_its_aim_in_the_document_and_the_ifc(self):
+        import ifcopenshell.util.unit as U
+        from invrad_wb.app import ifcdata
+        from invrad_wb.app.aimsync import same_placement
+        self.doc.recompute()
+        fx = [f for f in self.doc.Objects if nativeifc.is_native_fixture(f, True)][0]
+        ifc = nativeifc.ifcfile(fx)
+
+        def stored():                  # the fixture as its IFC entity says
+            return ifcdata.invrad_fixture_data(nativeifc.entity(fx),
+                                               U.calculate_unit_scale(ifc), ifc)
+        pl0, aim0, tilt0 = FreeCAD.Placement(fx.Placement), FreeCAD.Vector(fx.AimPoint), \
+            fx.Tilt
+        pl = FreeCAD.Placement(pl0)
+        pl.Base = pl.Base + FreeCAD.Vector(1000, 0, 0)      # 1 m: its beam on the floor
+        self.doc.openTransaction("Move")
+        fx.Placement = pl
+        self.doc.commitTransaction()
+        self.assertLess((fx.AimPoint - aim0 - FreeCAD.Vector(1000, 0, 0)).Length, 1.0)
+        self.assertEqual(fx.Tilt, tilt0)
+        np.testing.assert_allclose(stored().position, self.lums[0].position + [1, 0, 0],
+                                   atol=1e-6)
+        self.doc.undo()
+        self.assertTrue(same_placement(fx.Placement, pl0))
+        self.assertLess((fx.AimPoint - aim0).Length, 1e-6)
+        np.testing.assert_allclose(stored().position, self.lums[0].position, atol=1e-6)
+        self.assertLess(abs(stored().extra["tilt_deg"] - tilt0), 1e-9)
