@@ -211,12 +211,11 @@ def complete_native_fixture(obj):
     ``AimPoint`` (read from its entity, :func:`.nativeifc.fixture_luminaire`) and beam
     axis; False when it is not one or has them already."""
     from invrad_wb.app import fixturebody, nativeifc
-    from invrad_wb.errors import InvradError
     if not nativeifc.is_native_fixture(obj) or fixturebody.is_aimed_fixture(obj):
         return False
     try:
         lum = nativeifc.fixture_luminaire(obj)
-    except (InvradError, Exception):    # not invrad's, no flux: nothing to show
+    except Exception:          # not invrad's (LuminaireError: no flux), no entity
         return False
     if fixturebody.aimed_tilt(lum) is None:
         return False
@@ -314,8 +313,8 @@ class _Observer:
         if key is None or key in self.busy or not _live_aimed(obj):
             return
         import FreeCAD
-        self.before.setdefault(key, (FreeCAD.Placement(obj.Placement), float(obj.Tilt),
-                                     float(obj.Pan), FreeCAD.Vector(obj.AimPoint)))
+        self.before[key] = (FreeCAD.Placement(obj.Placement), float(obj.Tilt),
+                            float(obj.Pan), FreeCAD.Vector(obj.AimPoint))
 
     def slotChangedObject(self, obj, prop):
         if prop not in WATCHED:
