@@ -4,7 +4,8 @@ free``, or bench/bench_aim.py --save's ``<room>_found.json``) inserted as light 
 a walled room of the result's size, seen in isometric, from the side and from above, with
 each fixture's beam axis drawn to where it meets the room; with ``--reopen`` after the
 document was saved, closed and opened again; with ``--native`` (FreeCAD 1.x) two spots
-aimed in FZK-Haus opened as a NativeIFC document, saved and reopened.
+aimed in FZK-Haus opened as a NativeIFC document, saved and reopened (the document, and
+the saved .ifc opened fresh as File > Open does).
 
 ::
 
@@ -219,6 +220,7 @@ def inside_native(cfg):
     doc = FreeCAD.openDocument(path)
     settle()
     objs = [doc.getObject(n) for n in names]
+    objs_guids = [o.GlobalId for o in objs]
     saved = ifcopenshell.open(src)
     scale = U.calculate_unit_scale(saved)
     by_guid = {e.GlobalId: e for e in saved.by_type("IfcLightFixture")}
@@ -239,37 +241,84 @@ def inside_native(cfg):
                                                                -1, 1)))),
                 "tilt_deg": got.extra.get("tilt_deg"), "pan_deg": got.extra.get("pan_deg")}
         report.append(row)
-    # the room and its fixtures alone (the building's walls and slabs hide them)
-    space = doc.getObject(sname)
+    shots = _native_shots(doc, objs, doc.getObject(sname), cfg["out"],
+                          f"fzk_native_{ver}_reopened")
+    # the saved .ifc opened fresh, as File > Open does (NativeIFC's import, the document
+    # itself the project, its building structure in NativeIFC's coin display): a space's
+    # contents have no objects until it is expanded, and invrad's observer (InitGui.py)
+    # makes the aimed fixtures' with their aim and beam axis
+    from nativeifc import ifc_import
+    FreeCAD.closeDocument(doc.Name)
+    fresh = FreeCAD.newDocument("FreshIfc")
+    ifc_import.insert(src, fresh.Name, strategy=1, shapemode=1, switchwb=False, silent=True,
+                      singledoc=True)
+    settle()
+    got = {getattr(o, "GlobalId", ""): o for o in fresh.Objects
+           if nativeifc.is_native_fixture(o, generated_only=True)}
+    fresh_rows = []
+    for obj, lum in zip(objs_guids, lums):
+        o = got.get(obj)
+        row = {"guid": obj, "made": o is not None}
+        if o is not None:
+            pl = o.Placement
+            d = pl.Rotation.multVec(FreeCAD.Vector(0, 0, -1))
+            a = getattr(o, "AimPoint", None)
+            row.update(label=o.Label, tilt_deg=getattr(o, "Tilt", None),
+                       pan_deg=getattr(o, "Pan", None), beam_axis_drawn=has_beam_axis(o),
+                       placement_vs_position_mm=float(np.linalg.norm(
+                           np.array([pl.Base.x, pl.Base.y, pl.Base.z]) - lum.position * 1000)),
+                       placement_axis_vs_aim_deg=float(np.degrees(np.arccos(np.clip(
+                           np.dot([d.x, d.y, d.z], lum.normal), -1, 1)))),
+                       aim_point_m=None if a is None else
+                       [round(a.x / 1000, 3), round(a.y / 1000, 3), round(a.z / 1000, 3)])
+        fresh_rows.append(row)
+    spaces = [s for s in rooms.find_spaces(fresh) if rooms.room_name(s) == "Wohnen"]
+    fresh_objs = [o for o in got.values()]
+    shots += _native_shots(fresh, fresh_objs, spaces[0] if spaces else None, cfg["out"],
+                           f"fzk_native_{ver}_fresh_ifc")
+    with open(os.path.join(cfg["out"], f"fzk_native_{ver}_reopened.json"), "w") as fh:
+        json.dump({"freecad": FreeCAD.Version()[:3], "fixtures": report,
+                   "fresh_ifc": fresh_rows, "shots": shots}, fh, indent=1)
+
+
+def _native_shots(doc, objs, space, out, stem):
+    """Isometric, front and top shots of ``space`` and its fixtures ``objs``, framed on the
+    space's solid: its storey and building (NativeIFC draws the elements not expanded as
+    theirs) see-through, everything else hidden; the paths."""
+    import FreeCADGui
+    from pivy import coin
+    from invrad_wb.app import nativeifc
+    parents = set(space.InListRecursive) if space is not None else set()
     for o in doc.Objects:
         vo = getattr(o, "ViewObject", None)
         if vo is None or o in objs:
             continue
-        if o is space:
+        if o is space or o in parents:
             vo.Visibility = True
             if hasattr(vo, "Transparency"):
-                vo.Transparency = 70
-        elif o not in space.InListRecursive:
+                vo.Transparency = 70 if o is space else 85
+        else:
             vo.Visibility = False
     settle()
-    view = FreeCADGui.activeDocument().activeView()
+    view = FreeCADGui.getDocument(doc.Name).activeView()
     view.setCameraType("Orthographic")
+    bb = nativeifc.space_solid(space).BoundBox if space is not None else None
     shots = []
     for tag, cam in (("iso", view.viewIsometric), ("front", view.viewFront),
                      ("top", view.viewTop)):
         cam()
-        FreeCADGui.Selection.clearSelection()
-        for o in objs + [space]:
-            FreeCADGui.Selection.addSelection(o)
-        FreeCADGui.SendMsgToActiveView("ViewSelection")
-        FreeCADGui.Selection.clearSelection()
+        if bb is not None:
+            m = 500.0
+            box = coin.SbBox3f(bb.XMin - m, bb.YMin - m, bb.ZMin - m,
+                               bb.XMax + m, bb.YMax + m, bb.ZMax + m)
+            view.getCameraNode().viewBoundingBox(box, 1.5, 1.0)
+        else:
+            view.fitAll()
         settle()
-        shot = os.path.join(cfg["out"], f"fzk_native_{ver}_reopened_{tag}.png")
+        shot = os.path.join(out, f"{stem}_{tag}.png")
         view.saveImage(shot, 1200, 800, "White")
         shots.append(shot)
-    with open(os.path.join(cfg["out"], f"fzk_native_{ver}_reopened.json"), "w") as fh:
-        json.dump({"freecad": FreeCAD.Version()[:3], "fixtures": report, "shots": shots},
-                  fh, indent=1)
+    return shots
 
 
 def run_inside():

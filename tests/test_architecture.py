@@ -46,7 +46,7 @@ CORE_LAYERS = [("model",), ("accel",), ("geometry",), ("io",), ("forward",), ("o
 #: room's ceiling (roomzones); IFC import/export and the design
 #: specs; the pipeline; results (verify, re-insert, sheets)
 APP_LAYERS = [("settings", "units", "document", "pip_runner"), ("fixturebody",), ("ifcdata",),
-              ("nativeifc", "classic"), ("backend",), ("rooms", "dependencies"),
+              ("nativeifc", "classic"), ("backend", "aimsync"), ("rooms", "dependencies"),
               ("targets", "fixtures", "roomzones"), ("ifcrooms", "ifcexport", "design"),
               ("ifcimport", "pipeline"), ("results",)]
 

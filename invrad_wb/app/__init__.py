@@ -16,7 +16,9 @@ those below it (``tests/test_architecture.py``), lowest first:
   run holding one ifcopenshell transaction)
 * :mod:`.backend`   one interface over them, chosen once per document (``backend.of``):
   rooms, their solids and requirements, fixtures in and out; nothing above branches on
-  an object's kind
+  an object's kind; :mod:`.aimsync` an observer that keeps aimed fixtures whole (their
+  aim read from the IFC when NativeIFC makes their objects lazily, their aim point and
+  tilt following a move, their placement a tilt or pan edit)
 * :mod:`.rooms`     Arch Spaces (or IfcSpaces) -> room solids -> sampling meshes (metres,
   inward normals); :mod:`.dependencies` the venv on sys.path (appended) and what is
   missing, with the command that installs it (called by the workbench's Initialize)

@@ -170,6 +170,33 @@ def aim_point_mm(shape, lum):
     return p + d * (min(hits) if hits else 2000.0)
 
 
+def mount_normal_of(aim, c0, tilt_deg, pan_deg):
+    """(3,) unit mounting normal of a fixture aimed along ``aim`` with C0 axis ``c0``,
+    tilted ``tilt_deg`` towards pan ``pan_deg``: the gimbal tilt undone. The tilt is the
+    smallest rotation R taking the mount normal m onto the aim and the mounted C0 axis u
+    onto ``c0`` (:func:`~invrad_wb.core.model.aiming.aimed_c0`); the tilt direction d =
+    cos(pan) u + sin(pan) v is turned to R d = cos(pan) c0 + sin(pan) R v, and m = cos(t)
+    aim - sin(t) R d. None when the result does not give back the tilt and pan (a placement
+    turned about its own axis by hand)."""
+    from invrad_wb.core.model.aiming import tilt_pan
+    from invrad_wb.core.model.scene import plane_basis
+    a = np.asarray(aim, dtype=np.float64)
+    t, p = np.radians(tilt_deg), np.radians(pan_deg)
+    for sign in (1.0, -1.0):          # plane_basis' handedness, checked below
+        rv = sign * np.cross(a, c0)
+        rd = np.cos(p) * np.asarray(c0) + np.sin(p) * rv
+        m = np.cos(t) * a - np.sin(t) * rd
+        m = m / np.linalg.norm(m)
+        u, v = plane_basis(m)
+        if abs(abs(np.cross(m, u) @ v) - 1.0) > 1e-6 or np.sign(np.cross(m, u) @ v) != sign:
+            continue
+        tt, pp = tilt_pan(a, m)
+        if abs(tt - tilt_deg) < 1e-3 and (tilt_deg < 1e-3 or
+                                          abs((pp - pan_deg + 180.0) % 360.0 - 180.0) < 1e-3):
+            return m
+    return None
+
+
 def add_aim_properties(obj, lum, tilt, aim_point, group="Light", readonly=False):
     """An aimed fixture's tilt and pan (degrees from its mounting normal) and the point its
     beam axis meets the room (drawn in the 3D view, :func:`draw_beam_axis`), as document
@@ -183,12 +210,55 @@ def add_aim_properties(obj, lum, tilt, aim_point, group="Light", readonly=False)
             ("App::PropertyVector", "AimPoint", "Where the beam axis meets the room")):
         if name not in obj.PropertiesList:
             obj.addProperty(ptype, name, group, doc)
+    key = (obj.Document.Name, obj.Name)
+    WRITING_AIM.add(key)
+    try:
+        _write_aim_properties(obj, lum, tilt, aim_point, group, readonly)
+    finally:
+        WRITING_AIM.discard(key)
+
+
+#: (document, object) names whose aim properties are being written
+#: (:func:`add_aim_properties`): :mod:`.aimsync` leaves their changes be (not the user's).
+WRITING_AIM = set()
+
+
+def _write_aim_properties(obj, lum, tilt, aim_point, group, readonly):
+    m = lum_mount_normal(lum, tilt)
+    if m is not None and "MountNormal" not in obj.PropertiesList:
+        obj.addProperty("App::PropertyVector", "MountNormal", group,
+                        "Normal of the surface the fixture is mounted on (Tilt and Pan are"
+                        " measured from it)")
+        obj.setPropertyStatus("MountNormal", "Hidden")
+    if m is not None:
+        import FreeCAD
+        obj.MountNormal = FreeCAD.Vector(*(float(x) for x in m))
     obj.Tilt = tilt
     obj.Pan = aimed_pan(lum)
     obj.AimPoint = aim_point
     if readonly:
         for name in AIM_PROPERTIES:
             obj.setPropertyStatus(name, "ReadOnly")
+
+
+def lum_mount_normal(lum, tilt=None):
+    """(3,) unit mounting normal of an aimed luminaire: its ``extra['mount_normal']``
+    (locate, design), else worked out from its aim, C0 axis, tilt and pan
+    (:func:`mount_normal_of`); None when neither gives one."""
+    m = lum.extra.get("mount_normal")
+    try:
+        m = np.asarray(m, dtype=np.float64).reshape(3)
+        if np.isfinite(m).all() and np.linalg.norm(m) > 0.5:
+            return m / np.linalg.norm(m)
+    except (TypeError, ValueError):
+        pass
+    tilt = aimed_tilt(lum) if tilt is None else tilt
+    if tilt is None:
+        return None
+    c0 = getattr(lum, "c0", None)
+    if c0 is None:
+        c0 = fixture_axes(lum.normal)[0]
+    return mount_normal_of(lum.normal, c0, tilt, aimed_pan(lum))
 
 
 def is_aimed_fixture(obj):

@@ -98,6 +98,8 @@ def insert_fixtures(doc, per_room, replace=True, name="Insert luminaires", requi
     LuminaireError, SceneError
         Bad luminaire or room; the document is left unchanged.
     """
+    from invrad_wb.app import aimsync
+    aimsync.install()              # a moved aimed fixture's aim follows it
     return backend.of(doc).insert_fixtures(doc, per_room, fixture_label, replace=replace,
                                            name=name, requirements=requirements)
 

@@ -68,6 +68,9 @@ def open_ifc(path, doc=None, shapemode=None, requirements=True, singledoc=False)
         doc = FreeCAD.newDocument()
         doc.Label = os.path.splitext(os.path.basename(path))[0]
     activate(doc)
+    # invrad's aimed fixtures made into objects with their aim when NativeIFC's import ends
+    from invrad_wb.app import aimsync
+    aimsync.install()
     before = set(o.Name for o in doc.Objects)
     try:
         ifc_import.insert(path, doc.Name, strategy=1, shapemode=shapemode, switchwb=False,

@@ -278,15 +278,16 @@ def _new_fixture_entity(ifc, space_ent, lum, label, ctx, unit_scale):
 AIM_GROUP = "Base"
 
 
-def _show_aim(obj, space, lum):
+def show_aim(obj, space, lum):
     """An aimed fixture's tilt, pan and aim point as (read-only) properties of its
     NativeIFC object, and its beam axis in the 3D view, as a classic fixture's; the IFC
-    keeps them in its placement and property set (:func:`ifcdata.write_aim`)."""
+    keeps them in its placement and property set (:func:`ifcdata.write_aim`). ``space``:
+    its NativeIFC space (None: the axis ends 2 m out)."""
     tilt = fixturebody.aimed_tilt(lum)
     if tilt is None:
         return
     try:
-        shape = space_solid(space)
+        shape = space_solid(space) if space is not None else None
     except SceneError:         # the axis then ends 2 m out
         shape = None
     fixturebody.add_aim_properties(obj, lum, tilt, fixturebody.aim_point_mm(shape, lum),
@@ -354,7 +355,7 @@ def insert_fixtures(doc, per_room, label, replace=True, name="Insert luminaires"
                 obj.Proxy.cached = False       # a new entity: not in the file's cache
                 obj.touch()
                 space.Proxy.addObject(space, obj)
-                _show_aim(obj, space, lum)
+                show_aim(obj, space, lum)
                 out.append(obj)
         _write_requirements(ifc, [sp for sp, _ in per_room], requirements)
         if hasattr(proj, "Modified"):

@@ -12,6 +12,11 @@ NativeIFC) that lacks one (``InitGui.py``'s observer calls :func:`redraw_later`)
   document and its view objects are complete);
 * after undo and redo (an undone removal makes the fixture's view object anew).
 
+On the first document it also installs :mod:`invrad_wb.app.aimsync`'s observer: NativeIFC
+makes a fixture's object only when its space is expanded (a document opened from an
+``.ifc``), and that observer gives it its aim properties and beam axis then; and a
+moved fixture's aim point follows it.
+
 This module imports nothing at its top (the observer imports it for every document); the
 drawing code is imported when a document holds aimed fixtures.
 """
@@ -34,8 +39,8 @@ def aimed_fixtures(doc):
 
 
 def redraw(doc):
-    """Draw the beam axis of each aimed fixture of ``doc`` that shows none; the number
-    drawn (0 without the GUI)."""
+    """Draw the beam axis of each aimed fixture of ``doc`` (again: it may show none, or one
+    to an aim point that undo changed back); the number drawn (0 without the GUI)."""
     import FreeCAD
     objs = aimed_fixtures(doc)
     if not objs or not FreeCAD.GuiUp:
@@ -45,7 +50,8 @@ def redraw(doc):
     from invrad_wb.app import fixturebody
     n = 0
     for obj in objs:
-        if not fixturebody.has_beam_axis(obj) and fixturebody.draw_beam_axis(obj):
+        # every one, not only those without: an undone move changed its aim point back
+        if fixturebody.draw_beam_axis(obj):
             n += 1
     return n
 
@@ -56,6 +62,10 @@ def redraw_later(doc):
     import FreeCAD
     if not FreeCAD.GuiUp:
         return
+    # the observer that completes NativeIFC fixtures made lazily (a file opened from its
+    # .ifc) and keeps a moved fixture's aim (imports nothing at its top either)
+    from invrad_wb.app import aimsync
+    aimsync.install()
     name = doc.Name
     from PySide import QtCore
 

@@ -154,6 +154,20 @@ def relaunch(argv):
     return 0 if not bad and data.get("finished") else 1
 
 
+def beam_axis_length(obj):
+    """Length (mm) of the beam axis drawn for ``obj`` (its Coin line's end), or -1."""
+    from invrad_wb.app.fixturebody import BEAM_AXIS_NODE
+    root = obj.ViewObject.RootNode
+    for i in range(root.getNumChildren()):
+        node = root.getChild(i)
+        if node.getName() == BEAM_AXIS_NODE:
+            for j in range(node.getNumChildren()):
+                c = node.getChild(j)
+                if c.getTypeId().getName() == "Coordinate3":
+                    return -float(c.point[1][2])
+    return -1.0
+
+
 # --------------------------------------------------------------------------- panel widths
 def clipped(form):
     """The visible widgets of a laid-out form whose text does not fit their width:
@@ -876,6 +890,33 @@ class Smoke:
                 o.ViewObject.Transparency = 75
         self.view_iso()
         self.shot("aimed_spot_reopened")
+        if fx:
+            # moved 1 m towards the lit wall (as a drag does, one transaction): the aim
+            # point is where the beam now meets the room, the drawn axis ends there; undo
+            # puts both back
+            fx = fx[0]
+            aim0, pl0 = FreeCAD.Vector(fx.AimPoint), FreeCAD.Placement(fx.Placement)
+            pl = FreeCAD.Placement(pl0)
+            d = pl.Rotation.multVec(FreeCAD.Vector(0, 0, -1))
+            pl.Base = pl.Base + FreeCAD.Vector(d.x, d.y, 0).normalize() * 1000.0
+            doc.openTransaction("Move")
+            fx.Placement = pl
+            doc.commitTransaction()
+            yield None
+            moved = FreeCAD.Vector(fx.AimPoint)
+            self.check("aimed spot moved 1 m: its aim point follows the beam and the axis"
+                       " is drawn to it", (moved - aim0).Length > 100.0
+                       and abs(beam_axis_length(fx) - (moved - pl.Base).Length) < 1.0
+                       and abs(fx.Tilt - 40.0) < 1e-6,
+                       (aim0, moved, beam_axis_length(fx), fx.Tilt, fx.Pan))
+            self.shot("aimed_spot_moved")
+            doc.undo()
+            yield None
+            self.check("aimed spot move undone: placement, aim point and axis back",
+                       (fx.Placement.Base - pl0.Base).Length < 1e-6
+                       and (fx.AimPoint - aim0).Length < 1e-6
+                       and abs(beam_axis_length(fx) - (aim0 - pl0.Base).Length) < 1.0,
+                       (fx.Placement, fx.AimPoint, beam_axis_length(fx)))
         FreeCAD.closeDocument(doc.Name)
 
     def run_design(self, doc, space, ceiling):

@@ -5,6 +5,7 @@ import FreeCAD
 
 from fctest import FZK, FreeCADTestCase, make_walled_room, needs_fzk, needs_locate
 from invrad_wb.app import classic, document, fixtures
+from invrad_wb.app.aimsync import same_placement
 from invrad_wb.core.model.luminaires import Luminaire
 from invrad_wb.errors import LuminaireError, SceneError
 
@@ -68,6 +69,87 @@ class TestFixtures(FreeCADTestCase):
         a = aimed.AimPoint
         np.testing.assert_allclose([a.x, a.y, a.z], target * 1000, atol=1.0)
         self.assertNotIn("AimPoint", plain.PropertiesList)   # faces along its mount normal
+
+    def _aimed_spot(self):
+        """A ceiling spot at (2, 1.5, 2.7) aimed at (2.6, 0.1, 1.4) on the wall y = 0.1."""
+        from invrad_wb.core.model.aiming import aimed_c0, tilt_pan
+        pos = np.array([2.0, 1.5, 2.7])
+        target = np.array([2.6, 0.1, 1.4])
+        aim = (target - pos) / np.linalg.norm(target - pos)
+        tilt, pan = tilt_pan(aim, [0, 0, -1])
+        lum = Luminaire(pos, aim, 900.0, c0=aimed_c0([0, 0, -1], aim),
+                        extra={"tilt_deg": tilt, "pan_deg": pan})
+        (fx,) = fixtures.insert_fixtures(self.doc, [(self.space, [lum])])
+        return fx, aim, target
+
+    def _edit(self, fx, **props):
+        self.doc.openTransaction("Edit")
+        for k, v in props.items():
+            setattr(fx, k, v)
+        self.doc.commitTransaction()
+
+    def test_a_moved_spot_keeps_its_aim_and_its_aim_point_follows_the_beam(self):
+        fx, aim, target = self._aimed_spot()
+        tilt, pan = fx.Tilt, fx.Pan
+        pl0, aim0 = FreeCAD.Placement(fx.Placement), FreeCAD.Vector(fx.AimPoint)
+        # 1 m along the lit wall: the beam lands 1 m further along it
+        pl = FreeCAD.Placement(pl0)
+        pl.Base = pl.Base + FreeCAD.Vector(1000, 0, 0)
+        self._edit(fx, Placement=pl)
+        a = fx.AimPoint
+        np.testing.assert_allclose([a.x, a.y, a.z], (target + [1.0, 0, 0]) * 1000, atol=1.0)
+        self.assertAlmostEqual(fx.Tilt, tilt, places=6)
+        self.assertAlmostEqual(fx.Pan, pan, places=6)
+        # 1 m towards the wall: the beam meets the wall higher up (not 1 m behind it)
+        pl2 = FreeCAD.Placement(pl0)
+        pl2.Base = pl2.Base + FreeCAD.Vector(0, -1000, 0)
+        self._edit(fx, Placement=pl2)
+        s = (1.5 - 1.0 - 0.1) / (-aim[1])                # metres along the beam
+        hit = np.array([2.0, 0.5, 2.7]) + s * aim
+        a = fx.AimPoint
+        np.testing.assert_allclose([a.x, a.y, a.z], hit * 1000, atol=1.0)
+        self.assertAlmostEqual(a.y, 100.0, delta=1.0)
+        # each undo restores the placement and the aim point together
+        self.doc.undo()
+        self.assertTrue(same_placement(fx.Placement, pl))
+        np.testing.assert_allclose([fx.AimPoint.x, fx.AimPoint.y, fx.AimPoint.z],
+                                   (target + [1.0, 0, 0]) * 1000, atol=1.0)
+        self.doc.undo()
+        self.assertTrue(same_placement(fx.Placement, pl0))
+        self.assertEqual(fx.AimPoint, aim0)
+        self.assertEqual((fx.Tilt, fx.Pan), (tilt, pan))
+
+    def test_a_turned_spot_gets_its_tilt_and_pan_and_an_edited_tilt_turns_it(self):
+        from invrad_wb.app.fixturebody import fixture_rotation
+        from invrad_wb.core.model.aiming import aim_from_tilt_pan, aimed_c0
+        fx, aim, target = self._aimed_spot()
+        tilt0, pan0, pl0 = fx.Tilt, fx.Pan, FreeCAD.Placement(fx.Placement)
+        # the user edits the tilt: the placement turns to 20 degrees at the same pan, and
+        # the beam lands on the floor
+        self._edit(fx, Tilt=20.0)
+        new = aim_from_tilt_pan([0, 0, -1], 20.0, pan0)
+        d = fx.Placement.Rotation.multVec(FreeCAD.Vector(0, 0, -1))
+        self.assertLess(np.degrees(np.arccos(np.clip(np.dot([d.x, d.y, d.z], new), -1, 1))),
+                        1e-6)
+        self.assertEqual(fx.Placement.Base, pl0.Base)
+        self.assertEqual((fx.Tilt, fx.Pan), (20.0, pan0))
+        hit = np.array([2.0, 1.5, 2.7]) + 2.7 / -new[2] * new
+        np.testing.assert_allclose([fx.AimPoint.x, fx.AimPoint.y, fx.AimPoint.z],
+                                   hit * 1000, atol=1.0)
+        np.testing.assert_allclose([fx.LightDirection.x, fx.LightDirection.y,
+                                    fx.LightDirection.z], new, atol=1e-9)
+        # the user turns the placement (to tilt 30, pan 100): Tilt and Pan follow
+        a = aim_from_tilt_pan([0, 0, -1], 30.0, 100.0)
+        self._edit(fx, Placement=FreeCAD.Placement(pl0.Base, fixture_rotation(
+            a, aimed_c0([0, 0, -1], a))))
+        self.assertAlmostEqual(fx.Tilt, 30.0, places=6)
+        self.assertAlmostEqual(fx.Pan, 100.0, places=6)
+        self.doc.undo()
+        self.doc.undo()
+        self.assertTrue(same_placement(fx.Placement, pl0))
+        self.assertEqual((fx.Tilt, fx.Pan), (tilt0, pan0))
+        np.testing.assert_allclose([fx.AimPoint.x, fx.AimPoint.y, fx.AimPoint.z],
+                                   target * 1000, atol=1.0)
 
     def test_body_hangs_from_the_ceiling_into_the_room(self):
         (fx,) = fixtures.insert_fixtures(self.doc, [(self.space, [down(2.0, 1.5)])])

@@ -383,3 +383,110 @@ class TestRequirementsRead(FreeCADTestCase):
         self.assertEqual(wp["Buero"].Lux, 500.0)
         self.assertEqual(wp["Flur"].Lux, 150.0)
         self.assertIsNone(wp["Küche"])
+
+
+@needs_native
+@needs_fzk
+class TestAimedFixturesOpenedFromTheIfc(FreeCADTestCase):
+    """A NativeIFC document opened fresh from its saved ``.ifc`` (what File > Open does:
+    NativeIFC makes objects for the building structure, a space's contents only when it is
+    expanded): invrad's aimed fixtures are there with their Tilt, Pan and AimPoint read
+    from the file, whether invrad makes them on opening or NativeIFC's expansion does."""
+
+    def setUp(self):
+        super().setUp()
+        from invrad_wb.core.model.aiming import aim_from_tilt_pan, aimed_c0
+        from invrad_wb.core.model.luminaires import Luminaire
+        self.src = self.path("fzk.ifc")
+        shutil.copy(FZK, self.src)
+        doc, proj = ifcimport.open_ifc(self.src, doc=self.doc, shapemode=2)
+        sp = {rooms.room_name(s): s for s in rooms.find_spaces(doc)}["Wohnen"]
+        mount = np.array([0.0, 0.0, -1.0])
+        self.lums = []
+        for k, (tilt, pan) in enumerate(((40.0, 30.0), (25.0, 200.0))):
+            aim = aim_from_tilt_pan(mount, tilt, pan)
+            self.lums.append(Luminaire([3.0 + k, 5.0, 2.4], aim, 800.0,
+                                       c0=aimed_c0(mount, aim),
+                                       extra={"tilt_deg": tilt, "pan_deg": pan}))
+        made = fixtures.insert_fixtures(doc, [(sp, self.lums)])
+        self.aim_points = {f.GlobalId: f.AimPoint for f in made}
+        nativeifc.save(proj)
+
+    def opened(self, strategy, singledoc):
+        from nativeifc import ifc_import
+        doc = FreeCAD.newDocument("Reopened")
+        name = doc.Name
+        self.addCleanup(lambda: FreeCAD.closeDocument(name)
+                        if name in FreeCAD.listDocuments() else None)
+        ifc_import.insert(self.src, doc.Name, strategy=strategy, shapemode=2, switchwb=False,
+                          silent=True, singledoc=singledoc)
+        return doc
+
+    def assertAimed(self, doc):
+        got = {f.GlobalId: f for f in doc.Objects
+               if nativeifc.is_native_fixture(f, generated_only=True)}
+        self.assertEqual(set(got), set(self.aim_points))
+        for lum, (uid, pt) in zip(self.lums, self.aim_points.items()):
+            f = got[uid]
+            with self.subTest(fixture=f.Label):
+                self.assertLess(abs(f.Tilt - lum.extra["tilt_deg"]), 0.1)
+                self.assertLess(abs(f.Pan - lum.extra["pan_deg"]), 0.1)
+                self.assertLess((f.AimPoint - pt).Length, 1.0)
+                self.assertIn("ReadOnly", f.getPropertyStatus("Tilt"))
+                self.assertEqual(rooms.room_name(fixtures.fixture_room(f)), "Wohnen")
+                back = fixtures.fixture_luminaire(f)
+                self.assertLess(np.linalg.norm(back.position - lum.position), 1e-3)
+                self.assertLess(np.degrees(np.arccos(np.clip(back.normal @ lum.normal,
+                                                             -1, 1))), 0.1)
+        return got
+
+    def test_aimed_fixtures_have_their_aim_when_opened_and_when_expanded(self):
+        from nativeifc import ifc_tools
+        from invrad_wb.app import aimsync
+        aimsync.install()           # (the workbench's InitGui.py does it in the GUI)
+        # opened with its rooms ("building structure"; a project object, or the document
+        # itself as File > Open does): invrad makes its aimed fixtures' objects
+        for singledoc in (False, True):
+            with self.subTest(singledoc=singledoc):
+                self.assertAimed(self.opened(1, singledoc))
+        # opened with its project only: the user expands the tree down to the Wohnen's
+        # contents (NativeIFC's expansion: create_children, then a recompute)
+        doc = self.opened(0, False)
+        self.assertEqual([o for o in doc.Objects if nativeifc.is_native_fixture(o)], [])
+        for _ in range(4):
+            for o in list(doc.Objects):
+                if getattr(o, "IfcClass", "") in ("IfcProject", "IfcSite", "IfcBuilding",
+                                                  "IfcBuildingStorey") or (
+                        nativeifc.is_native_space(o) and rooms.room_name(o) == "Wohnen"):
+                    if ifc_tools.can_expand(o):
+                        ifc_tools.create_children(o, recursive=False, assemblies=True)
+            doc.recompute()
+        self.assertAimed(doc)
+
+    def test_a_moved_native_fixture_keeps_its_aim_in_the_document_and_the_ifc(self):
+        import ifcopenshell.util.unit as U
+        from invrad_wb.app import ifcdata
+        from invrad_wb.app.aimsync import same_placement
+        self.doc.recompute()
+        fx = [f for f in self.doc.Objects if nativeifc.is_native_fixture(f, True)][0]
+        ifc = nativeifc.ifcfile(fx)
+
+        def stored():                  # the fixture as its IFC entity says
+            return ifcdata.invrad_fixture_data(nativeifc.entity(fx),
+                                               U.calculate_unit_scale(ifc), ifc)
+        pl0, aim0, tilt0 = FreeCAD.Placement(fx.Placement), FreeCAD.Vector(fx.AimPoint), \
+            fx.Tilt
+        pl = FreeCAD.Placement(pl0)
+        pl.Base = pl.Base + FreeCAD.Vector(1000, 0, 0)      # 1 m: its beam on the floor
+        self.doc.openTransaction("Move")
+        fx.Placement = pl
+        self.doc.commitTransaction()
+        self.assertLess((fx.AimPoint - aim0 - FreeCAD.Vector(1000, 0, 0)).Length, 1.0)
+        self.assertEqual(fx.Tilt, tilt0)
+        np.testing.assert_allclose(stored().position, self.lums[0].position + [1, 0, 0],
+                                   atol=1e-6)
+        self.doc.undo()
+        self.assertTrue(same_placement(fx.Placement, pl0))
+        self.assertLess((fx.AimPoint - aim0).Length, 1e-6)
+        np.testing.assert_allclose(stored().position, self.lums[0].position, atol=1e-6)
+        self.assertLess(abs(stored().extra["tilt_deg"] - tilt0), 1e-9)
