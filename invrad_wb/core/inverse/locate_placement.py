@@ -104,26 +104,32 @@ def _clear_of_border(canvas, light, clearance=MOUNT_CLEARANCE_M, steps=4):
     """
     m = canvas.maps[light.map_index]
     p = light.position
-    if not canvas.map_contains(light.map_index, p):
+    dirs = (m.u, -m.u, m.v, -m.v)
+    # the luminaire and all its probes in one test (the same points as one by one: a
+    # sixth of a refinement's time was this function's single-point tests)
+    probes = [p] + [p + clearance * d for d in dirs] + [
+        p + (k / steps) * clearance * d for d in dirs for k in range(1, steps)]
+    inside = canvas.map_contains_all(light.map_index, np.array(probes))
+    if not inside[0]:
         return None
     shift = np.zeros(3)
     near = False
-    for d in (m.u, -m.u, m.v, -m.v):
-        if canvas.map_contains(light.map_index, p + clearance * d):
+    for n, d in enumerate(dirs):
+        if inside[1 + n]:
             continue
         near = True
         free = 0.0
+        steps_in = inside[5 + n * (steps - 1):5 + (n + 1) * (steps - 1)]
         for k in range(1, steps):
-            if not canvas.map_contains(light.map_index, p + (k / steps) * clearance * d):
+            if not steps_in[k - 1]:
                 break
             free = k / steps * clearance
         shift -= (clearance - free) * d
     if not near:
         return light
     q = p + shift
-    if not all(canvas.map_contains(light.map_index, q + s * d)
-               for s in (0.0, clearance - clearance / steps)
-               for d in (m.u, -m.u, m.v, -m.v)):
+    checks = [q + s * d for s in (0.0, clearance - clearance / steps) for d in dirs]
+    if not canvas.map_contains_all(light.map_index, np.array(checks)).all():
         return None
     out = light.copy()
     out.position = q
