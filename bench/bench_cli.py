@@ -12,7 +12,9 @@ Scenes: the shipped ``examples/office.ply`` (interreflection, 4 x 3000 lm), the 
 office only). Each CLI run's RESULT.json is compared with the other revision's, timings
 left out: a faster stage that changed the answer shows as "results differ".
 
-Stages come from ``bench/cli_probe.py`` (see there); ``start + exit`` is the interpreter's
+Stages come from ``bench/cli_probe.py`` (see there); under ``postprocess`` (the
+refinement) three parts of it, inclusive and overlapping: the optimiser's runs, the
+luminaires' interreflection solves, the final refit on every target vertex; ``start + exit`` is the interpreter's
 start, ``site`` and its finalisation after the exit hooks (the child's seconds minus those
 the probe saw). CPU seconds hardly depend on
 what else runs; wall seconds do. Compare ratios within one run.
@@ -36,7 +38,8 @@ import numpy as np  # noqa: E402
 
 STAGES = ("start + exit", "imports", "read scene", "opencl context", "kernel builds",
           "requirements check", "locate", "write", "cli other")
-CORE = ("sampling", "maps", "votes", "postprocess", "radiosity")
+CORE = ("sampling", "maps", "votes", "postprocess", "  optimiser (LM)", "  indirect solves",
+        "  final refit", "radiosity")
 
 
 def scenes(tmp, quick):
@@ -91,7 +94,10 @@ def cli_run(root, scene, flux, tmp):
     stages = dict(pr["stages"])
     stages["start + exit"] = [wall - pr["inside"][0], cpu - pr["inside"][1]]
     stages["total"] = [wall, cpu]
-    return stages, pr["core"], data
+    core = dict(pr["core"])
+    for k, v in pr.get("detail", {}).items():
+        core["  " + k] = v
+    return stages, core, data
 
 
 def numpy_run(path, flux):
