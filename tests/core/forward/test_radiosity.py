@@ -272,6 +272,25 @@ def test_render_adds_indirect_to_direct(backend):
     np.testing.assert_allclose(only_direct, direct)
 
 
+@pytest.mark.parametrize("make", [lambda: generate.l_room(cell=0.3),
+                                  lambda: generate.pillar_room(cell=0.3)])
+def test_pairs_on_one_side_of_every_blocker_plane_are_not_cast(make, monkeypatch):
+    """Patch pairs whose ray ends lie on the same side of every plane of the blockers are
+    visible without a ray: the visibility is the one of every pair cast, with fewer rays."""
+    from invrad_wb.core.forward import visibility as V
+    from invrad_wb.core.geometry.bvh import BVH
+    scene = make()
+    model = R.RadiosityModel(scene, backend=FAST, patch_size=0.6, occlusion=False)
+    room = model.rooms[0]
+    bvh = BVH(scene.triangles[model._blocker_faces(room)])
+    vis, rays = V.patch_visibility(room.patches, bvh, FAST)
+    monkeypatch.setattr(V, "SIDE_PLANES_MAX", 0)          # every facing pair cast
+    every, all_rays = V.patch_visibility(room.patches, bvh, FAST)
+    assert (every == 0).sum() > 0.02 * every.size          # the blockers block
+    np.testing.assert_array_equal(vis, every)
+    assert rays < 0.9 * all_rays
+
+
 def test_rooms_are_independent():
     scene, origins = generate.floor_of_rooms(rooms=((3.0, 3.0), (3.0, 3.0)), cell=0.3)
     lums = [Luminaire(origins[0] + [1.5, 1.5, 2.9], [0, 0, -1], 1000.0)]
