@@ -19,10 +19,11 @@ SIDE_PLANES_MAX = 32
 
 
 def _plane_sides(bvh, points, tol=C.RAY_EPS_M):
-    """(k, m) int8: the side (+1 in front, -1 behind, 0 within ``tol``) of each point of
-    every plane the triangles of ``bvh`` lie in, or None where there are more than
-    :data:`SIDE_PLANES_MAX` planes. A segment whose ends are on the same side (+1 or -1) of
-    every plane crosses no triangle: its test can be skipped."""
+    """(k,) int64 codes of the sides of the planes the triangles of ``bvh`` lie in that
+    each point is on (bit p: in front of plane p), -1 for a point within ``tol`` of one of
+    them; None where there are more than :data:`SIDE_PLANES_MAX` planes. A segment whose
+    ends have the same code (not -1) is on one side of every plane: it crosses no
+    triangle, its test can be skipped."""
     tri = np.asarray(bvh.triangles, dtype=np.float64).reshape(-1, 3, 3)
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     length = np.linalg.norm(n, axis=1)
@@ -35,7 +36,8 @@ def _plane_sides(bvh, points, tol=C.RAY_EPS_M):
     if len(planes) > SIDE_PLANES_MAX:
         return None
     d = points @ planes[:, :3].T + planes[:, 3]
-    return (np.sign(d) * (np.abs(d) > tol)).astype(np.int8)
+    code = (d > 0).astype(np.int64) @ (np.int64(1) << np.arange(len(planes), dtype=np.int64))
+    return np.where(np.any(np.abs(d) <= tol, axis=1), -1, code)
 
 
 def patch_visibility(patches, bvh, backend="numpy"):
@@ -85,7 +87,7 @@ def patch_visibility(patches, bvh, backend="numpy"):
                & (patches.emits[i][:, None] | patches.emits[None, :]))
         if side is not None:
             # a blocker plane with the two ends on its two sides or one end on it
-            sel &= np.any(side[i][:, None, :] * side[None, :, :] <= 0, axis=2)
+            sel &= (side[i][:, None] != side[None, :]) | (side[None, :] < 0)
         a, b = np.nonzero(sel)
         if len(a):
             pend_i.append(i[a])
