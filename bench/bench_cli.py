@@ -19,6 +19,14 @@ start, ``site`` and its finalisation after the exit hooks (the child's seconds m
 the probe saw). CPU seconds hardly depend on
 what else runs; wall seconds do. Compare ratios within one run.
 
+Figures (2026-11-26, 2-core machine under heavy load, load average 9-12: wall seconds
+mean little there; CPU seconds, medians of 2 alternating rounds, ``--before 8bd114a``):
+office 3.28 -> 2.84 CPU s (ratio to the numpy run 0.152 -> 0.131); l_room rho 0.6
+4.80 -> 4.89 (no gain: its refinement is the optimiser's numpy work); two_ceiling
+direct 1.41 -> 1.26. The interreflection solves fell to half (office 0.32 -> 0.16,
+l_room 0.35 -> 0.25); what is left of a run is the optimiser (office 0.97 of 2.84 s,
+l_room 2.2 of 4.9), votes, imports and the radiosity model.
+
 Usage: python bench/bench_cli.py [--before REV] [--rounds N] [--quick] [--no-numpy]
 """
 import argparse
