@@ -12,10 +12,20 @@ Scenes: the shipped ``examples/office.ply`` (interreflection, 4 x 3000 lm), the 
 office only). Each CLI run's RESULT.json is compared with the other revision's, timings
 left out: a faster stage that changed the answer shows as "results differ".
 
-Stages come from ``bench/cli_probe.py`` (see there); ``start + exit`` is the interpreter's
+Stages come from ``bench/cli_probe.py`` (see there); under ``postprocess`` (the
+refinement) three parts of it, inclusive and overlapping: the optimiser's runs, the
+luminaires' interreflection solves, the final refit on every target vertex; ``start + exit`` is the interpreter's
 start, ``site`` and its finalisation after the exit hooks (the child's seconds minus those
 the probe saw). CPU seconds hardly depend on
 what else runs; wall seconds do. Compare ratios within one run.
+
+Figures (2026-11-26, 2-core machine under heavy load, load average 9-12: wall seconds
+mean little there; CPU seconds, medians of 2 alternating rounds, ``--before 8bd114a``):
+office 3.28 -> 2.84 CPU s (ratio to the numpy run 0.152 -> 0.131); l_room rho 0.6
+4.80 -> 4.89 (no gain: its refinement is the optimiser's numpy work); two_ceiling
+direct 1.41 -> 1.26. The interreflection solves fell to half (office 0.32 -> 0.16,
+l_room 0.35 -> 0.25); what is left of a run is the optimiser (office 0.97 of 2.84 s,
+l_room 2.2 of 4.9), votes, imports and the radiosity model.
 
 Usage: python bench/bench_cli.py [--before REV] [--rounds N] [--quick] [--no-numpy]
 """
@@ -36,7 +46,8 @@ import numpy as np  # noqa: E402
 
 STAGES = ("start + exit", "imports", "read scene", "opencl context", "kernel builds",
           "requirements check", "locate", "write", "cli other")
-CORE = ("sampling", "maps", "votes", "postprocess", "radiosity")
+CORE = ("sampling", "maps", "votes", "postprocess", "  optimiser (LM)", "  indirect solves",
+        "  final refit", "radiosity")
 
 
 def scenes(tmp, quick):
@@ -91,7 +102,10 @@ def cli_run(root, scene, flux, tmp):
     stages = dict(pr["stages"])
     stages["start + exit"] = [wall - pr["inside"][0], cpu - pr["inside"][1]]
     stages["total"] = [wall, cpu]
-    return stages, pr["core"], data
+    core = dict(pr["core"])
+    for k, v in pr.get("detail", {}).items():
+        core["  " + k] = v
+    return stages, core, data
 
 
 def numpy_run(path, flux):

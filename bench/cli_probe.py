@@ -19,7 +19,9 @@ inner one only), so they add up to the time inside the process:
 
 The core's own stage seconds (``result.timings``: sampling, maps, votes, postprocess,
 radiosity) are recorded too, in wall and CPU seconds: they include whatever import or kernel
-build happened inside them. The interpreter's start (before this file runs) is measured by
+build happened inside them. So are parts of the refinement, inclusive and overlapping
+(``detail``: the optimiser's runs, the interreflection solves of the luminaires, the final
+refit on every target vertex, which runs the other two as well). The interpreter's start (before this file runs) is measured by
 the caller: the child's seconds minus the ones recorded here ("start + exit": also the
 interpreter's finalisation after the exit hooks).
 """
@@ -105,11 +107,43 @@ class _DualClock:
 
 
 _core = {}
+#: inclusive seconds (wall, CPU) of parts of the refinement (they overlap: the final refit
+#: runs the optimiser and solves interreflection too)
+_detail = {}
+DETAIL = (("invrad_wb.core.inverse.refine", "RefineProblem", "levenberg_marquardt",
+           "optimiser (LM)"),
+          ("invrad_wb.core.inverse.locate_problem", "_Indirect", "__call__",
+           "indirect solves"),
+          ("invrad_wb.core.inverse.locate_fit", "_RoomFit", "polish", "final refit"))
+
+
+def _inclusive(name, fn):
+    depth = [0]
+
+    def wrapper(*a, **kw):
+        if depth[0]:
+            return fn(*a, **kw)
+        depth[0] += 1
+        w, c = time.perf_counter(), time.process_time()
+        try:
+            return fn(*a, **kw)
+        finally:
+            depth[0] -= 1
+            acc = _detail.setdefault(name, [0.0, 0.0, 0])
+            acc[0] += time.perf_counter() - w
+            acc[1] += time.process_time() - c
+            acc[2] += 1
+    wrapper.__wrapped__ = fn
+    return wrapper
 
 
 def _patch(module):
     """Wrap the functions of a module just loaded (before anyone binds them)."""
     name = module.__name__
+    for mod, cls, meth, label in DETAIL:
+        if name == mod and hasattr(module, cls):
+            klass = getattr(module, cls)
+            setattr(klass, meth, _inclusive(label, getattr(klass, meth)))
     if name == "invrad_wb.core.accel.device":
         module.get_env = _timed("opencl context", module.get_env, once=True)
         module.CLEnv.program = _timed("kernel builds", module.CLEnv.program)
@@ -161,7 +195,7 @@ def _write():
     out = os.environ.get("INVRAD_PROBE_OUT")
     if out:
         with open(out, "w", encoding="utf-8") as fh:
-            json.dump({"stages": _stages, "core": _core,
+            json.dump({"stages": _stages, "core": _core, "detail": _detail,
                        "inside": [time.perf_counter() - _T0_WALL,
                                   time.process_time() - _T0_CPU]}, fh)
 

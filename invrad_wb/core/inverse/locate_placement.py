@@ -104,26 +104,30 @@ def _clear_of_border(canvas, light, clearance=MOUNT_CLEARANCE_M, steps=4):
     """
     m = canvas.maps[light.map_index]
     p = light.position
-    if not canvas.map_contains(light.map_index, p):
+    dirs = (m.u, -m.u, m.v, -m.v)
+    # the luminaire and its four probes at the clearance in one test, then the nearer
+    # probes of the directions where that one is off (the same points as one by one:
+    # single-point tests were a sixth of a refinement's time)
+    inside = canvas.map_contains_all(light.map_index,
+                                     np.array([p] + [p + clearance * d for d in dirs]))
+    if not inside[0]:
         return None
+    if inside[1:].all():
+        return light
+    off = [d for n, d in enumerate(dirs) if not inside[1 + n]]
+    steps_in = canvas.map_contains_all(light.map_index, np.array(
+        [p + (k / steps) * clearance * d for d in off for k in range(1, steps)]))
     shift = np.zeros(3)
-    near = False
-    for d in (m.u, -m.u, m.v, -m.v):
-        if canvas.map_contains(light.map_index, p + clearance * d):
-            continue
-        near = True
+    for n, d in enumerate(off):
         free = 0.0
         for k in range(1, steps):
-            if not canvas.map_contains(light.map_index, p + (k / steps) * clearance * d):
+            if not steps_in[n * (steps - 1) + k - 1]:
                 break
             free = k / steps * clearance
         shift -= (clearance - free) * d
-    if not near:
-        return light
     q = p + shift
-    if not all(canvas.map_contains(light.map_index, q + s * d)
-               for s in (0.0, clearance - clearance / steps)
-               for d in (m.u, -m.u, m.v, -m.v)):
+    checks = [q + s * d for s in (0.0, clearance - clearance / steps) for d in dirs]
+    if not canvas.map_contains_all(light.map_index, np.array(checks)).all():
         return None
     out = light.copy()
     out.position = q

@@ -454,6 +454,9 @@ class RefineProblem:
 
     def separation(self, lights, with_jac=False):
         """Penalty residuals (p,) for close pairs and, with_jac, their Jacobian (p, n)."""
+        if len(lights) < 2:           # no pair (every optimiser step of one luminaire)
+            return np.zeros(0), (np.zeros((0, sum(len(L.params()) for L in lights)))
+                                 if with_jac else None)
         rows, jac = [], []
         lam, d0 = self._separation_weight(), self.separation_m
         # only pairs closer than d0 count: found with one distance matrix (a Python loop

@@ -124,6 +124,23 @@ class FaceTest:
         b = barycentric_2d(self.tri[sel], np.broadcast_to(q, (len(sel), 2)))
         return bool(np.any(np.all(b >= -tol, axis=1)))
 
+    def contains_all(self, q, i, j, tol=1e-9):
+        """(n,) bool: :meth:`contains` of points q (n, 2) with pixels (i, j) (n,) each,
+        with the same arithmetic, all at once."""
+        out = self.inner[i, j].copy()
+        rest = np.flatnonzero(~out)
+        if len(rest) == 0:
+            return out
+        qr = q[rest]
+        near = np.all((self.lo[None] <= (qr + tol)[:, None])
+                      & (self.hi[None] >= (qr - tol)[:, None]), axis=2)
+        pi, ti = np.nonzero(near)
+        if len(pi):
+            from invrad_wb.core.geometry.raster import barycentric_2d
+            b = barycentric_2d(self.tri[ti], qr[pi])
+            out[rest[pi[np.all(b >= -tol, axis=1)]]] = True
+        return out
+
 
 @dataclass
 class DummyGrid:
@@ -195,6 +212,23 @@ class VoteCanvas:
         if not (0 <= i < m.shape[0] and 0 <= j < m.shape[1] and m.mask[i, j]):
             return False
         return m.face_test is None or m.face_test.contains(q, i, j)
+
+    def map_contains_all(self, map_index, points):
+        """(n,) bool: :meth:`map_contains` of each point (n, 3) at once (a luminaire's
+        probes around it: one call instead of five, which were a sixth of a refinement's
+        time)."""
+        m = self.maps[map_index]
+        d = np.asarray(points, dtype=np.float64).reshape(-1, 3) - m.origin
+        # one dot per point, as map_contains takes it (a matrix product rounds otherwise)
+        q = np.array([[r @ m.u, r @ m.v] for r in d]).reshape(-1, 2)
+        ij = np.floor(q / m.pixel)
+        ok = ((ij[:, 0] >= 0) & (ij[:, 0] < m.shape[0])
+              & (ij[:, 1] >= 0) & (ij[:, 1] < m.shape[1]))
+        i, j = ij[:, 0].astype(np.int64), ij[:, 1].astype(np.int64)
+        ok[ok] = m.mask[i[ok], j[ok]]
+        if m.face_test is not None and ok.any():
+            ok[ok] = m.face_test.contains_all(q[ok], i[ok], j[ok])
+        return ok
 
     def split(self, flat):
         """Flat buffer (size,) -> list of (nu, nv) arrays, one per map (views)."""

@@ -272,6 +272,25 @@ def test_render_adds_indirect_to_direct(backend):
     np.testing.assert_allclose(only_direct, direct)
 
 
+@pytest.mark.parametrize("make", [lambda: generate.l_room(cell=0.3),
+                                  lambda: generate.pillar_room(cell=0.3)])
+def test_pairs_on_one_side_of_every_blocker_plane_are_not_cast(make, monkeypatch):
+    """Patch pairs whose ray ends lie on the same side of every plane of the blockers are
+    visible without a ray: the visibility is the one of every pair cast, with fewer rays."""
+    from invrad_wb.core.forward import visibility as V
+    from invrad_wb.core.geometry.bvh import BVH
+    scene = make()
+    model = R.RadiosityModel(scene, backend=FAST, patch_size=0.6, occlusion=False)
+    room = model.rooms[0]
+    bvh = BVH(scene.triangles[model._blocker_faces(room)])
+    vis, rays = V.patch_visibility(room.patches, bvh, FAST)
+    monkeypatch.setattr(V, "SIDE_PLANES_MAX", 0)          # every facing pair cast
+    every, all_rays = V.patch_visibility(room.patches, bvh, FAST)
+    assert (every == 0).sum() > 0.02 * every.size          # the blockers block
+    np.testing.assert_array_equal(vis, every)
+    assert rays < 0.9 * all_rays
+
+
 def test_rooms_are_independent():
     scene, origins = generate.floor_of_rooms(rooms=((3.0, 3.0), (3.0, 3.0)), cell=0.3)
     lums = [Luminaire(origins[0] + [1.5, 1.5, 2.9], [0, 0, -1], 1000.0)]
@@ -337,6 +356,64 @@ def test_reuse_matches_fresh_model(backend):
     direct = rng.uniform(0, 300, len(scene.vertices))
     chain = model.vertex_gather()(model.solve(model.patch_direct_from_vertices(direct)))
     np.testing.assert_allclose(model.indirect_at_vertices(direct), chain)
+
+
+def _dense_solution(model, e, rho=None):
+    """B = rho (E + F B) per room by numpy.linalg.solve of (I - rho F) B = rho E."""
+    rho = model.patch_reflectance if rho is None else rho
+    out = np.zeros_like(e)
+    for room in model.rooms:
+        r = rho[room.sl]
+        a = np.eye(room.patches.n) - r[:, None] * room.F
+        out[room.sl] = np.linalg.solve(a, (r[:, None] if e.ndim == 2 else r) * e[room.sl])
+    return out
+
+
+def test_direct_solve_matches_dense_solve_and_jacobi(monkeypatch):
+    """The kept LU factors give numpy.linalg.solve's answer of B = rho (E + F B) (two
+    rooms, ceiling/walls/floor 0.7/0.5/0.2, one and several right-hand sides); Jacobi
+    (larger rooms, or reflectances changed on the model) agrees to its tolerance."""
+    scene, _ = generate.floor_of_rooms(rooms=((3.0, 2.5), (2.5, 2.0)), height=2.5, cell=0.25)
+    scene = generate.with_reflectances(scene)
+    model = R.RadiosityModel(scene, backend=FAST, patch_size=0.5)
+    assert len(model.rooms) == 2
+    rng = np.random.default_rng(3)
+    e = rng.uniform(0.0, 500.0, (model.n_patches, 3))
+    exact = _dense_solution(model, e)
+    b = model.solve(e[:, 0])
+    assert model.last_iterations == 0                          # no sweep: direct
+    np.testing.assert_allclose(b, exact[:, 0], rtol=1e-10, atol=1e-9)
+    factors = [room.lu for room in model.rooms]
+    assert all(f is not None for f in factors)
+    np.testing.assert_allclose(model.solve(e), exact, rtol=1e-10, atol=1e-9)
+    assert all(room.lu is f for room, f in zip(model.rooms, factors))   # made once
+    # the balance itself: B = rho (E + F B) per room
+    for room in model.rooms:
+        rho = model.patch_reflectance[room.sl]
+        np.testing.assert_allclose(b[room.sl], rho * (e[room.sl, 0] + room.F @ b[room.sl]),
+                                   rtol=1e-10, atol=1e-9)
+    # Jacobi where the factors do not apply, to its relative tolerance
+    monkeypatch.setattr(C, "RADIOSITY_DIRECT_MAX_PATCHES", 0)
+    jac = R.RadiosityModel(scene, backend=FAST, patch_size=0.5)
+    bj = jac.solve(e)
+    assert jac.last_iterations > 5
+    assert np.max(np.abs(bj - exact)) < 1e-4 * np.max(np.abs(exact))
+    monkeypatch.undo()
+    # reflectances changed on the model for a while (a design's openings): iterated with
+    # the new ones, the kept factors again once they are restored
+    rho = model.patch_reflectance
+    changed = rho * np.where(np.arange(model.n_patches) % 3 == 0, 0.5, 1.0)
+    try:
+        model.patch_reflectance = changed
+        bc = model.solve(e[:, 1])
+        assert model.last_iterations > 0
+    finally:
+        model.patch_reflectance = rho
+    ref = _dense_solution(model, e[:, 1:2], changed)[:, 0]
+    assert np.max(np.abs(bc - ref)) < 1e-4 * np.max(np.abs(ref))
+    assert np.max(np.abs(bc - exact[:, 1])) > 1e-2 * np.max(np.abs(ref))
+    np.testing.assert_allclose(model.solve(e[:, 1]), exact[:, 1], rtol=1e-10, atol=1e-9)
+    assert model.last_iterations == 0
 
 
 def test_gather_streams_when_the_matrix_is_too_big(monkeypatch):

@@ -45,3 +45,24 @@ def test_a_face_narrower_than_twice_the_clearance_takes_no_light():
     s = g.box_room((4, 0.15, 3), cell=0.05)
     canvas = build_canvas(s, 0, pixel=0.025, dummy=False)
     assert L._make_inside(canvas)(_ceiling_light(canvas, (2.0, 0.075))) is None
+
+
+def test_map_contains_all_is_map_contains_of_each_point():
+    """The batched test (a luminaire and its probes at once) answers as the one-point test
+    does, point by point: inside, on and beside the faces' border of an L-shaped ceiling
+    (its re-entrant corner needs the face test), and off the map."""
+    s = g.l_room(cell=0.25)
+    canvas = build_canvas(s, 0, pixel=0.05, dummy=False)
+    rng = np.random.default_rng(5)
+    for k, m in enumerate(canvas.maps):
+        if m.kind != "surface":
+            continue
+        extent = np.array(m.shape) * m.pixel
+        uv = rng.uniform(-0.2, 1.0, (300, 2)) * (extent + 0.4)
+        # and points on pixel and face borders exactly
+        uv = np.vstack([uv, np.round(uv[:100] / m.pixel) * m.pixel])
+        pts = m.origin + uv[:, :1] * m.u + uv[:, 1:] * m.v
+        got = canvas.map_contains_all(k, pts)
+        want = np.array([canvas.map_contains(k, p) for p in pts])
+        assert want.any() and not want.all()
+        np.testing.assert_array_equal(got, want)
