@@ -478,8 +478,8 @@ def aim_extra(light):
 #: tried in a row without a merge before it stops; most merges. Measured on bench_aim's
 #: free-flux lobby --seed 6: the ghost wall light's light lies 1.0 inside the spot's;
 #: neighbouring wall-wash beams overlap 0.32-0.57, and 21 trials of all pairs above 0.3
-#: cost 31 CPU s, none kept
-MERGE_OVERLAP = 0.5
+#: cost 31 CPU s, none kept; a ghost lies (almost) wholly inside the footprint it shares
+MERGE_OVERLAP = 0.75
 MERGE_TRIES = 2
 MERGE_PATIENCE = 2
 MERGE_MOST = 4

@@ -8,7 +8,7 @@ import pytest
 
 from invrad_wb.core.forward.render import render
 from invrad_wb.core.inverse import locate as locate_mod
-from invrad_wb.core.inverse.aim import _aimed_light, _overlap, footprint_merge
+from invrad_wb.core.inverse.aim import MERGE_OVERLAP, _aimed_light, _overlap, footprint_merge
 from invrad_wb.core.inverse.locate import LocateSettings, locate
 from invrad_wb.core.inverse.locate_count import CountSearch
 from invrad_wb.core.inverse.locate_fit import _RoomFit
@@ -92,7 +92,7 @@ def test_a_ghost_sharing_a_spot_footprint_is_merged_away(floor_spot_room):
     own = [fit.prob.fixed_light([L]) for L in lights]
     assert len(lights) == 3
     assert max(_overlap(own[i], own[j], fit.prob.w_area)
-               for i in range(3) for j in range(i + 1, 3)) > 0.5
+               for i in range(3) for j in range(i + 1, 3)) > MERGE_OVERLAP
     merged, c = footprint_merge(fit, search, lights, cost)
     assert len(merged) == 2, [(L.position, L.flux_scale * run.flux) for L in merged]
     assert c < cost
