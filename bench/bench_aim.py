@@ -110,6 +110,16 @@ brackets; the machine shared, so the seconds are high):
                31.4 s, both 5/5 (the same luminaires: <= 0.8 cm, <= 0.22 deg, <= 0.3 %)
   --seed 3 and 4, all rooms: 14/14 and 14/14, 0 spurious, as before (load 9-13:
                gallery 19.3 / 38.5, shop 39.5 / 34.7, lobby 43.4 / 18.2 s).
+  seeds 5 and 6, gallery and shop, free flux: 9/9 each, 0 spurious (<= 1.3 cm, <= 0.27
+               deg, <= 0.5 %; 22.4 / 18.4 and 9.0 / 18.9 s, load 4).
+  --seed 7, free flux: 14/14, 0 spurious (<= 2.0 cm, <= 0.32 deg, <= 0.7 %; gallery 13.9,
+               shop 26.6, lobby 25.1 s, load 5); flux given: 14/14, 0 spurious (<= 3.7
+               cm, <= 0.72 deg; 10.6 / 8.7 / 7.5 s).
+  --seed 8, free flux: 14/14, 0 spurious (<= 0.8 cm, <= 0.18 deg, <= 0.2 %; gallery
+               18.3, shop 23.3, lobby 63.2 s, load 5); flux given: 14/14, 0 spurious
+               (<= 2.4 cm, <= 0.46 deg; 11.2 / 10.6 / 8.2 s). The free-flux lobby fails on
+               main 8bd114a too: 4/5, 1 spurious (a floor spot 27.6 cm / 5.0 deg / -17 %
+               off), 44.5 s (load 4.1): fixed here, but 1.4 x the time.
 --aim fixed unchanged (checked 07:37: examples/office.ply --flux 3000, the result JSON
 less its timings identical to main 8bd114a's, sha256 b95ea1f8f4764db4...)
 --aim fixed unchanged (checked 01:53): examples/office.ply --flux 3000 and a 5 x 4 x 3 m
