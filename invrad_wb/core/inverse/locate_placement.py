@@ -104,6 +104,8 @@ def _clear_of_border(canvas, light, clearance=MOUNT_CLEARANCE_M, steps=4):
     """
     m = canvas.maps[light.map_index]
     p = light.position
+    if _clear_inside(m, p, clearance):
+        return light
     dirs = (m.u, -m.u, m.v, -m.v)
     # the luminaire and its four probes at the clearance in one test, then the nearer
     # probes of the directions where that one is off (the same points as one by one:
@@ -132,6 +134,25 @@ def _clear_of_border(canvas, light, clearance=MOUNT_CLEARANCE_M, steps=4):
     out = light.copy()
     out.position = q
     return out
+
+
+def _clear_inside(m, p, clearance):
+    """Whether every pixel within ``clearance`` (and one pixel more) of ``p`` on surface
+    map ``m`` is a valid pixel inside its faces (:attr:`FaceTest.inner`): then every probe
+    of :func:`_clear_of_border` lies on the faces and the luminaire stays where it is (the
+    same answer without the probes one by one: each LM step of ``--aim free`` asks this of
+    every luminaire, 62,000 map tests and 14 of 140 s in a profile of bench_aim's
+    free-flux lobby)."""
+    d = np.asarray(p, dtype=np.float64) - m.origin
+    i = int(np.floor((d @ m.u) / m.pixel))
+    j = int(np.floor((d @ m.v) / m.pixel))
+    r = int(np.ceil(clearance / m.pixel)) + 1
+    if i - r < 0 or j - r < 0 or i + r >= m.shape[0] or j + r >= m.shape[1]:
+        return False
+    box = (slice(i - r, i + r + 1), slice(j - r, j + r + 1))
+    if not m.mask[box].all():
+        return False
+    return m.face_test is None or bool(m.face_test.inner[box].all())
 
 
 def _make_inside(canvas):

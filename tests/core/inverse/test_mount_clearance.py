@@ -66,3 +66,29 @@ def test_map_contains_all_is_map_contains_of_each_point():
         want = np.array([canvas.map_contains(k, p) for p in pts])
         assert want.any() and not want.all()
         np.testing.assert_array_equal(got, want)
+
+
+def test_clear_inside_shortcut_gives_the_probes_answer(monkeypatch):
+    """:func:`_clear_inside` (all pixels within the clearance inside the faces: no
+    probes) changes no answer of :func:`_clear_of_border`: an L-shaped ceiling (its
+    inner corner), points on a fine grid and at random, with and without it."""
+    from invrad_wb.core.inverse import locate_placement as P
+    mb = g.MeshBuilder(0.2)
+    g.add_prism_room(mb, [(0, 0), (4, 0), (4, 2), (2, 2), (2, 3), (0, 3)], [(0, 0, 4, 2), (0, 2, 2, 3)],
+                     height=3.0, reflectance=0.5)
+    canvas = build_canvas(mb.scene(), 0, pixel=0.05, dummy=False)
+    rng = np.random.default_rng(1)
+    xy = np.vstack([np.stack(np.meshgrid(np.arange(-0.05, 4.1, 0.09),
+                                         np.arange(-0.05, 3.1, 0.09)), -1).reshape(-1, 2),
+                    rng.uniform(-0.1, 4.1, (300, 2))])
+    lights = [_ceiling_light(canvas, p) for p in xy]
+    fast = [P._clear_of_border(canvas, L) for L in lights]
+    monkeypatch.setattr(P, "_clear_inside", lambda *a: False)
+    slow = [P._clear_of_border(canvas, L) for L in lights]
+    hits = 0
+    for L, a, b in zip(lights, fast, slow):
+        assert (a is None) == (b is None)
+        if a is not None:
+            assert np.array_equal(a.position, b.position)
+            hits += a is L
+    assert hits > len(lights) // 3        # the shortcut is taken where it may be
