@@ -196,6 +196,11 @@ TYPES = [
     ("DL-2200W", 2200, 17.5, 1.5, (0.16, 0.16), None, [2.0, 6.0]),
     ("PN-3600", 3600, 29.0, 1.2, (0.6, 0.6), [0.1, 1.0], [2.0, 4.0]),
     ("HB-15000", 15000, 100.0, 3.0, (0.35, 0.35), None, [4.0, 20.0]),
+    # a high-bay behind an opal / prismatic diffuser: a larger luminous area (lower
+    # luminance, less glare) for less efficacy (130 lm/W against the clear one's 150),
+    # DALI-dimmable as most such are; added round 7 for the hall, whose only type at 6.5 m
+    # (HB-15000) met UGR 22 in no layout (the grid reference gets it too)
+    ("HB-13000D", 13000, 100.0, 2.5, (0.6, 0.6), [0.1, 1.0], [4.0, 20.0]),
 ]
 
 
@@ -673,8 +678,11 @@ def design_both(name, cat, phot, phot_paths):
                      + ", ".join(f"{n} x {k}" for k, n in sorted(rd.schedule().items()))
                      + f" at {100 * rd.candidate.dim:.0f} %")
         job = os.path.join(JOBS, name, label)
-        if os.path.isdir(job):
-            shutil.rmtree(job)          # a new design: its old judgement is void
+        for old in (job, job + "_floor"):
+            if os.path.isdir(old):
+                shutil.rmtree(old)      # a new design: its old judgements are void
+        if os.path.exists(job + "_floor.pkl"):
+            os.remove(job + "_floor.pkl")
         if r["lums"]:
             r["plan"] = judge_prepare(scene, spec, r["lums"], job, phot_paths)
         os.makedirs(os.path.dirname(cache), exist_ok=True)
@@ -704,6 +712,43 @@ def radiance_dimmed(lums, rad, rs, spec):
     if all(verdict(scaled, rs).values()) or not all(verdict(rad, rs).values()):
         return scale, scaled
     return 1.0, rad
+
+
+def redim_at_floor(name, label, lums, rad, rs, spec, scene, phot_paths, trace):
+    """A design whose common factor stops at a luminaire on its type's dimming floor:
+    every luminaire dimmed by the factor Radiance's means allow, none below its floor,
+    traced afresh (JOBS/<room>/<label>_floor; light no longer scales as one, so Radiance
+    judges it again). Returns (factor, watts, figures) where it meets every item, or
+    None."""
+    import pickle
+    from dataclasses import replace
+    f = lux_scale_needed(rad, rs) * 1.001
+    if f >= 0.999:
+        return None
+    new, watts = [], 0.0
+    for lum in lums:
+        e = next(x for x in spec.catalogue if x.name == lum.extra["type"])
+        lo = e.dimming[0] if e.dimming else 1.0
+        flux = max(lum.flux_lm * f, lo * e.flux_lm)
+        new.append(replace(lum, flux_lm=flux))
+        watts += e.watts * flux / e.flux_lm
+    job = os.path.join(JOBS, name, f"{label}_floor")
+    cache = job + ".pkl"
+    if os.path.exists(cache):
+        with open(cache, "rb") as fh:
+            plan = pickle.load(fh)
+    else:
+        plan = judge_prepare(scene, spec, new, job, phot_paths)
+        with open(cache, "wb") as fh:
+            pickle.dump(plan, fh)
+    if trace and not os.path.exists(os.path.join(job, "direct.out")):
+        b, env = _radiance()
+        subprocess.run(["sh", os.path.join(job, "run.sh")], env=dict(env, RADBIN=b),
+                       check=True)
+    got = judge_finish(job, plan, spec, new)
+    if got is None or not all(verdict(got, rs).values()):
+        return None
+    return f, watts, got
 
 
 def _fmt(rad, key):
@@ -756,6 +801,17 @@ def main(names, trace=True):
                 continue
             w0, ok0 = w, all(verdict(rad, rs).values())
             scale, rad2 = radiance_dimmed(lums, rad, rs, spec)
+            if scale == 1.0 and ok0:
+                # luminaires at their type's floor stop the common factor: dim the others
+                # by it, the floor kept, and let Radiance judge that design afresh
+                re = redim_at_floor(name, label, lums, rad, rs, spec, scene, phot_paths,
+                                    trace)
+                if re is not None:
+                    print(f"{name:11s} {label:7s} {w:7.1f} as the exact model dims it:"
+                          f" Radiance Em {rad['em']:.0f}; the luminaires above their floor"
+                          f" dimmed by x {re[0]:.3f}, re-traced", flush=True)
+                    w, rad, desc = re[1], re[2], desc + f" -> x {re[0]:.3f} above the floor" \
+                        " by Radiance (re-traced)"
             if scale != 1.0:
                 print(f"{name:11s} {label:7s} {w:7.1f} as the exact model dims it:"
                       f" Radiance Em {rad['em']:.0f}, "
