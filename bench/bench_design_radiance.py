@@ -64,6 +64,10 @@ hall 6.5 m  885.1 (892.8)   895.0 (895.9)   0.989  301/0.61  200/0.61  121/0.31 
   compliant, UGR 19.4 (invrad, 24 x HB-13000D in a 4 x 6 grid, rows apart) and 21.3
   (grid, 4 x 3 at 75 %) for 22; 0.989. Its binding items are the work plane's Em and U0:
   watts follow the lumens the work plane needs, which a layout changes little there.
+  ``bench_design_bound.py --step 1.2 hall``: the means alone need at least 731.7 W,
+  all of it from the clear HB-15000 (150 lm/W), which meets UGR 22 in no layout; the
+  same lumens from the diffused type alone would draw about 844 W (0.94 x the grid):
+  a design mixing the clear type where no observer sees it is what is left to try.
 * L office not redesigned this round (round 6: 430.4 W, no compliant grid of 120).
 * Design times at load 9-13: meeting 148 s, L corridor 80 s, lab 176 s, classroom 307 s,
   hall 128 s (the regular grids' exact checks and their per-group solves added).
