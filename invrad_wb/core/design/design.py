@@ -20,8 +20,8 @@ from invrad_wb.core.design.refine import refine
 from invrad_wb.core.design.room import DesignRoom
 from invrad_wb.core.design.accent import SPOT_TOLERANCE, find_goals, light_spots, within
 from invrad_wb.core.design.accents import light_spots_aimed
-from invrad_wb.core.design.search import (Candidate, Metrics, RoomSearch, margin_kept,
-                                          metrics_comply, run_search)
+from invrad_wb.core.design.search import (Candidate, Metrics, RoomSearch, classic_grids,
+                                          margin_kept, metrics_comply, run_search)
 
 #: shade points per room at most (deterministic subsample beyond)
 MAX_SHADE_POINTS = 2000
@@ -436,9 +436,16 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
     cand, met, n_exact = run_search(search)
     tries = [(cand, met)]
     if cand is not None:
+        # the regular grids a lighting designer would lay (one type, half spacing at the
+        # walls, per rectangle of the room): the design never draws more than the best
+        grid = classic_grids(search)
+        n_exact = len(search.checked)
+        if grid is not None and (not cand.ok or grid[0].watts < cand.watts - 1e-9):
+            tries.insert(0, grid)
+            cand, met = grid
         # the same and the next cheapest layouts with their outer and inner rows dimmed
         # apart, where the types dim (a linear programme on the exact model)
-        refined, rmet, n_lp = refine(search, cand, met)
+        refined, rmet, n_lp = refine(search, cand, met, [grid] if grid else [])
         n_exact += n_lp
         if refined is not cand:
             tries.insert(0, (refined, rmet))

@@ -171,17 +171,27 @@ def covered_share(triangles, normals, luminaires):
     """(T,) share of each triangle (T, 3, 3) that lies behind a luminous opening (within
     ``_BEHIND_M`` of its plane, facing the way it faces, inside its rectangle)."""
     out = np.zeros(len(triangles))
+    if len(triangles) == 0:
+        return out
     pts = np.einsum("sj,tjk->tsk", _COVER_SAMPLES, triangles)          # (T, S, 3)
+    # only triangles that can reach the opening are tested (same answer: a sample inside
+    # the opening's box lies within the triangle's radius of its centroid)
+    cen = triangles.mean(axis=1)
+    reach = np.sqrt(np.max(np.sum((triangles - cen[:, None]) ** 2, axis=2), axis=1))
     for lum in luminaires:
         half = opening_half_sides(lum)
         if half is None:
             continue
         u, v = photometric_frame(lum.normal, lum.c0)
-        d = pts - lum.position
-        near = ((normals @ lum.normal > 0.9)[:, None]
-                & (np.abs(d @ lum.normal) < _BEHIND_M)
+        lim = math.hypot(half[0], half[1], _BEHIND_M) + 1e-9
+        sel = np.flatnonzero((np.linalg.norm(cen - lum.position, axis=1) <= lim + reach)
+                             & (normals @ lum.normal > 0.9))
+        if len(sel) == 0:
+            continue
+        d = pts[sel] - lum.position
+        near = ((np.abs(d @ lum.normal) < _BEHIND_M)
                 & (np.abs(d @ u) <= half[0]) & (np.abs(d @ v) <= half[1]))
-        out = np.maximum(out, near.mean(axis=1))
+        out[sel] = np.maximum(out[sel], near.mean(axis=1))
     return out
 
 

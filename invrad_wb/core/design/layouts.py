@@ -51,6 +51,9 @@ class Geometry:
     normals: np.ndarray     # (L, 3) unit facing directions
     cls: np.ndarray         # (L,) int, 0 inner, 1 end columns
     size: tuple = None      # (length, width) of the room's plan frame, metres
+    #: the luminous half size (m) the positions were kept clear of the walls by: the
+    #: layout serves entries whose half size is at most this (:class:`.search.RoomSearch`)
+    clearance: float = None
 
     @property
     def count(self):

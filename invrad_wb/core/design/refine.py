@@ -240,20 +240,27 @@ def exact_refine(search, cand):
     return c, met
 
 
-def refine(search, cand, met):
+def refine(search, cand, met, others=()):
     """The search's design ``(cand, met)`` or a cheaper compliant layout dimmed per group
     (see the module docstring): returns (Candidate, Metrics, tried) with ``tried`` the
-    layouts solved exactly."""
-    if not search.dimming or not any(e.dimming[0] < 1.0 for e in search.entries):
-        return cand, met, 0
+    layouts solved exactly. ``others``: more (Candidate, Metrics) already checked exactly
+    (the best regular grid, :func:`.search.classic_grids`): each competes as it stands
+    and is solved per group whatever the fast programme says of it."""
     best = (cand, met) if cand is not None and cand.ok else None
+    for c, m in others:
+        if c is not None and c.ok and (best is None or c.watts < best[0].watts - 1e-9):
+            best = (c, m)
+    if not search.dimming or not any(e.dimming[0] < 1.0 for e in search.entries):
+        return (best or (cand, met)) + (0,)
     limit = best[0].watts if best else math.inf
     t = search.table()
     pairs = search._pairs()
-    seen, ranked = set(), []
-    if cand is not None:
-        ranked.append((fast_watts(search, cand), cand))
-        seen.add(cand.key())
+    seen, ranked, forced = set(), [], []
+    for c, _ in [(cand, met), *others]:
+        if c is not None and c.key() not in seen:
+            seen.add(c.key())
+            if all(search.entries[k].dimming[0] < 1.0 for k in c.entries):
+                forced.append(c)
     for row in range(len(t["geom"])):
         if (len(seen) >= FAST_ROWS
                 or sum(math.isfinite(r[0]) for r in ranked) >= FAST_TRIES):
@@ -272,8 +279,10 @@ def refine(search, cand, met):
     ranked = [r for r in ranked if math.isfinite(r[0])]
     ranked.sort(key=lambda r: r[0])
     tried = 0
-    for fw, c in ranked[:EXACT_TRIES]:
-        if best is not None and fw >= FAST_TRUST * best[0].watts:
+    todo = [(True, c) for c in forced] + [(False, c) for _, c in ranked[:EXACT_TRIES]]
+    for i, (must, c) in enumerate(todo):
+        fw = None if must else ranked[i - len(forced)][0]
+        if fw is not None and best is not None and fw >= FAST_TRUST * best[0].watts:
             break
         tried += 1
         r = exact_refine(search, c)

@@ -68,7 +68,7 @@ class Candidate:
 
     def key(self):
         g = self.geom
-        return (g.ns, g.nt, g.fs, g.ft, self.entries)
+        return (g.ns, g.nt, g.fs, g.ft, g.count, g.clearance, self.entries)
 
 
 @dataclass
@@ -189,25 +189,39 @@ class RoomSearch:
         kw = {"shifted": shifted} if fractions is None else {"fractions": fractions,
                                                              "shifted": shifted}
         # clear of the walls by the luminous opening's half size (a disc's radius, or a
-        # photometry file's luminous extent): no panel reaches through a wall
-        radius = max(self._half_size(e) for e in self.entries)
-        self.geoms = grid_geometries(droom, room_spec.mounting, radius, wp_z,
-                                     min(r[0] for r in self.n_range),
-                                     min(max(r[1] for r in self.n_range), MAX_COUNT), **kw)
-        if not droom.rectangular:
-            # an L (a room of a few rectangles): also one grid per rectangle
-            self.geoms += zone_geometries(droom, room_spec.mounting, radius, wp_z,
-                                          min(r[0] for r in self.n_range),
-                                          min(max(r[1] for r in self.n_range), MAX_COUNT))
+        # photometry file's luminous extent): no panel reaches through a wall. Each half
+        # size of the catalogue gets its own layouts (a downlight's grid keeps the outer
+        # rows that a panel's must drop); a layout serves the entries it is clear for
+        halves = sorted({round(self._half_size(e), 6) for e in self.entries}, reverse=True)
+        n_lo = min(r[0] for r in self.n_range)
+        n_hi = min(max(r[1] for r in self.n_range), MAX_COUNT)
+        self.geoms, seen = [], set()
+        for half in halves:
+            geoms = grid_geometries(droom, room_spec.mounting, half, wp_z, n_lo, n_hi, **kw)
+            if not droom.rectangular:
+                # an L (a room of a few rectangles): also one grid per rectangle
+                geoms += zone_geometries(droom, room_spec.mounting, half, wp_z, n_lo, n_hi)
+            for g in geoms:
+                # the same positions as a layout clear for a larger opening: that one
+                # serves both
+                key = (type(g), g.ns, g.nt, g.fs, g.ft, np.round(g.plan, 6).tobytes())
+                if key not in seen:
+                    seen.add(key)
+                    g.clearance = half
+                    self.geoms.append(g)
+        radius = halves[0]
         if not self.geoms:
             # a catalogue too weak for the room: its densest grids are the closest designs
             dense = grid_geometries(droom, room_spec.mounting, radius, wp_z, 1, MAX_COUNT,
                                     **kw)
             top = max((g.count for g in dense), default=0)
             self.geoms = [g for g in dense if g.count >= 0.8 * top]
+            for g in self.geoms:
+                g.clearance = radius
         self.g_count = np.array([g.count for g in self.geoms], dtype=float)
         self.g_ratio = np.array([_spacing_log_ratio(g) for g in self.geoms])
         self.g_fdev = np.array([g.edge_deviation for g in self.geoms])
+        self.g_clear = np.array([g.clearance for g in self.geoms], dtype=float)
         self._responses()
         self.ugr_max = getattr(room_spec, "ugr_max", None)
         self.obs = observers(droom)
@@ -399,7 +413,9 @@ class RoomSearch:
         ok = (counts >= lo) & (counts <= hi)
         if pair[0] != pair[1]:
             ok &= self.N[:, 1] > 0
-        return ok
+        # clear of the walls for the pair's openings
+        half = max(round(self._half_size(self.entries[k]), 6) for k in pair)
+        return ok & (self.g_clear >= half - 1e-9)
 
     def table(self):
         """Fast figures of every (geometry, entry pair) candidate, as arrays.
@@ -654,6 +670,43 @@ def _fast_args(search, cand):
     flux = np.array([search.entries[k].flux_lm for k in idx])
     keys = [search.entries[k].key for k in idx]
     return resp, flux, keys
+
+
+#: regular grids (:func:`classic_grids`) checked exactly at most
+GRID_CHECKS = 24
+#: ... among those the fast model finds at least this close to compliance (:meth:`score`)
+GRID_SCORE = 0.9
+#: ... while their fast watts are within this factor of the best compliant one's
+GRID_WINDOW = 1.1
+
+
+def classic_grids(search):
+    """The lighting designer's regular grid as a candidate of the search: one catalogue
+    entry (laid along and across the room where its photometry is not symmetric), half
+    spacing at the walls (one grid per rectangle of a room that is not one), dimmed
+    evenly where the entry allows. The fast model ranks them by watts; those it finds
+    close to compliance (:data:`GRID_SCORE`) are checked exactly in that order, at most
+    :data:`GRID_CHECKS`, until their fast watts pass :data:`GRID_WINDOW` x the best
+    compliant one's. The search's design then competes with the best of them, so a
+    design never draws more than the best regular grid found (its rows dimmed apart may
+    draw less, :mod:`.refine`). Returns (Candidate, Metrics) of the least watts the exact
+    model finds compliant (with the search's design margin), or None."""
+    t = search.table()
+    if len(t["geom"]) == 0:
+        return None
+    single = np.array([a == b for a, b in search._pairs()])[t["pair"]]
+    rows = np.flatnonzero(single & (search.g_fdev[t["geom"]] == 0)
+                          & (search.score(t) >= GRID_SCORE))
+    best = None
+    for r in rows[:GRID_CHECKS]:
+        c = search.candidate(t, r)
+        if best is not None and c.watts > GRID_WINDOW * best[0].watts:
+            break
+        fast = search.model.fast(*_fast_args(search, c))
+        cand, met = _finalise(search, c, search.check(c, fast))
+        if cand.ok and (best is None or cand.watts < best[0].watts):
+            best = (cand, met)
+    return best
 
 
 def best_regular_grid(search):
