@@ -98,6 +98,16 @@ longer applies but with --aim free; watertight shadow rays), load 10-15
   worst flux 168.6 %; 890 s. 'before' is the run recorded above (older code: before the
   noise-aware selection and the count criterion's clip), so the gain in array12_issue is
   not this change's alone; nothing got worse.
+2026-11-26 (h7), 2 cm at 5 % noise, flux given: the last refit (polish) on every target
+vertex (--points-max 10000000; the votes keep their sample) of a finer mesh. Bounds on
+every vertex at 0.1 m (--bound-only): array16_0.8h 30846 vertices, worst sd 4.41 cm given
+/ 6.20 cm free; array20_1.2h 50686 vertices, 1.51 / 1.96 cm. Located (load 4-6):
+  array20_1.2h 0.2 m, 7.9 k vertices:       20/20, max 8.75 cm, rms/sd 1.83,  99 s / 39 CPU s
+  array20_1.2h 0.1 m, 20000 of them (cap):  20/20, max 3.62 cm, rms/sd 1.18,  47 s / 26 CPU s
+  array20_1.2h 0.1 m, all 50686:            20/20, max 2.69 cm, rms/sd 1.54,  65 s / 32 CPU s
+With the worst error about 2.5 sd, under 2 cm needs sd <= 0.8 cm: array20 about 0.053 m
+(180 k vertices) given, 0.041 m free; array16 about 0.018 m (950 k vertices) given, 0.013
+m free. Not reached at 0.1 m; the bound, not locate, is what stops it.
 A worst-luminaire sd of 2 cm at 5 % noise needs about 0.2 x 2 / sd(0.2 m) metres: 0.15 m
 for array9, 0.045 m for array16 (flux given, about 160000 vertices; 0.033 m free, about
 290000: far beyond vertex_points' 20000); the worst of a dozen luminaires within 2 cm (about 2.5 sd) needs
