@@ -107,6 +107,7 @@ every vertex at 0.1 m (--bound-only): array16_0.8h 30846 vertices, worst sd 4.41
   array20_1.2h 0.1 m, all 50686:            20/20, max 2.69 cm, rms/sd 1.54,  65 s / 32 CPU s
   array20_1.2h 0.07 m, all (about 103 k):    20/20, max 2.81 cm, rms/sd 1.91,  82 s / 44 CPU s
   (sd 1.05 cm; the 0.2 m row was recorded at load 7-8; each mesh draws its own noise)
+  array20_1.2h 0.05 m (about 200 k vertices): stopped unfinished after 10 min wall
 With the worst error about 2.5 sd, under 2 cm needs sd <= 0.8 cm: array20 about 0.053 m
 (180 k vertices) given, 0.041 m free; array16 about 0.018 m (950 k vertices) given, 0.013
 m free. Not reached at 0.1 m; the bound, not locate, is what stops it.
