@@ -134,10 +134,11 @@ class _RoomFit:
         self.trace = []
 
     def _greedy(self, cands, **kwargs):
-        if self.prob.free_flux:
-            # one luminaire of two's summed flux between them explains all but a small
-            # part of their light: the gain that tells two apart is small in absolute
-            # terms, so only the relative gain (min_gain) and a lower floor apply
+        if self.prob.free_flux and self.s.aim == "free":
+            # aimed luminaires keep the former floor of the empty room's cost (not measured
+            # there without it); otherwise, fluxes free or given, a luminaire is judged
+            # against the data's noise alone (select.greedy_select: min_gain of the current
+            # cost and BIC, both costs held at least the model floor)
             kwargs.setdefault("min_gain_total", FREE_FLUX_MIN_GAIN_TOTAL)
         return greedy_select(self.prob, cands, min_gain=self.s.min_gain,
                              optimiser=self.s.optimiser, **kwargs)
@@ -415,8 +416,9 @@ class _RoomFit:
         if (not lights or run.remake is None or s.aim == "free" or run.stopped_after_s
                 is not None or fit_quality(prob, lights) > s.poor_fit):
             return lights, cost
-        from invrad_wb.core.inverse.locate_problem import _refine_problem, vertex_points
-        pts = vertex_points(run.scene)
+        from invrad_wb.core.inverse import locate_problem as lp
+        _refine_problem = lp._refine_problem
+        pts = lp.vertex_points(run.scene, most=lp.VERTEX_POINTS_MAX)   # read at call time
         if pts is None or len(pts) <= len(prob.target):
             return lights, cost
         _s, backend, photometry, has_rho = run.remake

@@ -206,9 +206,9 @@ def _refine_problem(scene, pts, canvas, occ, s, flux, backend, has_rho, timings,
     return prob, indirect_model
 
 
-#: a luminaire is kept when the fluxes are free if it lowers the cost by this fraction of
-#: the cost without any luminaire (and by ``min_gain`` of the current cost); greedy
-#: selection's default is 0.005
+#: with ``--aim free`` and the fluxes free, a luminaire is kept only if it also lowers the
+#: cost by this fraction of the cost without any luminaire; every other selection is judged
+#: against the data's noise alone (select.greedy_select)
 FREE_FLUX_MIN_GAIN_TOTAL = 0.002
 
 
