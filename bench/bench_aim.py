@@ -134,9 +134,9 @@ then plain runs, base and candidate alternately; CPU s vary 20-40 % run to run a
                no gain the noise shows (CPU / wall s, load; candidate against 88f7f47):
                light alone remembered: --seed 3 45.5 / 71.7 (3.7) against 47.1 / 76.5
                (3.3); --seed 8 77.8 / 115.6 (tests beside it) and 76.1 / 114.5 (4.4)
-               against 74.6 / 75.4 (2.0); always computed with the gradient: --seed 3 34.6 / 36.6 (3.7)
-               against 34.5 / 40.8 (3.9), --seed 8 61.5 / 69.8 (3.4) against 53.6 /
-               72.0 (3.7). Not kept.
+               against 74.6 / 75.4 (2.0); always computed with the gradient: --seed 3
+               34.6 / 36.6 (3.7) against 34.5 / 40.8 (3.9), --seed 8 61.5 / 69.8 (3.4)
+               against 53.6 / 72.0 (3.7). Not kept.
   OpenBLAS at 1 thread (OPENBLAS_NUM_THREADS=1), --seed 3: 45.0 s CPU / 69.5 s wall
                against 45.5 / 71.7 with 2 (load 3-4), the same JSON: no gain, not kept.
   The light is a seventh of the time; the optimiser's own work (residuals, unpacking,
