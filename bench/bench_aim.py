@@ -120,6 +120,28 @@ brackets; the machine shared, so the seconds are high):
                (<= 2.4 cm, <= 0.46 deg; 11.2 / 10.6 / 8.2 s). The free-flux lobby fails on
                main 8bd114a too: 4/5, 1 spurious (a floor spot 27.6 cm / 5.0 deg / -17 %
                off), 44.5 s (load 4.1): fixed here, but 1.4 x the time.
+Measured 2026-11-26 07:53-08:15, where the free-flux lobbies' time goes (88f7f47; cProfile,
+then plain runs, base and candidate alternately; CPU s vary 20-40 % run to run at load 2-5):
+  profile --seed 3 (106 s under the profiler): Levenberg-Marquardt 58 s (residuals 29 s,
+               aimlight.light 14.6 s, projection into the room 11 s), footprint candidates
+               16 s (_polish 9 s), OpenCL votes 12 s and kernel builds 7 s;
+  profile --seed 8 (208 s): Levenberg-Marquardt 160 s, of it the count search's splits 81 s;
+               aimlight.light 39 s, residuals 13 s own time, the projection 27 s.
+  aimlight.light rows asked again (--seed 3): of 7773 gradient rows 7629 at a point asked
+               before without the gradient (the optimiser's trial point, then the step
+               taken); of 12906 rows without it 1971. Rows remembered by exact position,
+               aim and flux give the same result JSON byte for byte (seeds 3 and 8) but
+               no gain the noise shows (CPU / wall s, load; candidate against 88f7f47):
+               light alone remembered: --seed 3 45.5 / 71.7 (3.7) against 47.1 / 76.5
+               (3.3); --seed 8 77.8 / 115.6 (tests beside it) and 76.1 / 114.5 (4.4)
+               against 74.6 / 75.4 (2.0); always computed with the gradient: --seed 3
+               34.6 / 36.6 (3.7) against 34.5 / 40.8 (3.9), --seed 8 61.5 / 69.8 (3.4)
+               against 53.6 / 72.0 (3.7). Not kept.
+  OpenBLAS at 1 thread (OPENBLAS_NUM_THREADS=1), --seed 3: 45.0 s CPU / 69.5 s wall
+               against 45.5 / 71.7 with 2 (load 3-4), the same JSON: no gain, not kept.
+  The light is a seventh of the time; the optimiser's own work (residuals, unpacking,
+  projection, the count search's split refits) is the larger share (core/inverse/refine.py,
+  optim.py, locate_count.py, locate_placement.py).
 --aim fixed unchanged (checked 07:37: examples/office.ply --flux 3000, the result JSON
 less its timings identical to main 8bd114a's, sha256 b95ea1f8f4764db4...)
 --aim fixed unchanged (checked 01:53): examples/office.ply --flux 3000 and a 5 x 4 x 3 m
