@@ -142,6 +142,19 @@ then plain runs, base and candidate alternately; CPU s vary 20-40 % run to run a
   The light is a seventh of the time; the optimiser's own work (residuals, unpacking,
   projection, the count search's split refits) is the larger share (core/inverse/refine.py,
   optim.py, locate_count.py, locate_placement.py).
+Measured 2026-11-26 08:18-08:32, the optimiser's parameter packing (refine.Light.params
+one array, n_params, unpacking by slices, no np.clip on a scalar; b97f815), base 55ab370
+and after alternately, --seed 3 --free-flux --rooms lobby, CPU s under process_time
+wrappers per section (load 3.4-3.9; base / after, two rounds):
+  with_params 1.76 / 1.18, 1.62 / 1.17; params 1.14 / 0.31, 1.00 / 0.30 (27718 -> 11711
+  calls); the LM loop's own 2.86 / 2.33, 2.47 / 2.18; the process 37.8 / 34.7, 33.3 /
+  31.2 s CPU. The same lobby_found.json byte for byte. What is left of the refinement
+  (about 20 s of 33): aimlight.light 5.0-5.8 s (numpy: arccos, the (K, k) planes), the
+  room projection (_clear_of_border, 10716 calls, a third on the probe path of
+  map_contains_all) 2.2 s, residuals' own numpy 2.0 s, dense_step 1.5 s, _aim_jacobian
+  1.1 s, the visibility np.where of aimlight.lights 0.8 s.
+--aim fixed unchanged (checked 08:30: examples/office.ply --flux 3000, the result JSON
+less its timings identical to 55ab370's in three alternated runs).
 --aim fixed unchanged (checked 07:37: examples/office.ply --flux 3000, the result JSON
 less its timings identical to main 8bd114a's, sha256 b95ea1f8f4764db4...)
 --aim fixed unchanged (checked 01:53): examples/office.ply --flux 3000 and a 5 x 4 x 3 m

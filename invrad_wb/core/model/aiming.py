@@ -100,12 +100,26 @@ def aim_of_offset(mount_normal, ab, max_tilt_deg=None):
     u, v = _basis(m)
     ab = np.asarray(ab, dtype=np.float64)
     if max_tilt_deg is not None:
-        lim = np.tan(np.radians(max_tilt_deg))
-        r = float(np.hypot(*ab))
+        lim = max_offset(max_tilt_deg)
+        r = float(np.hypot(ab[0], ab[1]))
         if r > lim:
             ab = ab * (lim / r)
     a = m + ab[0] * u + ab[1] * v
     return a / np.linalg.norm(a)
+
+
+_MAX_OFFSETS = {}
+
+
+def max_offset(max_tilt_deg):
+    """``tan(max_tilt_deg)``: the largest gnomonic offset length (:func:`aim_offset`) of a
+    tilt, remembered per tilt (the refinement asks for the same one at every step)."""
+    lim = _MAX_OFFSETS.get(max_tilt_deg)
+    if lim is None:
+        if len(_MAX_OFFSETS) > 64:
+            _MAX_OFFSETS.clear()
+        lim = _MAX_OFFSETS[max_tilt_deg] = np.tan(np.radians(max_tilt_deg))
+    return lim
 
 
 def aim_of_offset_jacobian(mount_normal, ab):
