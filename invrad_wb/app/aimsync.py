@@ -181,6 +181,9 @@ def follow_aim(obj, old_tilt=None, old_pan=None):
     # the user's own figures stand (tilt_pan's round-off, a pan at zero tilt)
     _set(obj, "Tilt", tilt, _same_float)
     _set(obj, "Pan", pan, _same_float)
+    # follow_placement saw the edited Tilt/Pan already in place (nothing "turned" for it):
+    # the IFC's set gets the user's figures here
+    _write_ifc_aim(obj)
 
 
 def _write_ifc_aim(obj):

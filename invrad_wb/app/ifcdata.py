@@ -188,13 +188,17 @@ def _degrees_per_angle_unit(ifc):
     return 1.0 if abs(k - 1.0) < 1e-9 else k      # a DEGREE unit's pi/180 round-off
 
 
-def aim_properties(ifc, lum):
+def aim_properties(ifc, lum, always=False):
     """An aimed luminaire's ``Tilt`` and ``Pan`` (``IfcPlaneAngleMeasure`` in the file's
     plane angle unit) for invrad's property set, or {} for one facing along its mounting
-    normal. Its placement carries the aim itself (local -Z along the light)."""
+    normal (unless ``always``: then its own figures, however small, 0 when it has none).
+    Its placement carries the aim itself (local -Z along the light)."""
     tilt = aimed_tilt(lum)
     if tilt is None:
-        return {}
+        if not always:
+            return {}
+        t = lum.extra.get("tilt_deg")
+        tilt = float(t) if isinstance(t, (int, float)) and math.isfinite(t) else 0.0
     k = _degrees_per_angle_unit(ifc)
     return {"Tilt": ifc.create_entity("IfcPlaneAngleMeasure", tilt / k),
             "Pan": ifc.create_entity("IfcPlaneAngleMeasure", aimed_pan(lum) / k)}
@@ -203,13 +207,16 @@ def aim_properties(ifc, lum):
 def write_aim(ifc, ent, lum):
     """Add an aimed luminaire's tilt and pan (:func:`aim_properties`) to the invrad
     property set of the IfcLightFixture ``ent`` (made when missing); False when it is not
-    aimed."""
+    aimed and its set holds no aim. A fixture that was aimed and is now turned back to its
+    mounting normal (tilt below the aimed threshold) gets its own small tilt written, so
+    that the set never keeps the old one."""
     import ifcopenshell.api.pset as PS
     import ifcopenshell.util.element as E
-    props = aim_properties(ifc, lum)
+    pset = E.get_psets(ent).get(S.IFC_LUMINAIRE_PSET) or {}
+    props = aim_properties(ifc, lum, always=pset.get("Tilt") is not None)
     if not props:
         return False
-    pid = (E.get_psets(ent).get(S.IFC_LUMINAIRE_PSET) or {}).get("id")
+    pid = pset.get("id")
     p = ifc.by_id(pid) if pid else PS.add_pset(ifc, product=ent, name=S.IFC_LUMINAIRE_PSET)
     PS.edit_pset(ifc, pset=p, properties=props)
     return True

@@ -490,3 +490,28 @@ class TestAimedFixturesOpenedFromTheIfc(FreeCADTestCase):
         self.assertLess((fx.AimPoint - aim0).Length, 1e-6)
         np.testing.assert_allclose(stored().position, self.lums[0].position, atol=1e-6)
         self.assertLess(abs(stored().extra["tilt_deg"] - tilt0), 1e-9)
+
+    def test_a_native_fixture_turned_back_to_its_mount_normal_keeps_no_stale_tilt(self):
+        import ifcopenshell.util.unit as U
+        from invrad_wb.app import ifcdata
+        self.doc.recompute()
+        fx = [f for f in self.doc.Objects if nativeifc.is_native_fixture(f, True)][0]
+        ifc = nativeifc.ifcfile(fx)
+
+        def stored():
+            return ifcdata.invrad_fixture_data(nativeifc.entity(fx),
+                                               U.calculate_unit_scale(ifc), ifc)
+        tilt0 = fx.Tilt
+        self.assertGreater(tilt0, 1.0)
+        # an edited tilt; then below the aimed threshold (0.5 degrees), and none
+        for tilt in (20.0, 0.3, 0.0):
+            self.doc.openTransaction("Edit")
+            fx.Tilt = tilt
+            self.doc.commitTransaction()
+            self.assertLess(abs(stored().extra["tilt_deg"] - tilt), 1e-9)
+            # the light now leaves within that tilt of straight down (a ceiling spot)
+            self.assertLess(abs(np.degrees(np.arccos(np.clip(-stored().normal[2], -1, 1)))
+                                - tilt), 1e-4)
+        for _ in range(3):
+            self.doc.undo()
+        self.assertLess(abs(stored().extra["tilt_deg"] - tilt0), 1e-9)
