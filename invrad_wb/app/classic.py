@@ -199,6 +199,9 @@ def _ifc_properties(lum):
         p["Score;;" + S.IFC_LUMINAIRE_PSET] = f"IfcReal;;{float(lum.score)!r}"
     if lum.extra.get("type"):      # the catalogue entry a design chose
         p["LuminaireType;;" + S.IFC_LUMINAIRE_PSET] = f"IfcLabel;;{lum.extra['type']}"
+    if lum.extra.get("dimming_group"):       # its letter in the report's dimming plan
+        p["DimmingGroup;;" + S.IFC_LUMINAIRE_PSET] = \
+            f"IfcLabel;;{lum.extra['dimming_group']}"
     return p
 
 
@@ -224,6 +227,12 @@ def make_fixture(space, lum, label):
                        else f"invrad luminaire, {lum.flux_lm:.0f} lm")
     if kind and "Model" in obj.PropertiesList:
         obj.Model = str(kind)
+    group = lum.extra.get("dimming_group")
+    if group:                  # a design dimmed apart: the report's group letter
+        obj.addProperty("App::PropertyString", "DimmingGroup", "Light",
+                        "Dimming group of a design dimmed apart (the letter on the"
+                        " report's plans and commissioning plan)")
+        obj.DimmingGroup = str(group)
     props = dict(obj.IfcProperties)
     props.update(_ifc_properties(lum))
     obj.IfcProperties = props
@@ -294,10 +303,13 @@ def fixture_luminaire(obj):
     c0 = np.array([x.x, x.y, x.z])
     if np.allclose(c0, fixture_axes(n)[0], atol=1e-6):
         c0 = None
+    extra = aim_extra(obj)
+    if getattr(obj, "DimmingGroup", ""):      # a design's group letter, for the IFC
+        extra["dimming_group"] = str(obj.DimmingGroup)
     return Luminaire(mm_to_m(pl.Base), n, flux,
                      mm_to_m(getattr(obj, "EmitterRadius", 0.0)),
                      score=float(getattr(obj, "Score", 0.0)) or None, c0=c0,
-                     extra=aim_extra(obj))
+                     extra=extra)
 
 
 # --------------------------------------------------------------------------- requirements

@@ -87,4 +87,5 @@ def design_summary(result):
     return {"total_watts": round(result.watts, 2),
             "total_rated_watts": round(result.rated_watts, 2), "compliant": result.compliant,
             "maintenance_factor": result.spec.maintenance_factor,
-            "rooms": [r.to_dict() for r in result.rooms]}
+            # each room with its dimming groups (members: indices into result.luminaires)
+            "rooms": result.to_dict()["rooms"]}

@@ -252,6 +252,8 @@ def luminaire_psets(ifc, ent, lum, kind=None):
     kind = kind or lum.extra.get("type")
     if kind:       # the catalogue entry a design chose
         props["LuminaireType"] = ifc.create_entity("IfcLabel", str(kind))
+    if lum.extra.get("dimming_group"):       # its letter in the report's dimming plan
+        props["DimmingGroup"] = ifc.create_entity("IfcLabel", str(lum.extra["dimming_group"]))
     path = getattr(lum.photometry, "path", None)
     if path:
         props["PhotometryFile"] = ifc.create_entity("IfcText", os.fspath(path))

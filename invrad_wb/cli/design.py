@@ -44,7 +44,7 @@ def schedule_csv(result):
     setting (a type dimmed apart has a row per dimming group, its letter as in the report
     in the last column; lm and W each at that output, W total its luminaires' own
     watts)."""
-    from invrad_wb.core.output.design_report import output_groups
+    from invrad_wb.core.output.groups import output_groups
     buf = io.StringIO()
     w = csv.writer(buf)
     w.writerow(["room", "type", "count", "flux_lm", "watts_each", "dim", "watts_total",

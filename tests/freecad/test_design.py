@@ -47,6 +47,15 @@ class TestDesignFZK(FreeCADTestCase):
         self.assertEqual(len(fx), len(res.luminaires))
         cat = {e.name for e in spec.catalogue}
         self.assertTrue(all(f.Model in cat for f in fx))
+        # rooms dimmed apart: each fixture carries its group's letter (the report's plans)
+        lettered = {i: g["label"] for r in d["rooms"] for g in r["groups"] if g["label"]
+                    for i in g["luminaires"]}
+        self.assertGreater(len(lettered), 0)
+        self.assertEqual(sorted(getattr(f, "DimmingGroup", "") for f in fx
+                                if getattr(f, "DimmingGroup", "")),
+                         sorted(lettered.values()))
+        for i, lum in enumerate(res.luminaires):
+            self.assertEqual(lum.extra.get("dimming_group"), lettered.get(i))
         self.assertTrue(os.path.isfile(os.path.join(out, "index.html")))
         # the IFC keeps the type and the space containment
         import ifcopenshell
@@ -61,6 +70,10 @@ class TestDesignFZK(FreeCADTestCase):
             psets = E.get_psets(ent)
             kinds = [p.get("LuminaireType") for p in psets.values() if "LuminaireType" in p]
             self.assertTrue(kinds and kinds[0] in cat, psets)
+        self.assertEqual(sorted(E.get_psets(e)["InvRad_Luminaire"].get("DimmingGroup")
+                                for e in lights
+                                if E.get_psets(e)["InvRad_Luminaire"].get("DimmingGroup")),
+                         sorted(lettered.values()))
         # one undo step removes every fixture
         doc.undo()
         self.assertEqual(len(all_fixtures(doc)), 0)

@@ -35,6 +35,17 @@ class TestFixtures(FreeCADTestCase):
         self.assertTrue(self.space.IfcData["IfcUID"])
         self.assertEqual(fx.Label, "Luminaire Office 1")
 
+    def test_a_designed_fixture_names_its_dimming_group(self):
+        """A design dimmed apart letters its luminaires' groups (the report's plans): the
+        fixture carries the letter as DimmingGroup and in its IFC set; one without none."""
+        b = down(2.0, 1.5, flux=385.0, extra={"type": "DL-3500", "dimming_group": "D"})
+        a, plain = fixtures.insert_fixtures(self.doc, [(self.space, [b, down(1.0, 1.0)])])
+        self.assertEqual(a.DimmingGroup, "D")
+        self.assertEqual(dict(a.IfcProperties)["DimmingGroup;;InvRad_Luminaire"],
+                         "IfcLabel;;D")
+        self.assertNotIn("DimmingGroup", plain.PropertiesList)
+        self.assertNotIn("DimmingGroup;;InvRad_Luminaire", dict(plain.IfcProperties))
+
     def test_placement_mm_and_light_along_local_minus_z(self):
         normals = [[0, 0, -1], [1, 0, 0], [0, -1, 0], [0, 0, 1], [0.6, 0, -0.8]]
         lums = [Luminaire([1.0 + 0.5 * i, 1.2, 2.0], n, 800.0) for i, n in enumerate(normals)]

@@ -229,6 +229,14 @@ class TestNativeFZK(FreeCADTestCase):
             self.assertEqual(ps["Pset_LightFixtureTypeCommon"]["Reference"],
                              ps["InvRad_Luminaire"]["LuminaireType"])
         design = {r["name"]: r for r in res.summary["design"]["rooms"]}
+        # rooms dimmed apart: each fixture's IFC set names its group (the report's letters)
+        letters = sorted(g["label"] for r in design.values() for g in r["groups"]
+                         for _ in g["luminaires"] if g["label"])
+        self.assertGreater(len(letters), 0)
+        self.assertEqual(sorted(E.get_psets(e)["InvRad_Luminaire"]["DimmingGroup"]
+                                for e in lights
+                                if "DimmingGroup" in E.get_psets(e)["InvRad_Luminaire"]),
+                         letters)
         # every room meets every EN 12464-1 item asked (work plane, walls, ceiling), its
         # UGR shown (the Flur's walls once failed U0 on a point in a 2 cm slot behind a beam)
         for name, r in design.items():

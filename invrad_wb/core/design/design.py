@@ -249,9 +249,33 @@ class DesignResult:
     def compliant(self):
         return all(r.compliant for r in self.rooms if r.requirement is not None)
 
+    def name_groups(self):
+        """Give each luminaire of a room dimmed apart its dimming group's letter
+        (``extra['dimming_group']``, as the report's plans and schedule letter it:
+        :func:`invrad_wb.core.output.groups.output_groups`), so that the result JSON, the
+        FreeCAD fixtures and the IFC name it too; a room at one output per type gets none."""
+        from invrad_wb.core.output.groups import output_groups
+        for r in self.rooms:
+            if r.metrics is None:
+                continue
+            for g in output_groups(r, self.spec.catalogue):
+                for i in g["members"]:
+                    if g["label"]:
+                        r.luminaires[i].extra["dimming_group"] = g["label"]
+                    else:
+                        r.luminaires[i].extra.pop("dimming_group", None)
+
     def to_dict(self):
-        return {"luminaires": [lum.to_dict() for lum in self.luminaires],
-                "rooms": [r.to_dict() for r in self.rooms],
+        from invrad_wb.core.output.groups import groups_json
+        lums, rooms = [], []
+        for r in self.rooms:
+            d = r.to_dict()
+            if r.metrics is not None:      # its dimming groups (the report's letters)
+                d["groups"] = groups_json(r, self.spec.catalogue, len(lums))
+            lums += [lum.to_dict() for lum in r.luminaires]
+            rooms.append(d)
+        return {"luminaires": lums,
+                "rooms": rooms,
                 "maintenance_factor": self.spec.maintenance_factor,
                 "design_margin": getattr(self.spec, "design_margin", 0.0),
                 "catalogue": [e.to_dict() for e in self.spec.catalogue],
@@ -679,7 +703,9 @@ def design(scene, spec, room_names=None, backend="auto", progress=None, workers=
 
     rooms = map_rooms(_design_task, tasks, labels, workers=workers, dask=dask,
                       progress=progress, report=report)
-    return DesignResult(rooms, spec, {"total": time.perf_counter() - t0})
+    result = DesignResult(rooms, spec, {"total": time.perf_counter() - t0})
+    result.name_groups()
+    return result
 
 
 def _design_task(scene, spec, room, name, backend, kwargs, report=None):

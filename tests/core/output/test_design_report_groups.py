@@ -237,3 +237,40 @@ def test_the_cli_schedule_csv_and_console_line_give_the_groups():
     assert _dimmed_words(rd) == ", dimmed apart to 10-100 % (32 % of the rated power)"
     assert _dimmed_words(_room(GRID, np.full(15, 0.32), dims=False)) == ", dimmed to 32 %"
     assert _dimmed_words(_room(GRID, np.ones(15), dims=False)) == ""
+
+
+def test_the_result_json_gives_each_room_its_groups_and_each_luminaire_its_letter(
+        monkeypatch):
+    """``DesignResult.to_dict``: per room its dimming groups (the report's letters, counts,
+    lm and W each, W total, deep) with its members as indices into the JSON's luminaire
+    list; each luminaire of a room dimmed apart carries its group's letter
+    (``name_groups``, which the design calls), for the JSON, FreeCAD and the IFC."""
+    monkeypatch.setattr(RoomDesign, "to_dict", lambda self: {"name": self.name})
+    types = ["DL-1000"] * 4 + ["DL-3500"] * 4
+    pos = np.array([(x, y) for y in (1.0, 3.0) for x in (1.0, 2.5, 3.5, 5.0)])
+    even = _room(pos, [1.0] * 4 + [0.6] * 4, types, dims=False)
+    apart = _room(GRID, OUTPUTS)
+    spec = SimpleNamespace(catalogue=CAT, maintenance_factor=0.8)
+    res = DesignResult([even, apart], spec)
+    res.name_groups()
+    d = res.to_dict()
+    lums = d["luminaires"]
+    assert len(lums) == 8 + 15
+    g_even, g_apart = d["rooms"][0]["groups"], d["rooms"][1]["groups"]
+    # the evenly dimmed room: one unlettered group per type, its luminaires unlettered
+    assert [(g["type"], g["label"], g["count"], g["percent"]) for g in g_even] == [
+        ("DL-1000", "", 4, 100), ("DL-3500", "", 4, 60)]
+    assert all("dimming_group" not in lums[i] for i in range(8))
+    # the room dimmed apart: its five letters, members counted after the first room's 8
+    assert [(g["label"], g["percent"], g["count"]) for g in g_apart] == [
+        ("A", 100, 1), ("B", 89, 2), ("C", 46, 2), ("D", 11, 4), ("E", 10, 6)]
+    assert sorted(i for g in g_apart for i in g["luminaires"]) == list(range(8, 23))
+    for g in g_apart:
+        for i in g["luminaires"]:
+            assert lums[i]["dimming_group"] == g["label"]
+            assert apart.luminaires[i - 8].extra["dimming_group"] == g["label"]
+            assert round(100 * lums[i]["flux_lm"] / 3500.0) == g["percent"]
+        assert g["watts_total"] == pytest.approx(26.0 * sum(
+            lums[i]["flux_lm"] / 3500.0 for i in g["luminaires"]), abs=1e-3)
+    assert sum(g["watts_total"] for g in g_apart) == pytest.approx(apart.watts, abs=0.01)
+    assert [g["deep"] for g in g_apart] == [False, False, True, True, True]
