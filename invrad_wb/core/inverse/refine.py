@@ -498,11 +498,19 @@ class RefineProblem:
         rows, jac = [], []
         lam, d0 = self._separation_weight(), self.separation_m
         # only pairs closer than d0 count: found with one distance matrix (a Python loop
-        # over every pair was a sixth of a dozen luminaires' optimiser time)
-        P = np.array([L.position for L in lights]).reshape(-1, 3)
-        near = np.argwhere(np.triu(np.sum((P[:, None] - P[None]) ** 2, axis=2)
-                                   < d0 * d0 * (1 + 1e-9),
-                                   k=1))
+        # over every pair was a sixth of a dozen luminaires' optimiser time); a few
+        # luminaires' pairs by plain floats (the matrix's dozen numpy calls cost more
+        # there). Either is only a pre-selection: each pair is measured again below.
+        lim = d0 * d0 * (1 + 1e-9)
+        if len(lights) <= 6:
+            P = [L.position.tolist() for L in lights]
+            near = [(i, j) for i in range(len(P)) for j in range(i + 1, len(P))
+                    if (P[i][0] - P[j][0]) ** 2 + (P[i][1] - P[j][1]) ** 2
+                    + (P[i][2] - P[j][2]) ** 2 < lim]
+        else:
+            P = np.array([L.position for L in lights]).reshape(-1, 3)
+            near = np.argwhere(np.triu(np.sum((P[:, None] - P[None]) ** 2, axis=2) < lim,
+                                       k=1))
         starts = None
         for i, j in near:
             a, b = lights[i], lights[j]

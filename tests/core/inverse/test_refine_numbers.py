@@ -92,3 +92,30 @@ def test_residuals_jacobian_is_their_derivative():
     # one luminaire: its single Jacobian block, the same numbers as in a joint call's first
     _, J1 = prob.residuals(lights[:1], vis[:1], with_jac=True)
     assert J1.shape == (len(r1), lights[0].n_params())
+
+
+def _pairs_reference(prob, lights):
+    """Every close pair facing alike, one by one: lam (1 - d / d0)."""
+    lam, d0 = prob._separation_weight(), prob.separation_m
+    rows = []
+    for i in range(len(lights)):
+        for j in range(i + 1, len(lights)):
+            a, b = lights[i], lights[j]
+            d = float(np.linalg.norm(a.position - b.position))
+            if a.facing() @ b.facing() >= 0.5 and d < d0:
+                rows.append(lam * (1.0 - d / d0))
+    return np.array(rows)
+
+
+def test_separation_rows_are_every_close_pair_few_or_many():
+    prob, rng = _problem(2)
+    for n in (2, 3, 6, 7, 12):
+        xy = rng.uniform(0.0, 3.0, (n, 2))      # some apart, some within 0.3 m
+        xy[:(n + 1) // 2] = rng.uniform(0.0, 0.2, ((n + 1) // 2, 2))
+        lights = [Light("free", np.array([x, y, 2.0]), np.array([0.0, 0.0, -1.0]), 0)
+                  for x, y in xy]
+        lights[-1].normal = np.array([0.0, 0.0, 1.0])     # facing away: never a pair
+        r, J = prob.separation(lights, with_jac=True)
+        want = _pairs_reference(prob, lights)
+        assert np.array_equal(r, want) and J.shape == (len(want), 3 * n)
+        assert n < 3 or len(want) > 0
