@@ -27,6 +27,18 @@ direct 1.41 -> 1.26. The interreflection solves fell to half (office 0.32 -> 0.1
 l_room 0.35 -> 0.25); what is left of a run is the optimiser (office 0.97 of 2.84 s,
 l_room 2.2 of 4.9), votes, imports and the radiosity model.
 
+Round 9 (2026-11-26, load average 5-7, 3 alternating rounds, ``--before 930e8fa``; CPU s
+before -> after): the optimiser's arithmetic without temporaries or copies, a cell grid for
+the mount-clearance face tests, close luminaire pairs by plain floats. The optimiser (LM)
+office 1.09 -> 0.71, l_room rho 0.6 1.41 -> 0.98, two_ceiling direct 0.10 -> 0.10;
+locate office 2.10 -> 1.62, l_room 2.95 -> 2.34, two_ceiling 0.68 -> 0.60; whole CLI
+office 2.63 -> 2.45 (ratio to the numpy run 0.133 -> 0.123), l_room 3.48 -> 2.95 (0.114 ->
+0.097), two_ceiling 1.09 -> 1.09 (0.056 -> 0.055); every RESULT.json identical to
+930e8fa's. (Under this load the medians of one stage and of the total come from different
+rounds: office's stages add up to 2.16 s after.) Left: imports (0.34 s: numpy, scipy for
+ndimage and lu_factor, pyopencl), votes (0.3-0.5 s, the kernel), the visibility rays of the
+optimiser in rooms with occluders (l_room: 0.5 M rays), the radiosity model and solves.
+
 Usage: python bench/bench_cli.py [--before REV] [--rounds N] [--quick] [--no-numpy]
 """
 import argparse

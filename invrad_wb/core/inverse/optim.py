@@ -86,8 +86,13 @@ def dense_step(J, r, lam, w=None, ridge=1e-15):
     A = JtW @ J
     n = A.shape[-1]
     D = np.maximum(np.einsum("nii->ni", A), 1e-12) * lam[:, None]
-    step, ok = _solve(A + D[:, :, None] * np.eye(n) + ridge * np.eye(n),
-                      np.einsum("nik,nk->ni", JtW, r))
+    # the damping added to the diagonal in place (the same sums as A + D I + ridge I; a
+    # zero ridge adds nothing: x + 0.0 is x)
+    diag = np.einsum("nii->ni", A)
+    diag += D
+    if ridge:
+        diag += ridge
+    step, ok = _solve(A, np.einsum("nik,nk->ni", JtW, r))
     return -step, ok
 
 
@@ -141,12 +146,18 @@ def levenberg_marquardt(fun, x0, cost=sum_of_squares, step=dense_step, project=N
     it, nev, steps, fails = (np.zeros(N, dtype=np.int64) for _ in range(4))
     nev += 1
     active = np.ones(N, dtype=bool)
+    every = np.arange(N)
     while active.any():
         ix = np.flatnonzero(active)
-        dx, solved = step(_take(J, ix), r[ix], lam[ix])
-        xn = x[ix] + dx
+        if len(ix) == N:
+            # every problem active (always so for a batch of one): views, not copies
+            ix, Jx, rx, xx, lx = every, J, r, x, lam
+        else:
+            Jx, rx, xx, lx = _take(J, ix), r[ix], x[ix], lam[ix]
+        dx, solved = step(Jx, rx, lx)
+        xn = xx + dx
         if project is not None:
-            xn = project(x[ix], xn, ix)
+            xn = project(xx, xn, ix)
         with np.errstate(all="ignore"):
             cn = cost(fun(xn, ix, False))
         it[ix] += 1

@@ -367,27 +367,51 @@ class RefineProblem:
         N = np.array([L.normal for L in lights], dtype=np.float64)     # (K, 3)
         V = np.array(vis_list, dtype=bool).reshape(len(lights), -1)
         px, py, pz = self._pT
+        # the sums and products below are those of
+        #   A = -(dx N_x + dy N_y + dz N_z),  B = C . n - s . n,  r2 = dx^2 + dy^2 + dz^2,
+        #   E = where(ok, s F / pi A B / r2^2, 0)
+        # in the same order, into arrays made once per call (no temporaries)
         dx = C[:, 0:1] - px                                         # c - s, (K, k) each
         dy = C[:, 1:2] - py
         dz = C[:, 2:3] - pz
-        A = -(dx * N[:, 0:1] + dy * N[:, 1:2] + dz * N[:, 2:3])
-        B = C @ self._nT - self._s_dot_m[None, :]
-        r2 = dx * dx + dy * dy + dz * dz
-        ok = (A > 1e-9) & (B > 1e-9) & V
+        t = np.empty_like(dx)
+        A = np.multiply(dx, N[:, 0:1])
+        A += np.multiply(dy, N[:, 1:2], out=t)
+        A += np.multiply(dz, N[:, 2:3], out=t)
+        np.negative(A, out=A)
+        B = C @ self._nT
+        B -= self._s_dot_m[None, :]
+        r2 = np.multiply(dx, dx)
+        r2 += np.multiply(dy, dy, out=t)
+        r2 += np.multiply(dz, dz, out=t)
+        ok = A > 1e-9
+        ok &= B > 1e-9
+        ok &= V
         # a point exactly at a luminaire (a voting point on a vertex where a wall light
-        # sits) is not lit by it (A = 0): no 1 / 0 in the terms that np.where drops
-        Ac, Bc, r2 = np.where(ok, A, 1.0), np.where(ok, B, 1.0), np.where(ok, r2, 1.0)
+        # sits) is not lit by it (A = 0): no 1 / 0 in the terms that are dropped
+        off = ~ok
+        np.copyto(A, 1.0, where=off)
+        np.copyto(B, 1.0, where=off)
+        np.copyto(r2, 1.0, where=off)
         scale = np.array([L.flux_scale for L in lights])[:, None]
-        E = np.where(ok, (scale * (self.flux / np.pi)) * Ac * Bc / (r2 * r2), 0.0)
+        E = np.multiply(scale * (self.flux / np.pi), A)
+        E *= B
+        E /= np.multiply(r2, r2, out=t)
+        np.copyto(E, 0.0, where=off)
         self.stats["evaluations"] += len(lights)
         if not with_grad:
             return E, None
         # d E / d c = E (-N / A + n / B - 4 (c - s) / r^2), one component at a time
-        iA, iB, ir2 = 1.0 / Ac, 1.0 / Bc, -4.0 / r2
+        iA, iB, ir2 = np.divide(1.0, A, out=A), np.divide(1.0, B, out=B), \
+            np.divide(-4.0, r2, out=r2)
         dE = np.empty(E.shape + (3,))
+        u = np.empty_like(E)
         for j, (dj, nj) in enumerate(((dx, self._nT[0]), (dy, self._nT[1]),
                                       (dz, self._nT[2]))):
-            dE[..., j] = E * (iB * nj - N[:, j:j + 1] * iA + dj * ir2)
+            np.multiply(iB, nj, out=u)
+            u -= np.multiply(N[:, j:j + 1], iA, out=t)
+            u += np.multiply(dj, ir2, out=t)
+            np.multiply(E, u, out=dE[..., j])
         return E, dE
 
     def residuals(self, lights, vis_list, with_jac=False, extra=None):
@@ -395,9 +419,11 @@ class RefineProblem:
         jac_blocks = []
         if lights:
             e, de = self.lights_of(lights, vis_list, with_jac)
-            E += e.sum(axis=0)
+            # one luminaire: its row as it is (a sum over one row is that row)
+            E += e[0] if len(e) == 1 else e.sum(axis=0)
             for i, L in enumerate(lights):
-                own = L.own_indirect()
+                # at the problem's flux its own indirect light as it is (1.0 x is x)
+                own = L.indirect if L.flux_scale == 1.0 else L.own_indirect()
                 if own is not None:
                     E += own
                 if with_jac:
@@ -413,9 +439,11 @@ class RefineProblem:
         r = np.log(Ep) - self.log_target
         if not with_jac:
             return r, None
-        J = np.concatenate(jac_blocks, axis=1) / Ep[:, None] if jac_blocks else \
-            np.zeros((len(r), 0))
-        return r, J
+        if not jac_blocks:
+            return r, np.zeros((len(r), 0))
+        J = jac_blocks[0] if len(jac_blocks) == 1 else np.concatenate(jac_blocks, axis=1)
+        # divided in place (the blocks are this call's own arrays)
+        return r, np.divide(J, Ep[:, None], out=J)
 
     def _aim_jacobian(self, L, vis, h=1e-4):
         """(k, 2) d E / d aim coordinates of one aimable luminaire (central differences)."""
@@ -470,11 +498,19 @@ class RefineProblem:
         rows, jac = [], []
         lam, d0 = self._separation_weight(), self.separation_m
         # only pairs closer than d0 count: found with one distance matrix (a Python loop
-        # over every pair was a sixth of a dozen luminaires' optimiser time)
-        P = np.array([L.position for L in lights]).reshape(-1, 3)
-        near = np.argwhere(np.triu(np.sum((P[:, None] - P[None]) ** 2, axis=2)
-                                   < d0 * d0 * (1 + 1e-9),
-                                   k=1))
+        # over every pair was a sixth of a dozen luminaires' optimiser time); a few
+        # luminaires' pairs by plain floats (the matrix's dozen numpy calls cost more
+        # there). Either is only a pre-selection: each pair is measured again below.
+        lim = d0 * d0 * (1 + 1e-9)
+        if len(lights) <= 6:
+            P = [L.position.tolist() for L in lights]
+            near = [(i, j) for i in range(len(P)) for j in range(i + 1, len(P))
+                    if (P[i][0] - P[j][0]) ** 2 + (P[i][1] - P[j][1]) ** 2
+                    + (P[i][2] - P[j][2]) ** 2 < lim]
+        else:
+            P = np.array([L.position for L in lights]).reshape(-1, 3)
+            near = np.argwhere(np.triu(np.sum((P[:, None] - P[None]) ** 2, axis=2) < lim,
+                                       k=1))
         starts = None
         for i, j in near:
             a, b = lights[i], lights[j]
@@ -568,6 +604,9 @@ class RefineProblem:
                         vis[i] = self.visibility(L)
                         vis_at[i] = L.position.copy()
             r, J = self.residuals(new, vis, jac, extra=fixed)
+            if not pairs:
+                # one luminaire: no separation rows (views of the arrays, no copies)
+                return r[None] if not jac else (r[None], J[None])
             rp, Jp = self.separation(new, jac)
             # one row per pair (zero where apart): the batch needs a fixed row count
             r = np.concatenate([r, rp, np.zeros(pairs - len(rp))])[None]
@@ -576,9 +615,13 @@ class RefineProblem:
             return r, np.concatenate([J, Jp, np.zeros((pairs - len(rp), len(x0)))])[None]
 
         def cost(r):
+            if not pairs:       # the same sum: + 0.0 (no separation rows) adds nothing
+                return np.array([self.cost_of(r[0])])
             return np.array([self.cost_of(r[0, :k]) + float(r[0, k:] @ r[0, k:])])
 
         def weights(r):
+            if not pairs:
+                return (self.w_area / np.sqrt(1.0 + (r[0] / c) ** 2))[None]
             w = np.ones_like(r)
             w[0, :k] = self.w_area / np.sqrt(1.0 + (r[0, :k] / c) ** 2)
             return w

@@ -132,14 +132,59 @@ class FaceTest:
         if len(rest) == 0:
             return out
         qr = q[rest]
-        near = np.all((self.lo[None] <= (qr + tol)[:, None])
-                      & (self.hi[None] >= (qr - tol)[:, None]), axis=2)
-        pi, ti = np.nonzero(near)
+        pi, ti = self._box_pairs(qr, tol)
         if len(pi):
             from invrad_wb.core.geometry.raster import barycentric_2d
             b = barycentric_2d(self.tri[ti], qr[pi])
             out[rest[pi[np.all(b >= -tol, axis=1)]]] = True
         return out
+
+    def _box_pairs(self, qr, tol):
+        """(point, triangle) index pairs where point qr (n, 2) lies in the triangle's
+        bounding box grown by ``tol``: the same pairs, in the same order, as the test of
+        every point against every triangle, but only against the triangles listed in the
+        point's cell of a uniform grid (:meth:`_cells`); with thousands of triangles per
+        plane that test was most of a mount-clearance check."""
+        g0, cell, shape, starts, tris = self._cells(tol)
+        c = np.floor((qr - g0) / cell)
+        c = np.where(np.isfinite(c), c, 0.0)
+        ci = np.clip(c[:, 0], 0, shape[0] - 1).astype(np.int64)
+        cj = np.clip(c[:, 1], 0, shape[1] - 1).astype(np.int64)
+        cid = ci * shape[1] + cj
+        a, n = starts[cid], starts[cid + 1] - starts[cid]
+        pi = np.repeat(np.arange(len(qr)), n)
+        ti = tris[np.repeat(a, n) + (np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n))]
+        near = np.all((self.lo[ti] <= qr[pi] + tol) & (self.hi[ti] >= qr[pi] - tol), axis=1)
+        return pi[near], ti[near]
+
+    def _cells(self, tol):
+        """A uniform grid over the triangles' bounding boxes grown by ``tol`` and a margin
+        (for rounding): ``(origin (2,), cell size, (rows, cols), starts, triangles)``, cell
+        ``c`` listing ``triangles[starts[c]:starts[c + 1]]`` (ascending); built once."""
+        got = getattr(self, "_grid", None)
+        if got is not None and got[0] == tol:
+            return got[1]
+        margin = tol + 1e-9 * (1.0 + float(np.max(np.abs(self.tri)))) if len(self.tri) \
+            else 1.0
+        lo, hi = self.lo - margin, self.hi + margin
+        if len(self.tri) == 0:
+            lo, hi = np.zeros((1, 2)), np.ones((1, 2))
+        g0 = lo.min(axis=0)
+        cell = max(float(np.max(hi.max(axis=0) - g0)) / 64.0, 1e-9)
+        c0 = np.floor((lo - g0) / cell).astype(np.int64)
+        c1 = np.floor((hi - g0) / cell).astype(np.int64)
+        shape = (int(c1[:, 0].max()) + 1, int(c1[:, 1].max()) + 1)
+        ni, nj = c1[:, 0] - c0[:, 0] + 1, c1[:, 1] - c0[:, 1] + 1
+        cnt = ni * nj if len(self.tri) else np.zeros(1, np.int64)
+        tid = np.repeat(np.arange(len(cnt)), cnt)
+        k = np.arange(len(tid)) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+        cid = (c0[tid, 0] + k // nj[tid]) * shape[1] + c0[tid, 1] + k % nj[tid]
+        order = np.argsort(cid, kind="stable")
+        starts = np.zeros(shape[0] * shape[1] + 1, dtype=np.int64)
+        np.cumsum(np.bincount(cid, minlength=shape[0] * shape[1]), out=starts[1:])
+        grid = (g0, cell, shape, starts, tid[order])
+        self._grid = (tol, grid)
+        return grid
 
 
 @dataclass
