@@ -188,36 +188,101 @@ def build(name, noise, seed=0, cell=0.2):
     return scene.with_vertex_lux(lux), lums
 
 
-def bound(scene, true, noise, free):
-    """The Cramer-Rao bound of the true luminaires on every target vertex of ``scene``
-    (:func:`invrad_wb.core.inverse.fitcheck.position_sd`, the noise ``noise``, fluxes free
-    or given): (worst position sd (cm), worst flux sd (%) or nan, root mean square of the
-    luminaires' position sd (cm)). No unbiased estimate
-    from these data does better; an error of 2-3 sd in the worst of a dozen luminaires is
-    ordinary."""
-    from invrad_wb.core.inverse.fitcheck import position_sd
+def _vertex_problem(scene, true, free):
+    """The last refit's problem (every target vertex, at most VERTEX_POINTS_MAX, the
+    default settings, exact interreflection) and a function luminaires -> its Lights
+    (snapped to the room's surfaces, their interreflection computed there)."""
     from invrad_wb.core.inverse.locate import LocateSettings
-    from invrad_wb.core.inverse.locate_placement import _occluders
+    from invrad_wb.core.inverse.locate_fit import _rebase
+    from invrad_wb.core.inverse.locate_placement import _occluders, _snap_to_surfaces
     from invrad_wb.core.inverse.locate_problem import _refine_problem, vertex_points
     from invrad_wb.core.inverse.refine import Light
     from invrad_wb.core.inverse.votemaps import build_canvas
+    from invrad_wb.core.inverse import locate_problem as lp
     s = LocateSettings()
     room = int(scene.rooms[0])
     canvas = build_canvas(scene, room, pixel=s.pixel_m, dummy=False)
     flux = true[0].flux_lm
-    from invrad_wb.core.inverse import locate_problem as lp
     pts = vertex_points(scene, most=lp.VERTEX_POINTS_MAX)
     prob, _ = _refine_problem(scene, pts, canvas, _occluders(scene, s), s,
                               flux, "numpy", True, {"radiosity": 0.0})
     prob.free_flux = free
-    lights = [Light("surface", np.asarray(t.position, float), np.array([0, 0, -1.0]), -1,
-                    origin=np.asarray(t.position, float), u=np.array([1.0, 0, 0]),
-                    v=np.array([0, 1.0, 0]), flux_scale=t.flux_lm / flux) for t in true]
-    lights, _ = prob.refresh_indirect(lights, moved=0.0)
-    sd, fsd = position_sd(prob, lights, sigma=max(noise, 1e-12))
-    return (100.0 * float(sd.max()), (100.0 * float(fsd.max()) if fsd is not None
-                                      else float("nan")),
-            100.0 * float(np.sqrt(np.mean(sd ** 2))))
+
+    def lights(lums):
+        out = []
+        for t in lums:
+            L = Light("free", np.asarray(t.position, float), np.array([0, 0, -1.0]), -1,
+                      flux_scale=t.flux_lm / flux, free_flux=free)
+            out.append(_snap_to_surfaces([L], canvas, scene)[0])
+        return _rebase(prob, out)
+    return prob, lights
+
+
+def bound(scene, true, noise, free, per_luminaire=False):
+    """The Cramer-Rao bound of the true luminaires on every target vertex of ``scene``
+    (:func:`invrad_wb.core.inverse.fitcheck.position_sd`, the noise ``noise``, fluxes free
+    or given): (worst position sd (cm), worst flux sd (%) or nan, root mean square of the
+    luminaires' position sd (cm)), and with ``per_luminaire`` the (K,) position sd (cm)
+    and flux sd (%) of each true luminaire too. No unbiased estimate from these data does
+    better; an error of 2-3 sd in the worst of a dozen luminaires is ordinary.
+
+    The noise: bench's :func:`build` multiplies each vertex's value by 1 + noise x N(0, 1),
+    so the log residual the refinement fits has a standard deviation of about ``noise``
+    per vertex, independent from vertex to vertex (what position_sd assumes)."""
+    from invrad_wb.core.inverse.fitcheck import position_sd
+    prob, lights = _vertex_problem(scene, true, free)
+    sd, fsd = position_sd(prob, lights(true), sigma=max(noise, 1e-12))
+    out = (100.0 * float(sd.max()), (100.0 * float(fsd.max()) if fsd is not None
+                                     else float("nan")),
+           100.0 * float(np.sqrt(np.mean(sd ** 2))))
+    if per_luminaire:
+        return out + (100.0 * sd, None if fsd is None else 100.0 * fsd)
+    return out
+
+
+def truth_refit(scene, true, found, noise, free):
+    """Which errors are the data's and which the search's: the last refit's problem
+    (every target vertex) refitted from the TRUE arrangement and from the found one,
+    each as locate's last refit does (Levenberg-Marquardt, interreflection refreshed).
+    Returns (chi-square gap, truth-refit's (K,) errors (cm), its (K,) flux errors (%)):
+    the gap is 2 k (cost(found) - cost(truth refitted)) / noise^2 (k target vertices;
+    the cost is half the area-weighted mean square log residual there), in units of the
+    noise variance: > 0 (beyond a few) the truth's basin fits the data better, a search
+    fault (a local minimum); <= 0 the found answer fits at least as well, the error is
+    the data's (what the most likely arrangement near the truth is off, itself beyond
+    the bound where the likelihood is not quadratic: close luminaires with free fluxes)."""
+    prob, lights = _vertex_problem(scene, true, free)
+
+    def refit(ls):
+        for _ in range(4):
+            ls, _c = prob.levenberg_marquardt(ls, iterations=100)
+            ls, changed = prob.refresh_indirect(ls, moved=0.005)
+            if not changed:
+                break
+        return ls, prob.cost(ls)
+    T, ct = refit(lights(true))
+    cf = prob.cost(lights(found)) if found else float("nan")
+    gap = 2.0 * len(prob.target) * (cf - ct) / max(noise, 1e-12) ** 2
+    err = np.array([100.0 * float(np.linalg.norm(L.position - t.position))
+                    for L, t in zip(T, true)])
+    ferr = np.array([100.0 * (L.flux_scale * prob.flux / t.flux_lm - 1.0)
+                     for L, t in zip(T, true)])
+    return gap, err, ferr
+
+
+def per_luminaire(found, true):
+    """For each true luminaire, (position error cm, flux error %) of the found luminaire
+    paired with it (the pairing of least summed distance; nan when none is left)."""
+    from scipy.optimize import linear_sum_assignment
+    out = np.full((len(true), 2), np.nan)
+    if not found:
+        return out
+    P = np.array([np.asarray(f.position, float) for f in found])
+    Q = np.array([np.asarray(t.position, float) for t in true])
+    D = np.linalg.norm(Q[:, None] - P[None], axis=2)
+    for i, j in zip(*linear_sum_assignment(D)):
+        out[i] = (100.0 * D[i, j], 100.0 * (found[j].flux_lm / true[i].flux_lm - 1.0))
+    return out
 
 
 def rms_error(found, true):
@@ -256,22 +321,34 @@ def main():
     ap.add_argument("--points-max", type=int, default=None,
                     help="target vertices of the last refit and of the bound (default:"
                          " locate_problem.VERTEX_POINTS_MAX); the votes keep their sample")
+    ap.add_argument("--cells", default="",
+                    help="--bound-only: mesh spacings (m), comma-separated (default --cell)")
+    ap.add_argument("--diagnose", action="store_true",
+                    help="per luminaire: error, flux error, their bound (sd) and the"
+                         " truth's own refit; per scene the chi-square gap of the found"
+                         " answer to the truth's refit (truth_refit)")
     args = ap.parse_args()
     if args.points_max:
         from invrad_wb.core.inverse import locate_problem as lp
         lp.VERTEX_POINTS_MAX = args.points_max
     if args.bound_only:
-        for name in [n for n in scenes() if not args.only or n in args.only.split(",")]:
-            scene, true = build(name, args.noise, cell=args.cell)
-            free = bound(scene, true, args.noise, True)
-            given = bound(scene, true, args.noise, False)
-            print(f"{name:16s} {len(scene.vertices):6d} vertices flux free: {free[0]:6.2f} cm"
-                  f" {free[1]:6.2f} %; flux given: {given[0]:6.2f} cm", flush=True)
+        cells = [float(c) for c in args.cells.split(",")] if args.cells else [args.cell]
+        for cell in cells:
+            for name in [n for n in scenes() if not args.only or n in args.only.split(",")]:
+                scene, true = build(name, args.noise, cell=cell)
+                free = bound(scene, true, args.noise, True, per_luminaire=True)
+                given = bound(scene, true, args.noise, False)
+                print(f"{name:16s} {cell:5.3f} m {len(scene.vertices):6d} vertices flux free:"
+                      f" {free[0]:6.2f} cm {free[1]:6.2f} %; flux given: {given[0]:6.2f} cm",
+                      flush=True)
+                if args.diagnose:
+                    print("    free sd cm " + " ".join(f"{x:.2f}" for x in free[3])
+                          + " | sd % " + " ".join(f"{x:.2f}" for x in free[4]), flush=True)
         return
     names = [n for n in scenes() if not args.only or n in args.only.split(",")]
     print(f"{'scene':16s} {'mode':6s} {'count':>7s} {'ok':>3s} {'max cm':>7s}"
           f" {'max flux %':>10s} {'s':>7s} {'cpu s':>7s} {'sd cm':>6s} {'sd %':>6s}"
-          f" {'rms/sd':>6s}")
+          f" {'rms/sd':>6s}" + (f" {'gap chi2':>9s}" if args.diagnose else ""))
     summary = {"free": [], "given": []}
     for name in names:
         scene, true = build(name, args.noise, cell=args.cell)
@@ -287,11 +364,23 @@ def main():
             fe = flux_errors(r.luminaires, true)
             cm = m["max_error_cm"] if m["max_error_cm"] is not None else float("nan")
             summary[mode].append((ok, cm, fe, dt))
-            sd, fsd, sd_rms = bound(scene, true, args.noise, mode == "free")
-            print(f"{name:16s} {mode:6s} {len(r.luminaires):>3d}/{len(true):<3d}"
-                  f" {'yes' if ok else 'NO':>3s} {cm:7.2f} {fe:10.2f} {dt:7.1f} {dc:7.1f}"
-                  f" {sd:6.2f} {fsd:6.2f} {rms_error(r.luminaires, true) / sd_rms:6.2f}",
-                  flush=True)
+            sd, fsd, sd_rms, sds, fsds = bound(scene, true, args.noise, mode == "free",
+                                               per_luminaire=True)
+            line = (f"{name:16s} {mode:6s} {len(r.luminaires):>3d}/{len(true):<3d}"
+                    f" {'yes' if ok else 'NO':>3s} {cm:7.2f} {fe:10.2f} {dt:7.1f} {dc:7.1f}"
+                    f" {sd:6.2f} {fsd:6.2f} {rms_error(r.luminaires, true) / sd_rms:6.2f}")
+            if not args.diagnose:
+                print(line, flush=True)
+                continue
+            gap, terr, tferr = truth_refit(scene, true, r.luminaires, args.noise,
+                                           mode == "free")
+            print(line + f" {gap:9.1f}", flush=True)
+            pl = per_luminaire(r.luminaires, true)
+            for i, t in enumerate(true):
+                fl = (f" flux {pl[i, 1]:7.2f} % (sd {fsds[i]:5.2f}, truth refit"
+                      f" {tferr[i]:6.2f})" if fsds is not None else "")
+                print(f"    {i:2d} {t.flux_lm:6.0f} lm  {pl[i, 0]:6.2f} cm (sd {sds[i]:5.2f},"
+                      f" truth refit {terr[i]:6.2f}){fl}", flush=True)
     for mode, rows in summary.items():
         if rows:
             print(f"  {mode}: count right {sum(r[0] for r in rows)}/{len(rows)};"

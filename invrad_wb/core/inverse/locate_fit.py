@@ -428,13 +428,21 @@ class _RoomFit:
         # free fluxes of close luminaires lie in a long flat valley: the count search's steps
         opt = ((lambda L: big.levenberg_marquardt(L, iterations=100)) if s.optimiser == "lm"
                else big.evolution_strategy)
+        def refit(got):
+            for _round in range(rounds):
+                got, _c = opt(got)
+                got, changed = big.refresh_indirect(got, moved=0.005)
+                if not changed:
+                    break
+            return got, big.cost(got)
         got = _rebase(big, lights)
         c_start = big.cost(got)
-        for _round in range(rounds):
-            got, _c = opt(got)
-            got, changed = big.refresh_indirect(got, moved=0.005)
-            if not changed:
-                break
+        got, c_got = refit(got)
+        if big.free_flux:
+            # close luminaires with free fluxes: other starts of each group (the count
+            # search's split arrangement is one minimum of several), the lowest cost kept
+            from invrad_wb.core.inverse.locate_count import regroup
+            got, c_got = regroup(big, got, c_got, refit, self.trace)
         back = _rebase(prob, got)
         c_back = prob.cost(back)
         self.trace.append({"polish_points": len(pts), "cost_before": c_start,
