@@ -116,6 +116,52 @@ for array9, 0.045 m for array16 (flux given, about 160000 vertices; 0.033 m free
 290000: far beyond vertex_points' 20000); the worst of a dozen luminaires within 2 cm (about 2.5 sd) needs
 0.06 m for array9 and 0.018 m for array16. Run at 0.15 m, array9 (flux given): 9/9, max
 2.33 cm, rms/sd 1.20, bound 1.95 cm (at 0.2 m: max 3.45 cm), 7.9 CPU s.
+
+2026-11-26 (h9), the bound beside the errors, and the search's faults apart from the data's
+limit (--diagnose: per luminaire its error, its Cramer-Rao sd and the error of the truth's
+own refit on the same noisy data; per scene 'gap chi2', the found answer's cost above the
+truth's refit in noise variances: beyond a few, a better minimum near the truth that the
+search missed; about 0 or below, the found answer fits as well, and its error is what the
+data allow). Flux unknown, 5 % noise, 0.2 m mesh, every vertex in the last refit, runs
+alternated base (930e8fa) / after (locate_count.regroup at the last refit), load 4-6
+(count / ok / max cm / max flux % / wall s / CPU s / sd cm / sd % / rms/sd / gap chi2):
+  cluster3_mixed base  3/3  NO  43.58 168.61  17  10 | 6.94 5.71 7.79  5.0
+                 after 3/3  yes 16.07  42.28  21  13 | 6.94 5.71 2.52  1.6
+  cluster4_0.3h  base  4/4  NO  42.49  76.74  37  16 | 8.60 9.77 4.13 15.1
+                 after 4/4  yes 41.77  63.83  42  20 | 8.60 9.77 4.10  0.8
+  array12_mixed  base 12/12 yes 43.60  20.75  81  35 | 9.65 6.13 4.24  2.5
+                 after  (the same answer)     89  38
+  array16_0.8h   base 16/16 NO  10.74* 31.89 141  59 |12.28 7.05 5.21 39.5  (*2 beyond 0.5 m: 81.7, 62.2 cm)
+                 after 16/16 yes 37.54 10.88 167  79 |12.28 7.05 2.46  2.3
+  array9_1.0h    base  9/9  yes  8.89   5.51  59  29 | 3.84 2.11 2.12  3.2
+                 after  (the same answer)     58  30
+  array12_issue  base 12/12 yes 20.14   8.07  85  42 | 5.81 3.78 2.57  2.3
+                 after 12/12 yes 15.59  6.39  98  52 | 5.81 3.78 1.89 -0.3
+  array20_1.2h   base 20/20 yes  7.71   4.95  93  54 | 3.90 1.94 1.50  1.2
+                 after  (the same answer)    144  73
+  before: count right 7/7, each within 0.5 m 4/7, worst flux 168.6 %; search faults (gap
+  over 5) in cluster4 (15), array16 (40: its inner four, 51-82 cm off with sd 12 cm,
+  where the truth's refit is 2-25 cm off) and cluster3_mixed (5).
+  after: count right 7/7, each within 0.5 m 7/7, worst 43.6 cm, worst flux 63.8 %; every
+  gap at most 2.5 noise variances: what is left is the data's limit at this mesh. It is
+  beyond the (local) bound where close luminaires trade flux against position: the
+  truth's own refit is 24-36 cm and 4-30 % off in cluster4 (sd 8.6 cm, 9.8 %), 36 cm in
+  array12_mixed's 2000 lm luminaire (sd 9.7 cm), and regroup's starts find arrangements
+  that fit the noisy data better than the truth's refit does (cluster3_mixed: cost
+  0.0010742 against 0.0010756, 42 cm and 239 % off): several arrangements explain these
+  data equally well. The CPU cost of regroup: 0-20 s a room (array20: +18 s, no change).
+The bound (--bound-only --cells 0.2,0.1 --points-max 10000000), worst luminaire, flux
+free sd cm / sd % (flux given sd cm), 0.2 m -> 0.1 m (it halves with the spacing):
+  array12_issue 5.81/3.78 (4.14) -> 2.92/1.90 (2.07)   array9_1.0h  3.84/2.11 (2.61) -> 1.93/1.06 (1.30)
+  array16_0.8h 12.28/7.05 (8.80) -> 6.20/3.54 (4.41)   array20_1.2h 3.90/1.94 (3.01) -> 1.96/0.97 (1.51)
+  array12_mixed 9.65/6.13 (6.54) -> 4.88/3.10 (3.29)   cluster4_0.3h 8.60/9.77 (8.41) -> 4.31/4.88 (4.21)
+  cluster3_mixed 6.94/5.71 (6.68) -> 3.48/2.90 (3.35)
+The Done-when (flux unknown: every luminaire within 2 cm and 5 %, about 2.5 sd for the
+worst of a dozen: sd <= 0.8 cm and 2 %) needs a mesh of 0.041 m (array9, array20), 0.027
+m (array12_issue), 0.023 m (cluster3_mixed), 0.019 m (cluster4), 0.016 m (array12_mixed),
+0.013 m (array16): 165 000 to 1 800 000 target vertices per room; with the flux given
+(2 cm) 0.062 m (array9) down to 0.018 m (array16). Not run: vertex_points keeps at most
+20000 and a locate at 0.05 m did not finish in 10 minutes on this machine.
 """
 import argparse
 import os
