@@ -149,7 +149,18 @@ alternated base (930e8fa) / after (locate_count.regroup at the last refit), load
   array12_mixed's 2000 lm luminaire (sd 9.7 cm), and regroup's starts find arrangements
   that fit the noisy data better than the truth's refit does (cluster3_mixed: cost
   0.0010742 against 0.0010756, 42 cm and 239 % off): several arrangements explain these
-  data equally well. The CPU cost of regroup: 0-20 s a room (array20: +18 s, no change).
+  data equally well. The CPU cost of regroup: 0-20 s a room with groups; array9, array20
+  and array12_mixed have none (close_groups on their true arrangements: [], 0.01-0.07 CPU
+  s), so array20's 54 -> 73 CPU s is the busy machine's (OpenCL threads), not regroup.
+  The clusters at a 0.1 m mesh (every vertex, --points-max 10000000; base / after,
+  alternated, max cm / max flux % / CPU s / sd cm / sd % / gap chi2):
+    cluster4_0.3h  base 11.80 36.14 13 | 4.31 4.88  2.2   after 7.74 19.29 25 | 0.5
+    cluster3_mixed base 16.41 40.98  6 | 3.48 2.90 13.5   after 7.54 18.06 22 | 3.1
+  the errors halve with the bound; the flux errors (4-6 sd) are still beyond it where
+  flux trades against position (cluster3_mixed's 4000 lm luminaire: 7.5 cm, sd 1.3 cm,
+  its truth's refit 1.5 cm, gap 3.1: in this flat valley each restart of the optimiser
+  still lowers the cost a little; offline on array16, three regroup passes went 0.0010571
+  -> 0.0010560 -> 0.0010558 against the truth's 0.0010554).
 The bound (--bound-only --cells 0.2,0.1 --points-max 10000000), worst luminaire, flux
 free sd cm / sd % (flux given sd cm), 0.2 m -> 0.1 m (it halves with the spacing):
   array12_issue 5.81/3.78 (4.14) -> 2.92/1.90 (2.07)   array9_1.0h  3.84/2.11 (2.61) -> 1.93/1.06 (1.30)
