@@ -428,6 +428,7 @@ class _RoomFit:
         # free fluxes of close luminaires lie in a long flat valley: the count search's steps
         opt = ((lambda L: big.levenberg_marquardt(L, iterations=100)) if s.optimiser == "lm"
                else big.evolution_strategy)
+
         def refit(got):
             for _round in range(rounds):
                 got, _c = opt(got)
@@ -438,6 +439,8 @@ class _RoomFit:
         got = _rebase(big, lights)
         c_start = big.cost(got)
         got, c_got = refit(got)
+        # the refit's own move (regroup reorders the luminaires)
+        moved = max(float(np.linalg.norm(a.position - b.position)) for a, b in zip(lights, got))
         if big.free_flux:
             # close luminaires with free fluxes: other starts of each group (the count
             # search's split arrangement is one minimum of several), the lowest cost kept
@@ -447,8 +450,7 @@ class _RoomFit:
         c_back = prob.cost(back)
         self.trace.append({"polish_points": len(pts), "cost_before": c_start,
                            "cost_after": big.cost(got),
-                           "moved_m": round(max(float(np.linalg.norm(a.position - b.position))
-                                                for a, b in zip(lights, got)), 4)})
+                           "moved_m": round(moved, 4)})
         return back, c_back
 
     def spread(self, lights, cost):
