@@ -162,6 +162,9 @@ alternated base (930e8fa) / after (locate_count.regroup at the last refit), load
   its truth's refit 1.5 cm, gap 3.1: in this flat valley each restart of the optimiser
   still lowers the cost a little; offline on array16, three regroup passes went 0.0010571
   -> 0.0010560 -> 0.0010558 against the truth's 0.0010554).
+Flux given (--given-only --diagnose, after; the flux-given path is unchanged): array16
+18.23 cm (sd 8.80, gap -0.3), array20 8.75 cm (sd 3.01, gap -0.3), cluster4 29.86 cm (sd
+8.41, gap 0.1): the same answers as before, each the data's limit (no gap).
 The bound (--bound-only --cells 0.2,0.1 --points-max 10000000), worst luminaire, flux
 free sd cm / sd % (flux given sd cm), 0.2 m -> 0.1 m (it halves with the spacing):
   array12_issue  5.81/3.78 (4.14) -> 2.92/1.90 (2.07)
