@@ -404,7 +404,9 @@ class _RoomFit:
         are brought back to the room's problem (their interreflection there) and returned
         with its cost. Skipped when the room's points already are as many, for a poor fit
         (``s.poor_fit``: the luminaires do not explain the targets; more of them does not
-        help) and for ``--aim free`` (not measured there).
+        help) and for ``--aim free`` (not measured there). Fluxes free, groups of close
+        or poorly pinned luminaires are then refitted from other starts
+        (:func:`~invrad_wb.core.inverse.locate_count.regroup`).
 
         Measured (bench/bench_count.py scenes, 5 % noise per vertex, refitted from the
         true arrangement over 6 noise draws, voting points at their corners -> every
