@@ -116,6 +116,70 @@ for array9, 0.045 m for array16 (flux given, about 160000 vertices; 0.033 m free
 290000: far beyond vertex_points' 20000); the worst of a dozen luminaires within 2 cm (about 2.5 sd) needs
 0.06 m for array9 and 0.018 m for array16. Run at 0.15 m, array9 (flux given): 9/9, max
 2.33 cm, rms/sd 1.20, bound 1.95 cm (at 0.2 m: max 3.45 cm), 7.9 CPU s.
+
+2026-11-26 (h9), the bound beside the errors, and the search's faults apart from the data's
+limit (--diagnose: per luminaire its error, its Cramer-Rao sd and the error of the truth's
+own refit on the same noisy data; per scene 'gap chi2', the found answer's cost above the
+truth's refit in noise variances: beyond a few, a better minimum near the truth that the
+search missed; about 0 or below, the found answer fits as well, and its error is what the
+data allow). Flux unknown, 5 % noise, 0.2 m mesh, every vertex in the last refit, runs
+alternated base (930e8fa) / after (locate_count.regroup at the last refit), load 4-6
+(count / ok / max cm / max flux % / wall s / CPU s / sd cm / sd % / rms/sd / gap chi2):
+  cluster3_mixed base  3/3  NO  43.58 168.61  17  10 | 6.94 5.71 7.79  5.0
+                 after 3/3  yes 16.07  42.28  21  13 | 6.94 5.71 2.52  1.6
+  cluster4_0.3h  base  4/4  NO  42.49  76.74  37  16 | 8.60 9.77 4.13 15.1
+                 after 4/4  yes 41.77  63.83  42  20 | 8.60 9.77 4.10  0.8
+  array12_mixed  base 12/12 yes 43.60  20.75  81  35 | 9.65 6.13 4.24  2.5
+                 after  (the same answer)     89  38
+  array16_0.8h   base 16/16 NO  10.74* 31.89 141  59 |12.28 7.05 5.21 39.5
+                 (* of those matched within 0.5 m; two more 81.7 and 62.2 cm off)
+                 after 16/16 yes 37.54 10.88 167  79 |12.28 7.05 2.46  2.3
+  array9_1.0h    base  9/9  yes  8.89   5.51  59  29 | 3.84 2.11 2.12  3.2
+                 after  (the same answer)     58  30
+  array12_issue  base 12/12 yes 20.14   8.07  85  42 | 5.81 3.78 2.57  2.3
+                 after 12/12 yes 15.59  6.39  98  52 | 5.81 3.78 1.89 -0.3
+  array20_1.2h   base 20/20 yes  7.71   4.95  93  54 | 3.90 1.94 1.50  1.2
+                 after  (the same answer)    144  73
+  before: count right 7/7, each within 0.5 m 4/7, worst flux 168.6 %; search faults (gap
+  over 5) in cluster4 (15), array16 (40: its inner four, 51-82 cm off with sd 12 cm,
+  where the truth's refit is 2-25 cm off) and cluster3_mixed (5).
+  after: count right 7/7, each within 0.5 m 7/7, worst 43.6 cm, worst flux 63.8 %; every
+  gap at most 2.5 noise variances: what is left is the data's limit at this mesh. It is
+  beyond the (local) bound where close luminaires trade flux against position: the
+  truth's own refit is 24-36 cm and 4-30 % off in cluster4 (sd 8.6 cm, 9.8 %), 36 cm in
+  array12_mixed's 2000 lm luminaire (sd 9.7 cm), and regroup's starts find arrangements
+  that fit the noisy data better than the truth's refit does (cluster3_mixed: cost
+  0.0010742 against 0.0010756, 42 cm and 239 % off): several arrangements explain these
+  data equally well. The CPU cost of regroup: 0-20 s a room with groups; array9, array20
+  and array12_mixed have none (close_groups on their true arrangements: [], 0.01-0.07 CPU
+  s), so array20's 54 -> 73 CPU s is the busy machine's (OpenCL threads), not regroup.
+  The clusters at a 0.1 m mesh (every vertex, --points-max 10000000; base / after,
+  alternated, max cm / max flux % / CPU s / sd cm / sd % / gap chi2):
+    cluster4_0.3h  base 11.80 36.14 13 | 4.31 4.88  2.2   after 7.74 19.29 25 | 0.5
+    cluster3_mixed base 16.41 40.98  6 | 3.48 2.90 13.5   after 7.54 18.06 22 | 3.1
+  the errors halve with the bound; the flux errors (4-6 sd) are still beyond it where
+  flux trades against position (cluster3_mixed's 4000 lm luminaire: 7.5 cm, sd 1.3 cm,
+  its truth's refit 1.5 cm, gap 3.1: in this flat valley each restart of the optimiser
+  still lowers the cost a little; offline on array16, three regroup passes went 0.0010571
+  -> 0.0010560 -> 0.0010558 against the truth's 0.0010554).
+Flux given (--given-only --diagnose, after; the flux-given path is unchanged): array16
+18.23 cm (sd 8.80, gap -0.3), array20 8.75 cm (sd 3.01, gap -0.3), cluster4 29.86 cm (sd
+8.41, gap 0.1): the same answers as before, each the data's limit (no gap).
+The bound (--bound-only --cells 0.2,0.1 --points-max 10000000), worst luminaire, flux
+free sd cm / sd % (flux given sd cm), 0.2 m -> 0.1 m (it halves with the spacing):
+  array12_issue  5.81/3.78 (4.14) -> 2.92/1.90 (2.07)
+  array9_1.0h    3.84/2.11 (2.61) -> 1.93/1.06 (1.30)
+  array16_0.8h  12.28/7.05 (8.80) -> 6.20/3.54 (4.41)
+  array20_1.2h   3.90/1.94 (3.01) -> 1.96/0.97 (1.51)
+  array12_mixed  9.65/6.13 (6.54) -> 4.88/3.10 (3.29)
+  cluster4_0.3h  8.60/9.77 (8.41) -> 4.31/4.88 (4.21)
+  cluster3_mixed 6.94/5.71 (6.68) -> 3.48/2.90 (3.35)
+The Done-when (flux unknown: every luminaire within 2 cm and 5 %, about 2.5 sd for the
+worst of a dozen: sd <= 0.8 cm and 2 %) needs a mesh of 0.041 m (array9, array20), 0.027
+m (array12_issue), 0.023 m (cluster3_mixed), 0.019 m (cluster4), 0.016 m (array12_mixed),
+0.013 m (array16): 165 000 to 1 800 000 target vertices per room; with the flux given
+(2 cm) 0.062 m (array9) down to 0.018 m (array16). Not run: vertex_points keeps at most
+20000 and a locate at 0.05 m did not finish in 10 minutes on this machine.
 """
 import argparse
 import os
@@ -188,36 +252,101 @@ def build(name, noise, seed=0, cell=0.2):
     return scene.with_vertex_lux(lux), lums
 
 
-def bound(scene, true, noise, free):
-    """The Cramer-Rao bound of the true luminaires on every target vertex of ``scene``
-    (:func:`invrad_wb.core.inverse.fitcheck.position_sd`, the noise ``noise``, fluxes free
-    or given): (worst position sd (cm), worst flux sd (%) or nan, root mean square of the
-    luminaires' position sd (cm)). No unbiased estimate
-    from these data does better; an error of 2-3 sd in the worst of a dozen luminaires is
-    ordinary."""
-    from invrad_wb.core.inverse.fitcheck import position_sd
+def _vertex_problem(scene, true, free):
+    """The last refit's problem (every target vertex, at most VERTEX_POINTS_MAX, the
+    default settings, exact interreflection) and a function luminaires -> its Lights
+    (snapped to the room's surfaces, their interreflection computed there)."""
     from invrad_wb.core.inverse.locate import LocateSettings
-    from invrad_wb.core.inverse.locate_placement import _occluders
+    from invrad_wb.core.inverse.locate_fit import _rebase
+    from invrad_wb.core.inverse.locate_placement import _occluders, _snap_to_surfaces
     from invrad_wb.core.inverse.locate_problem import _refine_problem, vertex_points
     from invrad_wb.core.inverse.refine import Light
     from invrad_wb.core.inverse.votemaps import build_canvas
+    from invrad_wb.core.inverse import locate_problem as lp
     s = LocateSettings()
     room = int(scene.rooms[0])
     canvas = build_canvas(scene, room, pixel=s.pixel_m, dummy=False)
     flux = true[0].flux_lm
-    from invrad_wb.core.inverse import locate_problem as lp
     pts = vertex_points(scene, most=lp.VERTEX_POINTS_MAX)
     prob, _ = _refine_problem(scene, pts, canvas, _occluders(scene, s), s,
                               flux, "numpy", True, {"radiosity": 0.0})
     prob.free_flux = free
-    lights = [Light("surface", np.asarray(t.position, float), np.array([0, 0, -1.0]), -1,
-                    origin=np.asarray(t.position, float), u=np.array([1.0, 0, 0]),
-                    v=np.array([0, 1.0, 0]), flux_scale=t.flux_lm / flux) for t in true]
-    lights, _ = prob.refresh_indirect(lights, moved=0.0)
-    sd, fsd = position_sd(prob, lights, sigma=max(noise, 1e-12))
-    return (100.0 * float(sd.max()), (100.0 * float(fsd.max()) if fsd is not None
-                                      else float("nan")),
-            100.0 * float(np.sqrt(np.mean(sd ** 2))))
+
+    def lights(lums):
+        out = []
+        for t in lums:
+            L = Light("free", np.asarray(t.position, float), np.array([0, 0, -1.0]), -1,
+                      flux_scale=t.flux_lm / flux, free_flux=free)
+            out.append(_snap_to_surfaces([L], canvas, scene)[0])
+        return _rebase(prob, out)
+    return prob, lights
+
+
+def bound(scene, true, noise, free, per_luminaire=False):
+    """The Cramer-Rao bound of the true luminaires on every target vertex of ``scene``
+    (:func:`invrad_wb.core.inverse.fitcheck.position_sd`, the noise ``noise``, fluxes free
+    or given): (worst position sd (cm), worst flux sd (%) or nan, root mean square of the
+    luminaires' position sd (cm)), and with ``per_luminaire`` the (K,) position sd (cm)
+    and flux sd (%) of each true luminaire too. No unbiased estimate from these data does
+    better; an error of 2-3 sd in the worst of a dozen luminaires is ordinary.
+
+    The noise: bench's :func:`build` multiplies each vertex's value by 1 + noise x N(0, 1),
+    so the log residual the refinement fits has a standard deviation of about ``noise``
+    per vertex, independent from vertex to vertex (what position_sd assumes)."""
+    from invrad_wb.core.inverse.fitcheck import position_sd
+    prob, lights = _vertex_problem(scene, true, free)
+    sd, fsd = position_sd(prob, lights(true), sigma=max(noise, 1e-12))
+    out = (100.0 * float(sd.max()), (100.0 * float(fsd.max()) if fsd is not None
+                                     else float("nan")),
+           100.0 * float(np.sqrt(np.mean(sd ** 2))))
+    if per_luminaire:
+        return out + (100.0 * sd, None if fsd is None else 100.0 * fsd)
+    return out
+
+
+def truth_refit(scene, true, found, noise, free):
+    """Which errors are the data's and which the search's: the last refit's problem
+    (every target vertex) refitted from the TRUE arrangement and from the found one,
+    each as locate's last refit does (Levenberg-Marquardt, interreflection refreshed).
+    Returns (chi-square gap, truth-refit's (K,) errors (cm), its (K,) flux errors (%)):
+    the gap is 2 k (cost(found) - cost(truth refitted)) / noise^2 (k target vertices;
+    the cost is half the area-weighted mean square log residual there), in units of the
+    noise variance: > 0 (beyond a few) the truth's basin fits the data better, a search
+    fault (a local minimum); <= 0 the found answer fits at least as well, the error is
+    the data's (what the most likely arrangement near the truth is off, itself beyond
+    the bound where the likelihood is not quadratic: close luminaires with free fluxes)."""
+    prob, lights = _vertex_problem(scene, true, free)
+
+    def refit(ls):
+        for _ in range(4):
+            ls, _c = prob.levenberg_marquardt(ls, iterations=100)
+            ls, changed = prob.refresh_indirect(ls, moved=0.005)
+            if not changed:
+                break
+        return ls, prob.cost(ls)
+    T, ct = refit(lights(true))
+    cf = prob.cost(lights(found)) if found else float("nan")
+    gap = 2.0 * len(prob.target) * (cf - ct) / max(noise, 1e-12) ** 2
+    err = np.array([100.0 * float(np.linalg.norm(L.position - t.position))
+                    for L, t in zip(T, true)])
+    ferr = np.array([100.0 * (L.flux_scale * prob.flux / t.flux_lm - 1.0)
+                     for L, t in zip(T, true)])
+    return gap, err, ferr
+
+
+def per_luminaire(found, true):
+    """For each true luminaire, (position error cm, flux error %) of the found luminaire
+    paired with it (the pairing of least summed distance; nan when none is left)."""
+    from scipy.optimize import linear_sum_assignment
+    out = np.full((len(true), 2), np.nan)
+    if not found:
+        return out
+    P = np.array([np.asarray(f.position, float) for f in found])
+    Q = np.array([np.asarray(t.position, float) for t in true])
+    D = np.linalg.norm(Q[:, None] - P[None], axis=2)
+    for i, j in zip(*linear_sum_assignment(D)):
+        out[i] = (100.0 * D[i, j], 100.0 * (found[j].flux_lm / true[i].flux_lm - 1.0))
+    return out
 
 
 def rms_error(found, true):
@@ -256,22 +385,34 @@ def main():
     ap.add_argument("--points-max", type=int, default=None,
                     help="target vertices of the last refit and of the bound (default:"
                          " locate_problem.VERTEX_POINTS_MAX); the votes keep their sample")
+    ap.add_argument("--cells", default="",
+                    help="--bound-only: mesh spacings (m), comma-separated (default --cell)")
+    ap.add_argument("--diagnose", action="store_true",
+                    help="per luminaire: error, flux error, their bound (sd) and the"
+                         " truth's own refit; per scene the chi-square gap of the found"
+                         " answer to the truth's refit (truth_refit)")
     args = ap.parse_args()
     if args.points_max:
         from invrad_wb.core.inverse import locate_problem as lp
         lp.VERTEX_POINTS_MAX = args.points_max
     if args.bound_only:
-        for name in [n for n in scenes() if not args.only or n in args.only.split(",")]:
-            scene, true = build(name, args.noise, cell=args.cell)
-            free = bound(scene, true, args.noise, True)
-            given = bound(scene, true, args.noise, False)
-            print(f"{name:16s} {len(scene.vertices):6d} vertices flux free: {free[0]:6.2f} cm"
-                  f" {free[1]:6.2f} %; flux given: {given[0]:6.2f} cm", flush=True)
+        cells = [float(c) for c in args.cells.split(",")] if args.cells else [args.cell]
+        for cell in cells:
+            for name in [n for n in scenes() if not args.only or n in args.only.split(",")]:
+                scene, true = build(name, args.noise, cell=cell)
+                free = bound(scene, true, args.noise, True, per_luminaire=True)
+                given = bound(scene, true, args.noise, False)
+                print(f"{name:16s} {cell:5.3f} m {len(scene.vertices):6d} vertices flux free:"
+                      f" {free[0]:6.2f} cm {free[1]:6.2f} %; flux given: {given[0]:6.2f} cm",
+                      flush=True)
+                if args.diagnose:
+                    print("    free sd cm " + " ".join(f"{x:.2f}" for x in free[3])
+                          + " | sd % " + " ".join(f"{x:.2f}" for x in free[4]), flush=True)
         return
     names = [n for n in scenes() if not args.only or n in args.only.split(",")]
     print(f"{'scene':16s} {'mode':6s} {'count':>7s} {'ok':>3s} {'max cm':>7s}"
           f" {'max flux %':>10s} {'s':>7s} {'cpu s':>7s} {'sd cm':>6s} {'sd %':>6s}"
-          f" {'rms/sd':>6s}")
+          f" {'rms/sd':>6s}" + (f" {'gap chi2':>9s}" if args.diagnose else ""))
     summary = {"free": [], "given": []}
     for name in names:
         scene, true = build(name, args.noise, cell=args.cell)
@@ -287,11 +428,23 @@ def main():
             fe = flux_errors(r.luminaires, true)
             cm = m["max_error_cm"] if m["max_error_cm"] is not None else float("nan")
             summary[mode].append((ok, cm, fe, dt))
-            sd, fsd, sd_rms = bound(scene, true, args.noise, mode == "free")
-            print(f"{name:16s} {mode:6s} {len(r.luminaires):>3d}/{len(true):<3d}"
-                  f" {'yes' if ok else 'NO':>3s} {cm:7.2f} {fe:10.2f} {dt:7.1f} {dc:7.1f}"
-                  f" {sd:6.2f} {fsd:6.2f} {rms_error(r.luminaires, true) / sd_rms:6.2f}",
-                  flush=True)
+            sd, fsd, sd_rms, sds, fsds = bound(scene, true, args.noise, mode == "free",
+                                               per_luminaire=True)
+            line = (f"{name:16s} {mode:6s} {len(r.luminaires):>3d}/{len(true):<3d}"
+                    f" {'yes' if ok else 'NO':>3s} {cm:7.2f} {fe:10.2f} {dt:7.1f} {dc:7.1f}"
+                    f" {sd:6.2f} {fsd:6.2f} {rms_error(r.luminaires, true) / sd_rms:6.2f}")
+            if not args.diagnose:
+                print(line, flush=True)
+                continue
+            gap, terr, tferr = truth_refit(scene, true, r.luminaires, args.noise,
+                                           mode == "free")
+            print(line + f" {gap:9.1f}", flush=True)
+            pl = per_luminaire(r.luminaires, true)
+            for i, t in enumerate(true):
+                fl = (f" flux {pl[i, 1]:7.2f} % (sd {fsds[i]:5.2f}, truth refit"
+                      f" {tferr[i]:6.2f})" if fsds is not None else "")
+                print(f"    {i:2d} {t.flux_lm:6.0f} lm  {pl[i, 0]:6.2f} cm (sd {sds[i]:5.2f},"
+                      f" truth refit {terr[i]:6.2f}){fl}", flush=True)
     for mode, rows in summary.items():
         if rows:
             print(f"  {mode}: count right {sum(r[0] for r in rows)}/{len(rows)};"

@@ -404,7 +404,9 @@ class _RoomFit:
         are brought back to the room's problem (their interreflection there) and returned
         with its cost. Skipped when the room's points already are as many, for a poor fit
         (``s.poor_fit``: the luminaires do not explain the targets; more of them does not
-        help) and for ``--aim free`` (not measured there).
+        help) and for ``--aim free`` (not measured there). Fluxes free, groups of close
+        or poorly pinned luminaires are then refitted from other starts
+        (:func:`~invrad_wb.core.inverse.locate_count.regroup`).
 
         Measured (bench/bench_count.py scenes, 5 % noise per vertex, refitted from the
         true arrangement over 6 noise draws, voting points at their corners -> every
@@ -428,19 +430,29 @@ class _RoomFit:
         # free fluxes of close luminaires lie in a long flat valley: the count search's steps
         opt = ((lambda L: big.levenberg_marquardt(L, iterations=100)) if s.optimiser == "lm"
                else big.evolution_strategy)
+
+        def refit(got):
+            for _round in range(rounds):
+                got, _c = opt(got)
+                got, changed = big.refresh_indirect(got, moved=0.005)
+                if not changed:
+                    break
+            return got, big.cost(got)
         got = _rebase(big, lights)
         c_start = big.cost(got)
-        for _round in range(rounds):
-            got, _c = opt(got)
-            got, changed = big.refresh_indirect(got, moved=0.005)
-            if not changed:
-                break
+        got, c_got = refit(got)
+        # the refit's own move (regroup reorders the luminaires)
+        moved = max(float(np.linalg.norm(a.position - b.position)) for a, b in zip(lights, got))
+        if big.free_flux:
+            # close luminaires with free fluxes: other starts of each group (the count
+            # search's split arrangement is one minimum of several), the lowest cost kept
+            from invrad_wb.core.inverse.locate_count import regroup
+            got, c_got = regroup(big, got, c_got, refit, self.trace)
         back = _rebase(prob, got)
         c_back = prob.cost(back)
         self.trace.append({"polish_points": len(pts), "cost_before": c_start,
                            "cost_after": big.cost(got),
-                           "moved_m": round(max(float(np.linalg.norm(a.position - b.position))
-                                                for a, b in zip(lights, got)), 4)})
+                           "moved_m": round(moved, 4)})
         return back, c_back
 
     def spread(self, lights, cost):
