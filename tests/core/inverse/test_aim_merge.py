@@ -113,3 +113,29 @@ def test_beams_that_overlap_but_are_both_needed_stay_two(floor_spot_room):
     lights, cost = fit.opt(start)
     got, c = footprint_merge(fit, CountSearch(fit), lights, cost, overlap=0.0)
     assert len(got) == 2 and c == cost
+
+
+def test_a_wall_light_standing_in_for_a_spot_is_split_then_merged(floor_spot_room):
+    """One wall light aimed at the floor spot's footprint in the spot's place (the bench
+    lobby --seed 8's first selection): the aimed count search splits it, merges the
+    pieces' shared footprint at once, and ends with the true spot and downlight."""
+    from invrad_wb.core.inverse.aim import AimedCountSearch
+    run, s, true = floor_spot_room
+    spot, down = true
+    hit = spot.position + spot.normal * (spot.position[2] / -spot.normal[2])
+    wall = np.array([1.6, 0.0, 2.4])
+    start = [_light(run, s, (wall, (hit - wall) / np.linalg.norm(hit - wall)), 1200.0,
+                    ceiling=False),
+             _light(run, s, (down.position, DOWN), 1200.0)]
+    fit = _RoomFit(run, s)
+    lights, cost = fit.opt(start)
+    search = AimedCountSearch(fit)
+    got, c = search.run(lights, cost)
+    assert any("footprint_merges" in t and t["footprint_merges"] for t in fit.trace)
+    assert len(got) == 2, [(L.position, L.flux_scale * run.flux) for L in got]
+    assert c < cost
+    for t in true:
+        f = min(got, key=lambda L: np.linalg.norm(L.position - t.position))
+        assert np.linalg.norm(f.position - t.position) < 0.05
+        assert np.degrees(np.arccos(np.clip(f.normal @ t.normal, -1, 1))) < 2.0
+        assert f.flux_scale * run.flux == pytest.approx(t.flux_lm, rel=0.05)
