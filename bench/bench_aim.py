@@ -169,6 +169,19 @@ of the process, load 4-7; every luminaire within 5 cm, 2 deg and 5 % flux, 0 spu
   footprint pursuit's reselection 10 s), --seed 3 and 5 at 29-30 s (the same two stages,
   8-10 s each); the refinement's light (aimlight.light, a fifth of the time: arccos of
   (K, k) planes) is the next per-evaluation cost.
+Measured 2026-11-26 10:34-10:46, the footprint candidates' pattern searches in one batch
+(aim._polish_many; base b5d9813 and after alternately, CPU s, load 3.4-7.0):
+  free flux, lobby: --seed 6 36.4 -> 30.9, 3 28.1 -> 26.6, 5 24.3 -> 24.8, 8 21.7 -> 19.7
+               (the same luminaires to 5 decimals); after alone (load 2.3-3.6): --seed 4
+               14.5 (5/5, as before), 7 19.0 (5/5, another rounding path: <= 1.2 cm,
+               <= 0.18 deg, <= 0.4 %, was 2.1 cm / 0.33 deg / 0.7 %).
+  after, flux given (load 2.4-3.0): --seed 3 gallery 6.3, shop 8.4, lobby 5.7; --seed 8
+               8.5 / 7.6 / 6.5; free flux gallery / shop --seed 3 13.1 / 18.4, --seed 8
+               14.0 / 15.1: every result the same as before to 5 decimals.
+  So every free-flux room of seeds 3-8 measured here is at or under 31 CPU s at load 2-7
+  (the lobby --seed 6 the slowest, 30.9 s: its first selection 9 s, the footprint
+  pursuit's reselection about 9 s).
+--aim fixed unchanged (checked 10:48: the same sha256 8aee082c321aa332... as 930e8fa).
 --aim fixed unchanged (checked 10:32: examples/office.ply --flux 3000, the result JSON
 less its timings identical to 930e8fa's, sha256 8aee082c321aa332...).
 --aim fixed unchanged (checked 08:30: examples/office.ply --flux 3000, the result JSON
