@@ -153,6 +153,37 @@ wrappers per section (load 3.4-3.9; base / after, two rounds):
   room projection (_clear_of_border, 10716 calls, a third on the probe path of
   map_contains_all) 2.2 s, residuals' own numpy 2.0 s, dense_step 1.5 s, _aim_jacobian
   1.1 s, the visibility np.where of aimlight.lights 0.8 s.
+Measured 2026-11-26 10:12-10:32, the aimed count search (aim.AimedCountSearch: after a
+kept split, footprint_merge at once; base 930e8fa and after alternately, room by room, CPU s
+of the process, load 4-7; every luminaire within 5 cm, 2 deg and 5 % flux, 0 spurious):
+  free flux, lobby:  --seed 3 30.6 -> 30.3, 4 17.4 -> 15.0, 5 28.7 -> 29.4, 6 37.2 -> 33.8,
+               7 16.8 -> 17.0 (the same luminaires); --seed 8 49.5 -> 25.5 (a wall light
+               in a floor spot's place: three splits and a merge to 7 luminaires, 28 s of
+               count search, then footprint_merge to 5; now the first split's pieces are
+               merged into the spot, 6 s); worst 2.1 cm (seed 7), 0.33 deg, 1.1 % (seed 4).
+  free flux, gallery / shop: --seed 3 15.9 -> 18.3 / 23.5 -> 20.5, --seed 8 12.7 -> 11.2 /
+               13.4 -> 14.5; the same luminaires (<= 0.9 cm, <= 0.25 deg, <= 0.5 %).
+  flux given (no count search: not changed), after: --seed 3 gallery 5.5, shop 7.3, lobby
+               5.3; --seed 8 10.4 / 6.9 / 6.1 (<= 2.4 cm, <= 0.46 deg).
+  Still over 30 s: the free-flux lobby --seed 6 (34 s: the first selection 10 s and the
+  footprint pursuit's reselection 10 s), --seed 3 and 5 at 29-30 s (the same two stages,
+  8-10 s each); the refinement's light (aimlight.light, a fifth of the time: arccos of
+  (K, k) planes) is the next per-evaluation cost.
+Measured 2026-11-26 10:34-10:46, the footprint candidates' pattern searches in one batch
+(aim._polish_many; base b5d9813 and after alternately, CPU s, load 3.4-7.0):
+  free flux, lobby: --seed 6 36.4 -> 30.9, 3 28.1 -> 26.6, 5 24.3 -> 24.8, 8 21.7 -> 19.7
+               (the same luminaires to 5 decimals); after alone (load 2.3-3.6): --seed 4
+               14.5 (5/5, as before), 7 19.0 (5/5, another rounding path: <= 1.2 cm,
+               <= 0.18 deg, <= 0.4 %, was 2.1 cm / 0.33 deg / 0.7 %).
+  after, flux given (load 2.4-3.0): --seed 3 gallery 6.3, shop 8.4, lobby 5.7; --seed 8
+               8.5 / 7.6 / 6.5; free flux gallery / shop --seed 3 13.1 / 18.4, --seed 8
+               14.0 / 15.1: every result the same as before to 5 decimals.
+  So every free-flux room of seeds 3-8 measured here is at or under 31 CPU s at load 2-7
+  (the lobby --seed 6 the slowest, 30.9 s: its first selection 9 s, the footprint
+  pursuit's reselection about 9 s).
+--aim fixed unchanged (checked 10:48: the same sha256 8aee082c321aa332... as 930e8fa).
+--aim fixed unchanged (checked 10:32: examples/office.ply --flux 3000, the result JSON
+less its timings identical to 930e8fa's, sha256 8aee082c321aa332...).
 --aim fixed unchanged (checked 08:30: examples/office.ply --flux 3000, the result JSON
 less its timings identical to 55ab370's in three alternated runs).
 --aim fixed unchanged (checked 07:37: examples/office.ply --flux 3000, the result JSON

@@ -93,6 +93,8 @@ def _postprocess(run, s, flux, progress=None, deadline=None, allow_votes=True):
     # they need it (close clusters, even arrays, luminaires that only fit the noise)
     if run.free_flux and lights and not unexplained(lights):
         from invrad_wb.core.inverse.locate_count import CountSearch
+        if s.aim == "free":
+            from invrad_wb.core.inverse.aim import AimedCountSearch as CountSearch
         search = CountSearch(fit, deadline)
         lights, cost = search.run(lights, cost)
         # aimed luminaires that share a footprint, however far apart: one in their place

@@ -113,3 +113,60 @@ def test_beams_that_overlap_but_are_both_needed_stay_two(floor_spot_room):
     lights, cost = fit.opt(start)
     got, c = footprint_merge(fit, CountSearch(fit), lights, cost, overlap=0.0)
     assert len(got) == 2 and c == cost
+
+
+def test_a_wall_light_standing_in_for_a_spot_is_split_then_merged(floor_spot_room):
+    """One wall light aimed at the floor spot's footprint in the spot's place (the bench
+    lobby --seed 8's first selection): the aimed count search splits it, merges the
+    pieces' shared footprint at once, and ends with the true spot and downlight."""
+    from invrad_wb.core.inverse.aim import AimedCountSearch
+    run, s, true = floor_spot_room
+    spot, down = true
+    hit = spot.position + spot.normal * (spot.position[2] / -spot.normal[2])
+    wall = np.array([1.6, 0.0, 2.4])
+    start = [_light(run, s, (wall, (hit - wall) / np.linalg.norm(hit - wall)), 1200.0,
+                    ceiling=False),
+             _light(run, s, (down.position, DOWN), 1200.0)]
+    fit = _RoomFit(run, s)
+    lights, cost = fit.opt(start)
+    search = AimedCountSearch(fit)
+    got, c = search.run(lights, cost)
+    assert any("footprint_merges" in t and t["footprint_merges"] for t in fit.trace)
+    assert len(got) == 2, [(L.position, L.flux_scale * run.flux) for L in got]
+    assert c < cost
+    for t in true:
+        f = min(got, key=lambda L: np.linalg.norm(L.position - t.position))
+        assert np.linalg.norm(f.position - t.position) < 0.05
+        assert np.degrees(np.arccos(np.clip(f.normal @ t.normal, -1, 1))) < 2.0
+        assert f.flux_scale * run.flux == pytest.approx(t.flux_lm, rel=0.05)
+
+
+def test_polishing_many_apexes_at_once_is_the_one_at_a_time_search(floor_spot_room):
+    """aim._polish_many (all apexes' pattern searches scored in one batch) ends where
+    aim._polish, one apex at a time, ends: apex, aim, flux scale and cost."""
+    from invrad_wb.core.inverse.aim import _Scorer, _polish, _polish_many, apex_grid
+    run, s, true = floor_spot_room
+    spot = true[0]
+    hit = spot.position + spot.normal * (spot.position[2] / -spot.normal[2])
+    P, Mn, K = apex_grid(run.canvas)
+    ceiling = np.flatnonzero(Mn[:, 2] < -0.9)
+    pick = ceiling[np.argsort(np.linalg.norm(P[ceiling] - spot.position, axis=1))[[0, 5, 12]]]
+    up = np.array([0.0, 0.0, 1.0])
+    jobs = [(K[i], P[i], hit, up, Mn[i]) for i in pick]
+    jobs.append((K[pick[0]], P[pick[0]], hit + np.array([-1.0, 0.5, 0.0]), up, Mn[pick[0]]))
+    scorer = _Scorer(run.problem)
+    # beside the downlight's light: the spot's footprint is what is left to explain
+    scorer.add_base(run.problem.fixed_light([_light(run, s, (true[1].position, DOWN),
+                                                    1200.0)]))
+    cos_max = np.cos(np.radians(s.max_tilt_deg))
+    many = _polish_many(scorer, run.canvas, jobs, True, cos_max)
+    assert len(many) == len(jobs)
+    for job, got in zip(jobs, many):
+        want = _polish(scorer, run.canvas, job[0], job[1], job[2], job[3], job[4], True,
+                       cos_max)
+        np.testing.assert_allclose(got[0], want[0], atol=1e-9)
+        np.testing.assert_allclose(got[1], want[1], atol=1e-9)
+        assert got[2] == pytest.approx(want[2], rel=1e-9)
+        assert got[3] == pytest.approx(want[3], rel=1e-9, abs=1e-15)
+    # the apex nearest the spot, aimed at its hit, polishes to (near) the spot itself
+    assert np.linalg.norm(many[0][0] - spot.position) < 0.1, many[0]
