@@ -14,8 +14,28 @@ Measured 2026-11-26 (load 5-12): L corridor (--step 0.5) 48.5 W, the ceiling alo
 W, against the grid reference's 52.0 W by Radiance; hall (--step 1.2) 731.7 W, all from
 the clear HB-15000 that meets UGR 22 in no layout (grid reference 895.0 W).
 
-Run: ``.venv/bin/python bench/bench_design_bound.py [--step 0.4] room ...`` (rooms of
-``bench_design_radiance``).
+``--full``: every item the design meets (means, every uniformity, Ez, the points that
+must stay dark, UGR by cutting planes as in :mod:`invrad_wb.core.design.refine`), no
+design, uniformity or UGR margin; only the dimming floor and the count are relaxed (each
+position any output 0..1, a type that does not dim too). ``--milp S``: then each position
+off, or on within its type's range (a type that does not dim: full output), HiGHS's
+mixed-integer programme (S s per solve). ``--types A,B``: only these types.
+
+Measured 2026-11-26 round 9 (load 5-7; the exact model, which agrees with Radiance within
+0.1-0.7 % on the grid references: 52.3 -> 52.0 W, 895.9 -> 895.0 W):
+
+* L corridor, --step 0.5: every item, floor and count relaxed: 49.1 W; on / off with the
+  floor: 49.5 W (10 luminaires of three types, DL-1200N, DL-2200W, PN-3600, most of them
+  0.25 m from a wall, six at 10-14 %); with the two dimmable types only: 49.9 W relaxed,
+  50.0 W on / off. 0.95 x the grid is 49.4 W (Radiance) / 49.7 W (exact): only a layout
+  of three types in no grid, with no design margin, comes under it, by under 1 %.
+* hall, --step 1.2, the diffused HB-13000D only: every item 873.5 W relaxed, 874.1 W on
+  / off (11 luminaires): 0.976 x the grid (895.0 W); its work plane's U0 0.6 costs what
+  the means alone (about 844 W at 130 lm/W) leave out. 0.95 x the grid (850.3 W) needs
+  the clear HB-15000 too: with both types, every item, relaxed: 734.3 W.
+
+Run: ``.venv/bin/python bench/bench_design_bound.py [--step 0.4] [--full [--milp S]]
+[--types A,B] room ...`` (rooms of ``bench_design_radiance``).
 """
 import os
 import sys

@@ -33,7 +33,7 @@ import numpy as np
 from invrad_wb.core.design.evaluate import unit_response
 from invrad_wb.core.design.search import (EXACT_ONLY, Candidate, Metrics, margin_kept,
                                           metrics_comply)
-from invrad_wb.core.output.glare import ugr_from_sum
+from invrad_wb.core.output.glare import ugr_from_sum, unit_glare
 
 #: rows / columns from each end of a layout that form their own group (2: the outer
 #: ring, the next and the rest: up to 9 groups per class; finer groups never draw more,
@@ -202,13 +202,19 @@ def _group_watts(search, cand, groups):
 
 def fast_watts(search, cand):
     """Watts of a layout with per-group outputs by the fast model (no solve; surfaces,
-    Ez and UGR as the fast model knows them: Ez not), or inf where none meets it."""
+    Ez and UGR as the fast model knows them: Ez not; UGR with the background light per
+    lumen at the eyes of the search's calibration), or inf where none meets it."""
     m, g = search.model, cand.geom
     groups = groups_of(g.plan, g.cls)
     idx = np.asarray(cand.entries)[g.cls]
     G = int(groups.max()) + 1
     lux = np.zeros((G, len(m.points)))
     direct = np.zeros((G, len(m.points)))
+    O = len(search.obs)
+    glare = None
+    if search.ugr_max is not None and O and all(
+            search.entries[k].key in search.eye_ind for k in np.unique(idx)):
+        glare = (np.zeros((G, O)), np.zeros((G, O)))
     for k in np.unique(idx):
         e = search.entries[k]
         sel = idx == k
@@ -220,14 +226,25 @@ def fast_watts(search, cand):
             direct[gi] += d
             lux[gi] += (d + m.mf * e.flux_lm * int(cols.sum())
                         * m.indirect_per_lm[e.key]) * m.correction
+            if glare is not None:
+                # a type of high luminance ranks by what it really may draw under the
+                # UGR limit, not by its lumens per watt alone
+                p, n = g.positions[sel][cols], g.normals[sel][cols]
+                for o, (eye, view) in enumerate(search.obs):
+                    glare[0][gi, o] += e.flux_lm ** 2 * float(np.sum(unit_glare(
+                        eye, view, p, n, search._area(e), search.phot.get(e.name),
+                        search._c0(e))))
+                glare[1][gi] += (m.mf * e.flux_lm * int(cols.sum())
+                                 * search.eye_ind[e.key])
     w, lo, hi = _group_watts(search, cand, groups)
     saved = search.cyl_req, search.surf_reqs
     try:
         # as the fast table judges: not Ez, not the surfaces it leaves to the exact checks
         search.cyl_req = None
         search.surf_reqs = {k: v for k, v in saved[1].items() if k not in EXACT_ONLY}
-        x = solve_outputs({"lux": lux, "direct": direct}, w, lo, hi, search,
-                          may_drop=True)
+        # every group burning: the fast model's answer with groups left out is too
+        # hopeful to rank by (the exact check tries leaving them out)
+        x = solve_outputs({"lux": lux, "direct": direct}, w, lo, hi, search, glare)
     finally:
         search.cyl_req, search.surf_reqs = saved
     return math.inf if x is None else float(x @ w)

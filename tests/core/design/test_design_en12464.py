@@ -641,3 +641,22 @@ def test_a_group_may_be_left_out_where_that_draws_less():
                     best = min(best, float((x0[ok] * 10 + z1 * 16 + z2 * 9).min()))
     assert x @ watts <= best + 0.02
     assert x @ watts < whole @ watts - 5.0        # every group on draws far more
+
+
+def test_the_fast_ranking_of_per_group_dimming_keeps_to_the_ugr_limit():
+    """The fast programme ranks a layout by what it may draw under the room's UGR limit:
+    with a limit 3 below the layout's fast UGR it draws more (or finds no answer) than
+    without one; with a limit far above the layout's glare it draws the same."""
+    from invrad_wb.core.design import refine
+    search = _box_search(cell=0.8)
+    t = search.table()
+    cand = search.candidate(t, int(np.flatnonzero(t["ok"])[0]))
+    assert search.obs and search.eye_ind
+    search.ugr_max = None
+    free = refine.fast_watts(search, cand)
+    search.ugr_max = 40.0
+    assert abs(refine.fast_watts(search, cand) - free) < 1e-6 * free
+    ugr = float(np.nanmax(t["ugr"][t["ok"]][:1]))
+    search.ugr_max = ugr - 3.0
+    held = refine.fast_watts(search, cand)
+    assert held > free * 1.001
