@@ -48,6 +48,10 @@ U0_MARGIN = 0.01
 UGR_MARGIN = 0.1
 #: relative gap at which the on / off programme (groups left out) stops
 MIP_GAP = 1e-4
+#: the luminaires a programme keeps are solved again as a layout of their own only while
+#: its watts are within this factor of the best design's (their openings no longer
+#: covering the ceiling change the light by a few tenths of a per cent)
+DROP_TRUST = 1.01
 #: the share of a group's watts charged for having it on (ties: fewer luminaires)
 DROP_TIE = 1e-4
 #: relative allowance for the solver's feasibility tolerance on the means
@@ -227,15 +231,16 @@ def fast_watts(search, cand):
             lux[gi] += (d + m.mf * e.flux_lm * int(cols.sum())
                         * m.indirect_per_lm[e.key]) * m.correction
             if glare is not None:
-                # a type of high luminance ranks by what it really may draw under the
-                # UGR limit, not by its lumens per watt alone
-                p, n = g.positions[sel][cols], g.normals[sel][cols]
-                for o, (eye, view) in enumerate(search.obs):
-                    glare[0][gi, o] += e.flux_lm ** 2 * float(np.sum(unit_glare(
-                        eye, view, p, n, search._area(e), search.phot.get(e.name),
-                        search._c0(e))))
                 glare[1][gi] += (m.mf * e.flux_lm * int(cols.sum())
                                  * search.eye_ind[e.key])
+        if glare is not None:
+            # a type of high luminance ranks by what it really may draw under the UGR
+            # limit, not by its lumens per watt alone
+            for o, (eye, view) in enumerate(search.obs):
+                u = unit_glare(eye, view, g.positions[sel], g.normals[sel], search._area(e),
+                               search.phot.get(e.name), search._c0(e))
+                glare[0][:, o] += e.flux_lm ** 2 * np.bincount(groups[sel], weights=u,
+                                                               minlength=G)
     w, lo, hi = _group_watts(search, cand, groups)
     saved = search.cyl_req, search.surf_reqs
     try:
@@ -250,12 +255,14 @@ def fast_watts(search, cand):
     return math.inf if x is None else float(x @ w)
 
 
-def exact_refine(search, cand, may_drop=True):
+def exact_refine(search, cand, may_drop=True, limit=math.inf):
     """(Candidate with per-luminaire outputs ``dims``, Metrics) of a layout dimmed per
     group at least power on the exact model, or None where no outputs meet the room.
     ``may_drop``: groups may also be left out (:func:`solve_outputs`); the luminaires
     kept are then solved again as a layout of their own (the openings left out no longer
-    cover the ceiling), dimmed per group on that, and win where they draw less."""
+    cover the ceiling), dimmed per group on that, and win where they draw less; not
+    where the programme's answer draws no less than every group burning, or over
+    :data:`DROP_TRUST` x ``limit`` (the best design's watts so far)."""
     m, g = search.model, cand.geom
     groups = groups_of(g.plan, g.cls)
     G = int(groups.max()) + 1
@@ -283,7 +290,9 @@ def exact_refine(search, cand, may_drop=True):
     best = None if x is None else _refined(search, cand, groups, parts, T, ez, eh, w, x)
     if may_drop:
         xd = solve_outputs(parts, w, lo, hi, search, glare, may_drop=True)
-        if xd is not None and (xd <= 0).any():
+        if (xd is not None and (xd <= 0).any()
+                and (best is None or float(xd @ w) < best[0].watts - 1e-9)
+                and float(xd @ w) < DROP_TRUST * limit):
             # the luminaires kept, solved again as a layout of their own: kept where it
             # meets the room for less than every group burning
             keep = xd[groups] > 0
@@ -344,7 +353,7 @@ def refine(search, cand, met, others=()):
         if w > WATTS_WINDOW * limit:
             break
         pair = pairs[t["pair"][row]]
-        if not any(search.entries[k].dimming[0] < 1.0 for k in pair):
+        if not all(search.entries[k].dimming[0] < 1.0 for k in pair):
             continue
         c = search.candidate(t, row)
         if c.key() in seen or c.u0 < search.req.u0 - 0.25:
@@ -360,7 +369,7 @@ def refine(search, cand, met, others=()):
         if fw is not None and best is not None and fw >= FAST_TRUST * best[0].watts:
             break
         tried += 1
-        r = exact_refine(search, c)
+        r = exact_refine(search, c, limit=best[0].watts if best else math.inf)
         if r is not None and r[0].ok and (best is None or r[0].watts < best[0].watts - 1e-9):
             best = r
     if best is None:
