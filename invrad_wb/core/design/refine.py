@@ -20,6 +20,11 @@ and the power ``sum_g x_g W_g`` is minimised over ``x_g`` within each type's dim
 (Kelley) until it holds. Every figure of the result is the exact model's (the groups'
 solves added up), judged by :func:`.search.metrics_comply` like any other design.
 
+A group may also be left out (its luminaires not installed) where that draws less: the
+same rows with each group off or within its range, a mixed-integer programme
+(:func:`scipy.optimize.milp`); the luminaires kept are then solved again as a layout of
+their own (:func:`exact_refine`).
+
 Which layouts: the search's own design and the fast model's cheapest candidates (those
 within :data:`WATTS_WINDOW` of it, even ones that miss a uniformity when dimmed evenly:
 brighter outer rows may meet it), ranked first by the same programme on the fast model
