@@ -14,8 +14,33 @@ Measured 2026-11-26 (load 5-12): L corridor (--step 0.5) 48.5 W, the ceiling alo
 W, against the grid reference's 52.0 W by Radiance; hall (--step 1.2) 731.7 W, all from
 the clear HB-15000 that meets UGR 22 in no layout (grid reference 895.0 W).
 
-Run: ``.venv/bin/python bench/bench_design_bound.py [--step 0.4] room ...`` (rooms of
-``bench_design_radiance``).
+``--full``: every item the design meets (means, every uniformity, Ez, the points that
+must stay dark, UGR by cutting planes as in :mod:`invrad_wb.core.design.refine`), no
+design, uniformity or UGR margin; only the dimming floor and the count are relaxed (each
+position any output 0..1, a type that does not dim too). ``--milp S``: then each position
+off, or on within its type's range (a type that does not dim: full output), HiGHS's
+mixed-integer programme (S s per solve). ``--types A,B``: only these types.
+
+Measured 2026-11-26 round 9 (load 5-7; the exact model, which agrees with Radiance within
+0.1-0.7 % on the grid references: 52.3 -> 52.0 W, 895.9 -> 895.0 W):
+
+* L corridor, --step 0.5: every item, floor and count relaxed: 49.1 W; on / off with the
+  floor: 49.5 W (10 luminaires of three types, DL-1200N, DL-2200W, PN-3600, most of them
+  0.25 m from a wall, six at 10-14 %); with the two dimmable types only: 49.9 W relaxed,
+  50.0 W on / off. 0.95 x the grid is 49.4 W (Radiance) / 49.7 W (exact): only a layout
+  of three types in no grid, with no design margin, comes under it, by under 1 %.
+* hall, --step 1.2, the diffused HB-13000D only: every item 873.5 W relaxed, 874.1 W on
+  / off (11 luminaires): 0.976 x the grid (895.0 W); its work plane's U0 0.6 costs what
+  the means alone (about 844 W at 130 lm/W) leave out. 0.95 x the grid (850.3 W) needs
+  the clear HB-15000 too: with both types, every item, relaxed: 734.3 W (the clear one
+  at fractions of its output: too loose for a type that does not dim, whose glare grows
+  with its output squared). On / off with both types (--milp 30): after 20 UGR cuts
+  (10 min) the last answer, 7 x HB-15000 + 1 x HB-13000D at 43 % (743 W), still broke
+  UGR 22 (25.6 by the exact model): whether a mix meets UGR 22 under 850 W is not
+  settled by this programme.
+
+Run: ``.venv/bin/python bench/bench_design_bound.py [--step 0.4] [--full [--milp S]]
+[--types A,B] room ...`` (rooms of ``bench_design_radiance``).
 """
 import os
 import sys
@@ -34,7 +59,7 @@ from invrad_wb.core.design.search import RoomSearch  # noqa: E402
 from invrad_wb.core.model.photometry import read_photometry  # noqa: E402
 
 
-def bound(name, step):
+def bound(name, step, full=False, types=None, milp_s=0):
     from scipy.optimize import linprog
     cat = B.catalogue(B.JOBS)
     phot = {e["name"]: read_photometry(e["photometry"]) for e in cat}
@@ -59,13 +84,25 @@ def bound(name, step):
         names.append("Ez")
         need.append(rs.cylindrical["lux"])
     cols, watts, what = [], [], []
+    luxes, directs, ezs, T, Bg = [], [], [], [], []
     t0 = time.perf_counter()
     for k, e in enumerate(search.entries):
+        if types and e.name not in types:
+            continue
         pos, nrm, ok = mount(droom, plan, rs.mounting, search._half_size(e), wp_z)
         for p, n in zip(pos[ok], nrm[ok]):
             lums = luminaires_of(p[None], n[None], np.array([e.flux_lm]), search.entries,
                                  np.array([k]), droom.room, phot, search._axes)
-            total, _ = model.exact(lums)
+            total, direct = model.exact(lums)
+            if full:
+                luxes.append(total)
+                directs.append(direct)
+                if cyl is not None:
+                    ezs.append(cyl.evaluate(lums)[0])
+                gl = search.exact_glare(lums)
+                if gl is not None:
+                    T.append(gl[0])
+                    Bg.append(gl[1])
             m = [float(total[:lay.n_wp].mean())]
             for key in names[1:]:
                 if key == "Ez":
@@ -77,6 +114,9 @@ def bound(name, step):
             watts.append(e.watts)
             what.append((e.name, e.orientation, tuple(np.round(p[:2], 2))))
     A = np.array(cols).T                                       # (means, positions)
+    if full:
+        return _full(name, search, rs, cyl, luxes, directs, ezs, T, Bg, watts, what,
+                     time.perf_counter() - t0, milp_s)
     res = linprog(np.array(watts), A_ub=-A, b_ub=-np.array(need),
                   bounds=[(0.0, 1.0)] * len(watts), method="highs")
     s_ = time.perf_counter() - t0
@@ -99,6 +139,96 @@ def bound(name, step):
               f" (best: {what[i][0]} at {what[i][2]})")
 
 
+def _milp(name, search, parts, glare, w, what, limit_s):
+    """The same programme with each position on or off: off, or on within its type's
+    dimming range (at full output where it has none): a mixed-integer programme
+    (HiGHS), UGR by cutting planes, ``limit_s`` s per solve."""
+    import math
+    from scipy.optimize import Bounds, LinearConstraint, milp
+    from invrad_wb.core.design import refine
+    ent = {e.name: e for e in search.entries}
+    lo = np.array([ent[t[0]].dimming[0] for t in what])
+    hi = np.array([ent[t[0]].dimming[1] for t in what])
+    n = len(w)
+    A, b = refine.constraints(parts, search)
+    A = np.hstack([A, np.zeros((len(A), n))])
+    link = np.vstack([np.hstack([np.eye(n), -np.diag(hi)]),
+                      np.hstack([-np.eye(n), np.diag(lo)])])
+    c = np.r_[w, np.full(n, 1e-3)]          # fewer luminaires where watts tie
+    integ = np.r_[np.zeros(n), np.ones(n)]
+    t0 = time.perf_counter()
+    for it in range(20):
+        res = milp(c, constraints=[LinearConstraint(A, -np.inf, b),
+                                   LinearConstraint(link, -np.inf, 0.0)],
+                   integrality=integ, bounds=Bounds(0, 1),
+                   options={"time_limit": limit_s, "mip_rel_gap": 1e-3})
+        if res.x is None:
+            print(f"{name}: MILP: {res.message}")
+            return None
+        x = res.x[:n]
+        if glare is None or search.ugr_max is None:
+            break
+        T, B = glare
+        K = 10.0 ** (search.ugr_max / 8.0)
+        gx = 0.25 * math.pi * (x ** 2) @ T - K * (x @ B)
+        worst = int(np.argmax(gx))
+        if gx[worst] <= 1e-3 * max(K * float(x @ B[:, worst]), 1e-12):
+            break
+        grad = 0.5 * math.pi * x * T[:, worst] - K * B[:, worst]
+        A = np.vstack([A, np.r_[grad, np.zeros(n)]])
+        b = np.append(b, grad @ x - gx[worst])
+    used = np.flatnonzero(res.x[n:] > 0.5)
+    if glare is not None and search.ugr_max is not None and gx[worst] > 1e-3 * max(
+            K * float(x @ B[:, worst]), 1e-12):
+        print(f"{name}: MILP: UGR still over its limit after {it + 1} cuts (the last"
+              f" answer, {float(x @ w):.1f} W, is no bound)", flush=True)
+        return None
+    print(f"{name}: on/off with the floor (MILP, gap {getattr(res, 'mip_gap', float('nan')):.4f},"
+          f" {it + 1} solves, {time.perf_counter() - t0:.0f} s): {float(x @ w):.1f} W, "
+          f"{len(used)} luminaires: "
+          + ", ".join(f"{what[i][0]} {what[i][2]} {100 * x[i]:.0f} %" for i in used),
+          flush=True)
+    return x
+
+
+def _full(name, search, rs, cyl, luxes, directs, ezs, T, Bg, watts, what, secs,
+          milp_s=0):
+    """The least watts of outputs 0 <= x <= 1 at the positions that meet every item the
+    design meets (means, uniformities, stay-dark points, Ez, UGR by cutting planes) with
+    no design margin, no uniformity or UGR margin: only the dimming floor and the count
+    of luminaires (each output any fraction) are relaxed."""
+    from invrad_wb.core.design import refine
+    search.margin = 0.0
+    saved = refine.U0_MARGIN, refine.UGR_MARGIN, refine.UGR_CUTS
+    refine.U0_MARGIN, refine.UGR_MARGIN, refine.UGR_CUTS = 0.0, 0.0, 400
+    if cyl is not None:
+        search.cylindrical, search.cyl_req = cyl, cyl.req
+    try:
+        parts = {"lux": np.array(luxes), "direct": np.array(directs),
+                 "ez": np.array(ezs) if ezs else None}
+        glare = (np.array(T), np.array(Bg)) if T and search.ugr_max is not None else None
+        w = np.array(watts)
+        x = refine.solve_outputs(parts, w, np.zeros(len(w)), np.ones(len(w)), search,
+                                 glare)
+        x0 = refine.solve_outputs(parts, w, np.zeros(len(w)), np.ones(len(w)), search,
+                                  None)
+    finally:
+        refine.U0_MARGIN, refine.UGR_MARGIN, refine.UGR_CUTS = saved
+    w0 = "none" if x0 is None else f"{float(x0 @ w):.1f} W"
+    if x is None:
+        print(f"{name}: no outputs meet every item with UGR (without UGR: {w0};"
+              f" {len(w)} positions, {secs:.0f} s)")
+        return
+    used = np.flatnonzero(x > 1e-6)
+    print(f"{name}: least watts for every item but the floor and the count"
+          f" {float(x @ w):.1f} W (without UGR {w0}; {len(w)} positions x types, "
+          f"{secs:.0f} s): "
+          + ", ".join(f"{what[i][0]} {what[i][2]} {100 * x[i]:.0f} %" for i in used[:12])
+          + (f" ... ({len(used)} used)" if len(used) > 12 else ""), flush=True)
+    if milp_s:
+        _milp(name, search, parts, glare, w, what, milp_s)
+
+
 if __name__ == "__main__":
     args = sys.argv[1:]
     step = 0.4
@@ -106,5 +236,17 @@ if __name__ == "__main__":
         i = args.index("--step")
         step = float(args[i + 1])
         del args[i:i + 2]
+    full = "--full" in args
+    types = None
+    if "--types" in args:
+        i = args.index("--types")
+        types = args[i + 1].split(",")
+        del args[i:i + 2]
+    milp_s = 0
+    if "--milp" in args:
+        i = args.index("--milp")
+        milp_s = float(args[i + 1])
+        del args[i:i + 2]
+    args = [a for a in args if a != "--full"]
     for n in args or ["L_corridor"]:
-        bound(n, step)
+        bound(n, step, full, types, milp_s)

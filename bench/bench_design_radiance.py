@@ -30,6 +30,34 @@ writes the jobs, and ``out/radjobs/run_all.sh N`` traces them N at a time (with
 ``RADBIN`` and ``RAYPATH=.:<pyradiance>/lib`` set: on a many-core machine); the next
 run reads the traced results. Radiance takes minutes per judgement on one core.
 
+Measured 2026-11-26, round 9 (shared 2-core machine at load 5-7; same Radiance settings).
+Only the hall and the L corridor were redesigned (the other rooms: round 7's designs
+and judgements, below); the grid references are round 7's (unchanged code):
+
+==========  ==============  ==============  =====  ========  ========  ========  =======  ====  =======
+room        invrad W        grid W          ratio  task      surround  walls     ceiling  UGR   by Rad.
+==========  ==============  ==============  =====  ========  ========  ========  =======  ====  =======
+L corridor   51.8 (52.6)     52.0 (52.3)    0.998  122/0.60  100/0.41  66/0.41   30/0.63  18.7  both
+hall 6.5 m  878.9 (887.4)   895.0 (895.9)   0.982  300/0.61  200/0.62  119/0.29  44/0.68  20.3  both
+==========  ==============  ==============  =====  ========  ========  ========  =======  ====  =======
+
+* hall (was 885.1, 0.989): per-group dimming may now leave a group out (an on / off
+  programme) and its fast ranking keeps to the UGR limit: 12 HB-13000D of a 4 x 6 grid
+  (its outer rows across and the middle of its inner columns left out) at 63-82 %,
+  887.4 W by the exact model, dimmed evenly to Radiance's need x 0.990: 878.9 W. Design
+  96 s (load 5-6; round 7: 128 s at load 9-13). An earlier step of this round (clear
+  pairs refined too) gave 14 of a 3 x 5 grid, 888.8 W, 880.5 W by Radiance (0.984).
+  ``bench_design_bound.py --full``: with the diffused type alone every item needs at
+  least 873.5 W (874.1 W on / off), 0.976 x the grid: 0.95 (850.3 W) needs the clear
+  HB-15000 in the mix, and no layout of it tried so far meets UGR 22.
+* L corridor: the same design as round 7 (5 x PN-3600, groups 897 / 2940 lm; bit for
+  bit), its round-7 judgement kept. ``bench_design_bound.py --full --milp``: every item
+  with no margin, on / off, the best of a 0.5 m plan grid of positions draws 49.5 W
+  (exact) with three types in no grid (DL-1200N, DL-2200W, PN-3600, most 0.25 m from a
+  wall, six at 10-14 %), 50.0 W with the two dimmable types; 0.95 x the grid is 49.4 W
+  by Radiance (about 49.7 W by the exact model): out of reach of any layout of at most
+  two types, and within 1 % of the best free placement with no margin at all.
+
 Measured 2026-11-26, round 7 (shared 2-core machine at load 9-13; same Radiance settings;
 invrad with the search of this round: layouts per luminous size, the regular grids as
 candidates dimmed per group). W by Radiance after the common re-dimming (as the exact

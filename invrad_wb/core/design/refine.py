@@ -20,11 +20,17 @@ and the power ``sum_g x_g W_g`` is minimised over ``x_g`` within each type's dim
 (Kelley) until it holds. Every figure of the result is the exact model's (the groups'
 solves added up), judged by :func:`.search.metrics_comply` like any other design.
 
+A group may also be left out (its luminaires not installed) where that draws less: the
+same rows with each group off or within its range, a mixed-integer programme
+(:func:`scipy.optimize.milp`); the luminaires kept are then solved again as a layout of
+their own (:func:`exact_refine`).
+
 Which layouts: the search's own design and the fast model's cheapest candidates (those
 within :data:`WATTS_WINDOW` of it, even ones that miss a uniformity when dimmed evenly:
 brighter outer rows may meet it), ranked first by the same programme on the fast model
 (no solves), then the best :data:`EXACT_TRIES` solved exactly.
 """
+from dataclasses import replace
 import math
 
 import numpy as np
@@ -32,7 +38,7 @@ import numpy as np
 from invrad_wb.core.design.evaluate import unit_response
 from invrad_wb.core.design.search import (EXACT_ONLY, Candidate, Metrics, margin_kept,
                                           metrics_comply)
-from invrad_wb.core.output.glare import ugr_from_sum
+from invrad_wb.core.output.glare import ugr_from_sum, unit_glare
 
 #: rows / columns from each end of a layout that form their own group (2: the outer
 #: ring, the next and the rest: up to 9 groups per class; finer groups never draw more,
@@ -45,6 +51,14 @@ U0_MARGIN = 0.01
 #: UGR is kept this far below its limit in the programme (the report's UGR sums each
 #: luminaire's glare apart and differs from the glare sums by a few hundredths)
 UGR_MARGIN = 0.1
+#: relative gap at which the on / off programme (groups left out) stops
+MIP_GAP = 1e-4
+#: the luminaires a programme keeps are solved again as a layout of their own only while
+#: its watts are within this factor of the best design's (their openings no longer
+#: covering the ceiling change the light by a few tenths of a per cent)
+DROP_TRUST = 1.01
+#: the share of a group's watts charged for having it on (ties: fewer luminaires)
+DROP_TIE = 1e-4
 #: relative allowance for the solver's feasibility tolerance on the means
 LP_TOL = 1e-5
 #: fast candidates whose evenly dimmed watts are within this factor of the design's are
@@ -90,15 +104,11 @@ def groups_of(plan, cls, rings=None, tol=0.05):
     return g
 
 
-def solve_outputs(parts, watts, lo, hi, search, glare=None):
-    """The least-power outputs ``x`` (G,) of groups, or None where none meets the room.
-
-    ``parts``: dict with ``lux`` (G, k) maintained lux at the model's points at full
-    output, ``direct`` (G, k) its direct part, optionally ``ez`` (G, c) maintained Ez;
-    ``watts`` (G,) rated power per group; ``lo``, ``hi`` (G,) output range; ``glare``:
-    (T (G, O), B (G, O)) glare sums and maintained background lux per group at full output,
-    or None (UGR not constrained)."""
-    from scipy.optimize import linprog
+def constraints(parts, search):
+    """(A, b) of the linear requirements ``A x <= b`` on the groups' outputs ``x`` (see
+    :func:`solve_outputs`): every mean at least its minimum x (1 + the design margin),
+    every uniformity :data:`U0_MARGIN` above its minimum at every point, the direct light
+    on the points that must stay dark, Ez where the room asks."""
     lay = search.model.layout
     # a hair above the margin: HiGHS meets constraints to about 1e-7 relative
     k1 = (1.0 + search.margin) * (1.0 + LP_TOL)
@@ -127,14 +137,49 @@ def solve_outputs(parts, watts, lo, hi, search, glare=None):
         ez = np.asarray(parts["ez"], dtype=float)
         mean_and_uniformity(ez, np.ones(ez.shape[1]), search.cyl_req["lux"],
                             search.cyl_req["u0"])
-    A, b = np.array(rows), np.array(rhs)
+    return np.array(rows), np.array(rhs)
+
+
+def solve_outputs(parts, watts, lo, hi, search, glare=None, may_drop=False):
+    """The least-power outputs ``x`` (G,) of groups, or None where none meets the room.
+
+    ``parts``: dict with ``lux`` (G, k) maintained lux at the model's points at full
+    output, ``direct`` (G, k) its direct part, optionally ``ez`` (G, c) maintained Ez;
+    ``watts`` (G,) rated power per group; ``lo``, ``hi`` (G,) output range; ``glare``:
+    (T (G, O), B (G, O)) glare sums and maintained background lux per group at full output,
+    or None (UGR not constrained). ``may_drop``: a group may also be left out (``x = 0``,
+    its luminaires not installed) where that draws less: a mixed-integer programme, each
+    group off or within its range (a type that does not dim: off or at full output)."""
+    from scipy.optimize import Bounds, LinearConstraint, linprog, milp
+    A, b = constraints(parts, search)
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    watts = np.asarray(watts, dtype=float)
+    G = len(watts)
     ugr_max = search.ugr_max if glare is not None else None
     bounds = list(zip(lo, hi))
+    if may_drop:
+        # x_g <= hi_g z_g, x_g >= lo_g z_g with z_g in {0, 1}; a hair per luminaire on
+        # the objective: of two answers of the same watts, the one with fewer groups on
+        link = LinearConstraint(np.vstack([np.hstack([np.eye(G), -np.diag(hi)]),
+                                           np.hstack([-np.eye(G), np.diag(lo)])]),
+                                -np.inf, 0.0)
+        c = np.r_[watts, np.full(G, DROP_TIE * max(float(watts.max()), 1e-12))]
+        integ = np.r_[np.zeros(G), np.ones(G)]
     for _ in range(UGR_CUTS + 1):
-        res = linprog(watts, A_ub=A, b_ub=b, bounds=bounds, method="highs")
-        if res.status != 0:
-            return None
-        x = np.clip(res.x, lo, hi)
+        if may_drop:
+            res = milp(c, constraints=[LinearConstraint(np.hstack([A, np.zeros_like(A)]),
+                                                        -np.inf, b), link],
+                       integrality=integ, bounds=Bounds(0.0, np.r_[hi, np.ones(G)]),
+                       options={"mip_rel_gap": MIP_GAP})
+            if res.x is None:
+                return None
+            on = res.x[G:] > 0.5
+            x = np.where(on, np.clip(res.x[:G], lo, hi), 0.0)
+        else:
+            res = linprog(watts, A_ub=A, b_ub=b, bounds=bounds, method="highs")
+            if res.status != 0:
+                return None
+            x = np.clip(res.x, lo, hi)
         if ugr_max is None:
             return x
         T, B = glare
@@ -166,13 +211,19 @@ def _group_watts(search, cand, groups):
 
 def fast_watts(search, cand):
     """Watts of a layout with per-group outputs by the fast model (no solve; surfaces,
-    Ez and UGR as the fast model knows them: Ez not), or inf where none meets it."""
+    Ez and UGR as the fast model knows them: Ez not; UGR with the background light per
+    lumen at the eyes of the search's calibration), or inf where none meets it."""
     m, g = search.model, cand.geom
     groups = groups_of(g.plan, g.cls)
     idx = np.asarray(cand.entries)[g.cls]
     G = int(groups.max()) + 1
     lux = np.zeros((G, len(m.points)))
     direct = np.zeros((G, len(m.points)))
+    O = len(search.obs)
+    glare = None
+    if search.ugr_max is not None and O and all(
+            search.entries[k].key in search.eye_ind for k in np.unique(idx)):
+        glare = (np.zeros((G, O)), np.zeros((G, O)))
     for k in np.unique(idx):
         e = search.entries[k]
         sel = idx == k
@@ -184,21 +235,39 @@ def fast_watts(search, cand):
             direct[gi] += d
             lux[gi] += (d + m.mf * e.flux_lm * int(cols.sum())
                         * m.indirect_per_lm[e.key]) * m.correction
+            if glare is not None:
+                glare[1][gi] += (m.mf * e.flux_lm * int(cols.sum())
+                                 * search.eye_ind[e.key])
+        if glare is not None:
+            # a type of high luminance ranks by what it really may draw under the UGR
+            # limit, not by its lumens per watt alone
+            for o, (eye, view) in enumerate(search.obs):
+                u = unit_glare(eye, view, g.positions[sel], g.normals[sel], search._area(e),
+                               search.phot.get(e.name), search._c0(e))
+                glare[0][:, o] += e.flux_lm ** 2 * np.bincount(groups[sel], weights=u,
+                                                               minlength=G)
     w, lo, hi = _group_watts(search, cand, groups)
     saved = search.cyl_req, search.surf_reqs
     try:
         # as the fast table judges: not Ez, not the surfaces it leaves to the exact checks
         search.cyl_req = None
         search.surf_reqs = {k: v for k, v in saved[1].items() if k not in EXACT_ONLY}
-        x = solve_outputs({"lux": lux, "direct": direct}, w, lo, hi, search)
+        # every group burning: the fast model's answer with groups left out is too
+        # hopeful to rank by (the exact check tries leaving them out)
+        x = solve_outputs({"lux": lux, "direct": direct}, w, lo, hi, search, glare)
     finally:
         search.cyl_req, search.surf_reqs = saved
     return math.inf if x is None else float(x @ w)
 
 
-def exact_refine(search, cand):
+def exact_refine(search, cand, may_drop=True, limit=math.inf):
     """(Candidate with per-luminaire outputs ``dims``, Metrics) of a layout dimmed per
-    group at least power on the exact model, or None where no outputs meet the room."""
+    group at least power on the exact model, or None where no outputs meet the room.
+    ``may_drop``: groups may also be left out (:func:`solve_outputs`); the luminaires
+    kept are then solved again as a layout of their own (the openings left out no longer
+    cover the ceiling), dimmed per group on that, and win where they draw less; not
+    where the programme's answer draws no less than every group burning, or over
+    :data:`DROP_TRUST` x ``limit`` (the best design's watts so far)."""
     m, g = search.model, cand.geom
     groups = groups_of(g.plan, g.cls)
     G = int(groups.max()) + 1
@@ -219,15 +288,35 @@ def exact_refine(search, cand):
             T.append(gl[0])
             B.append(gl[1])
     parts = {"lux": np.array(lux), "direct": np.array(direct),
-             "ez": np.array(ez) if ez else None}
+             "ez": np.array(ez) if ez else None, "B": np.array(B) if B else None}
     glare = (np.array(T), np.array(B)) if T and search.ugr_max is not None else None
     w, lo, hi = _group_watts(search, cand, groups)
     x = solve_outputs(parts, w, lo, hi, search, glare)
-    if x is None:
-        return None
+    best = None if x is None else _refined(search, cand, groups, parts, T, ez, eh, w, x)
+    if may_drop:
+        xd = solve_outputs(parts, w, lo, hi, search, glare, may_drop=True)
+        if (xd is not None and (xd <= 0).any()
+                and (best is None or float(xd @ w) < best[0].watts - 1e-9)
+                and float(xd @ w) < DROP_TRUST * limit):
+            # the luminaires kept, solved again as a layout of their own: kept where it
+            # meets the room for less than every group burning
+            keep = xd[groups] > 0
+            sub = replace(g, plan=g.plan[keep], positions=g.positions[keep],
+                          normals=g.normals[keep], cls=g.cls[keep])
+            r = exact_refine(search, Candidate(sub, cand.entries, 1.0, 0.0, 0, 0, 0,
+                                               False), may_drop=False)
+            if r is not None and r[0].ok and (best is None or not best[0].ok
+                                              or r[0].watts < best[0].watts - 1e-9):
+                best = r
+    return best
+
+
+def _refined(search, cand, groups, parts, T, ez, eh, w, x):
+    """(Candidate, Metrics) of a layout's groups at outputs ``x`` (exact parts added)."""
+    m, g = search.model, cand.geom
     met = Metrics.of(x @ parts["lux"], x @ parts["direct"], m.layout)
     if T:
-        met.glare = ((x ** 2) @ np.array(T), x @ np.array(B))
+        met.glare = ((x ** 2) @ np.array(T), x @ np.array(parts["B"]))
         u = ugr_from_sum(*met.glare)
         met.ugr = None if np.isnan(u).all() else float(np.nanmax(u))
     if ez:
@@ -259,7 +348,7 @@ def refine(search, cand, met, others=()):
     for c, _ in [(cand, met), *others]:
         if c is not None and c.key() not in seen:
             seen.add(c.key())
-            if all(search.entries[k].dimming[0] < 1.0 for k in c.entries):
+            if any(search.entries[k].dimming[0] < 1.0 for k in c.entries):
                 forced.append(c)
     for row in range(len(t["geom"])):
         if (len(seen) >= FAST_ROWS
@@ -285,7 +374,7 @@ def refine(search, cand, met, others=()):
         if fw is not None and best is not None and fw >= FAST_TRUST * best[0].watts:
             break
         tried += 1
-        r = exact_refine(search, c)
+        r = exact_refine(search, c, limit=best[0].watts if best else math.inf)
         if r is not None and r[0].ok and (best is None or r[0].watts < best[0].watts - 1e-9):
             best = r
     if best is None:

@@ -604,3 +604,59 @@ def test_a_floor_of_cells_that_do_not_meet_vertex_to_vertex_has_its_true_outline
                    dtype=float)
     left = cancel_opposite(seg)
     assert left.shape == (1, 2, 2) and np.allclose(left[0], [[0, 1], [0, 3]])
+
+
+def test_a_group_may_be_left_out_where_that_draws_less():
+    """Three groups, one mean to meet: the cheapest light per watt (group 0) cannot dim
+    below half output and the others do not dim at all (each on at full output or off).
+    Within their ranges every group must burn; left out where that draws less, the
+    programme finds the least power of every on / off choice (a brute-force search over
+    the choices and the outputs), and each group it keeps stays within its range."""
+    from types import SimpleNamespace
+    from invrad_wb.core.design.evaluate import Layout
+    from invrad_wb.core.design.refine import solve_outputs
+    lux = np.array([[100.0, 100.0], [155.0, 155.0], [60.0, 60.0]])
+    search = SimpleNamespace(model=SimpleNamespace(layout=Layout(2, {}, 2)), margin=0.0,
+                             req=SimpleNamespace(lux=150.0, u0=0.0), surf_reqs={},
+                             rs=SimpleNamespace(shade_limit_lux=1e9), cyl_req=None,
+                             ugr_max=None)
+    watts = np.array([10.0, 16.0, 9.0])
+    lo, hi = np.array([0.5, 1.0, 1.0]), np.ones(3)
+    parts = {"lux": lux, "direct": 0.5 * lux}
+    whole = solve_outputs(parts, watts, lo, hi, search)
+    x = solve_outputs(parts, watts, lo, hi, search, may_drop=True)
+    assert x is not None and whole is not None
+    assert x @ lux[:, 0] >= 150.0 * (1 - 1e-6)
+    on = x > 0
+    assert np.all((x[on] >= lo[on] - 1e-9) & (x[on] <= hi[on] + 1e-9))
+    best = np.inf
+    a = np.linspace(0.5, 1.0, 501)
+    for z1 in (0, 1):
+        for z2 in (0, 1):
+            for z0 in (0, 1):
+                x0 = a if z0 else np.zeros(1)
+                tot = x0 * 100 + z1 * 155 + z2 * 60
+                ok = tot >= 150.0 - 1e-9
+                if ok.any():
+                    best = min(best, float((x0[ok] * 10 + z1 * 16 + z2 * 9).min()))
+    assert x @ watts <= best + 0.02
+    assert x @ watts < whole @ watts - 5.0        # every group on draws far more
+
+
+def test_the_fast_ranking_of_per_group_dimming_keeps_to_the_ugr_limit():
+    """The fast programme ranks a layout by what it may draw under the room's UGR limit:
+    with a limit 3 below the layout's fast UGR it draws more (or finds no answer) than
+    without one; with a limit far above the layout's glare it draws the same."""
+    from invrad_wb.core.design import refine
+    search = _box_search(cell=0.8)
+    t = search.table()
+    cand = search.candidate(t, int(np.flatnonzero(t["ok"])[0]))
+    assert search.obs and search.eye_ind
+    search.ugr_max = None
+    free = refine.fast_watts(search, cand)
+    search.ugr_max = 40.0
+    assert abs(refine.fast_watts(search, cand) - free) < 1e-6 * free
+    ugr = float(np.nanmax(t["ugr"][t["ok"]][:1]))
+    search.ugr_max = ugr - 3.0
+    held = refine.fast_watts(search, cand)
+    assert held > free * 1.001
