@@ -41,6 +41,21 @@ L corridor   51.8 (52.6)     52.0 (52.3)    0.998  122/0.60  100/0.41  66/0.41  
 hall 6.5 m  878.9 (887.4)   895.0 (895.9)   0.982  300/0.61  200/0.62  119/0.29  44/0.68  20.3  both
 ==========  ==============  ==============  =====  ========  ========  ========  =======  ====  =======
 
+Then (11:12-11:33 UTC, the merged main of round 9, load 4-6) the other four rooms were
+redesigned with this code and traced again (grid references round 7's):
+
+==========  ==============  ==============  =====  ========  ========  ========  =======  ====  =======
+room        invrad W        grid W          ratio  task      surround  walls     ceiling  UGR   by Rad.
+==========  ==============  ==============  =====  ========  ========  ========  =======  ====  =======
+meeting     106.6 (107.7)   115.0 (115.1)   0.927  500/0.75  329/0.50  151/0.34   76/0.66  18.9  both
+lab         236.6 (238.7)   255.9 (256.3)   0.925  501/0.73  301/0.51  143/0.41   77/0.72  18.8  both
+classroom   318.9 (319.5)   344.9 (344.5)   0.925  501/0.69  319/0.40  144/0.36   76/0.69  19.0  both
+L office    392.7           none compliant  -      501/0.68  301/0.40  145/0.41   79/0.66  19.0  invrad
+==========  ==============  ==============  =====  ========  ========  ========  =======  ====  =======
+
+(round 7: meeting 0.946, lab 0.924, classroom 0.932, L office 392.7 W; the meeting's Ez
+161/0.84 for its 150/0.10 too; design CPU s 20.8, 47.1, 123.7 and 197.3 at load 4-6.)
+
 * hall (was 885.1, 0.989): per-group dimming may now leave a group out (an on / off
   programme) and its fast ranking keeps to the UGR limit: 12 HB-13000D of a 4 x 6 grid
   (its outer rows across and the middle of its inner columns left out) at 63-82 %,
