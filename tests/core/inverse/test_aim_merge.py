@@ -72,6 +72,15 @@ def _light(run, s, lum, flux, ceiling=True):
     raise AssertionError(f"no map holds {lum[0]}")
 
 
+def _assert_each_found(true, found, run):
+    """Each true luminaire has a found one within 5 cm, 2 degrees and 5 % flux."""
+    for t in true:
+        f = min(found, key=lambda L: np.linalg.norm(L.position - t.position))
+        assert np.linalg.norm(f.position - t.position) < 0.05
+        assert np.degrees(np.arccos(np.clip(f.normal @ t.normal, -1, 1))) < 2.0
+        assert f.flux_scale * run.flux == pytest.approx(t.flux_lm, rel=0.05)
+
+
 def test_a_ghost_sharing_a_spot_footprint_is_merged_away(floor_spot_room):
     run, s, true = floor_spot_room
     spot, down = true
@@ -96,11 +105,7 @@ def test_a_ghost_sharing_a_spot_footprint_is_merged_away(floor_spot_room):
     merged, c = footprint_merge(fit, search, lights, cost)
     assert len(merged) == 2, [(L.position, L.flux_scale * run.flux) for L in merged]
     assert c < cost
-    for t in true:
-        f = min(merged, key=lambda L: np.linalg.norm(L.position - t.position))
-        assert np.linalg.norm(f.position - t.position) < 0.05
-        assert np.degrees(np.arccos(np.clip(f.normal @ t.normal, -1, 1))) < 2.0
-        assert f.flux_scale * run.flux == pytest.approx(t.flux_lm, rel=0.05)
+    _assert_each_found(true, merged, run)
 
 
 def test_beams_that_overlap_but_are_both_needed_stay_two(floor_spot_room):
@@ -134,11 +139,7 @@ def test_a_wall_light_standing_in_for_a_spot_is_split_then_merged(floor_spot_roo
     assert any("footprint_merges" in t and t["footprint_merges"] for t in fit.trace)
     assert len(got) == 2, [(L.position, L.flux_scale * run.flux) for L in got]
     assert c < cost
-    for t in true:
-        f = min(got, key=lambda L: np.linalg.norm(L.position - t.position))
-        assert np.linalg.norm(f.position - t.position) < 0.05
-        assert np.degrees(np.arccos(np.clip(f.normal @ t.normal, -1, 1))) < 2.0
-        assert f.flux_scale * run.flux == pytest.approx(t.flux_lm, rel=0.05)
+    _assert_each_found(true, got, run)
 
 
 def test_polishing_many_apexes_at_once_is_the_one_at_a_time_search(floor_spot_room):
