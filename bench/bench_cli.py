@@ -39,6 +39,22 @@ rounds: office's stages add up to 2.16 s after.) Left: imports (0.34 s: numpy, s
 ndimage and lu_factor, pyopencl), votes (0.3-0.5 s, the kernel), the visibility rays of the
 optimiser in rooms with occluders (l_room: 0.5 M rays), the radiosity model and solves.
 
+Round 10 (2026-11-26, load average 4-5, 3 alternating rounds, ``--before 1391db4``; CPU s
+before -> after): the stored radiosity gather keeps the kernel's rows as read back (no
+second (k, P) array: the office's final refit gathers 11,326 vertices x 1180 patches),
+peaks' three image filters in numpy (scipy.ndimage's numbers bit for bit; no
+scipy.ndimage import), the optimiser's Jacobian at an accepted trial reusing the trial's
+forward model (office: 370 of 405 Jacobian calls). Office: imports 0.489 -> 0.333,
+radiosity 0.221 -> 0.156, optimiser (LM) 0.928 -> 0.777, locate 2.181 -> 1.889, whole CLI
+3.000 -> 2.410 (ratio to the numpy run 0.127 -> 0.102); l_room rho 0.6 4.400 -> 4.295
+(0.096 -> 0.094; its optimiser is the 257 visibility calls, 1.3 M shadow rays, and the
+model); two_ceiling direct 1.569 -> 1.491 (0.060 -> 0.057; imports 0.508 -> 0.419: no
+scipy at all there). Every RESULT.json identical to 1391db4's, and office ``--aim
+fixed``'s. ("indirect solves" now holds scipy.linalg's import, which happens at the
+first radiosity solve; the "imports" stage counts it either way.) Left: numpy (0.15 s)
+and pyopencl (0.1 s) imports, the votes kernel (0.3-0.55 s), the optimiser's numpy
+arithmetic and, in rooms with occluders, its shadow rays; the radiosity LU (0.05-0.1 s).
+
 Usage: python bench/bench_cli.py [--before REV] [--rounds N] [--quick] [--no-numpy]
 """
 import argparse

@@ -83,6 +83,7 @@ from invrad_wb import constants as C
 from invrad_wb.errors import SettingsError
 from invrad_wb.core.geometry.bvh import BVH
 from invrad_wb.core.accel.device import check_backend, get_env  # noqa: F401 - R.get_env
+from invrad_wb.core.accel.registry import implementation
 # the parts of the method, each in its module (their names stay importable from here)
 from invrad_wb.core.forward.patches import (  # noqa: F401
     PatchSet, _cluster_stats, _grid_cells, default_patch_size)
@@ -209,9 +210,11 @@ class GatherOperator:
             args = (points[rows], normals[rows], point_patch[rows] - room.sl.start)
             nbytes = 4 * len(rows) * room.patches.n
             if nbytes <= C.RADIOSITY_GATHER_MAX_MB << 20:
-                mat = np.empty((len(rows), room.patches.n), np.float32)
-                for s, blk in self._chunks(room, args):
-                    mat[s:s + len(blk)] = blk
+                mat = model._stored_form_factors(room, args)
+                if mat is None:
+                    mat = np.empty((len(rows), room.patches.n), np.float32)
+                    for s, blk in self._chunks(room, args):
+                        mat[s:s + len(blk)] = blk
                 self._blocks.append((rows, room, mat, None))
             else:
                 self._blocks.append((rows, room, None, args))
@@ -486,6 +489,21 @@ class RadiosityModel:
         return form_factor_matrix(points, normals, ps.plane[local_patch], ps,
                                   point_patch=local_patch, visibility=room.vis,
                                   backend=self.backend, centre=room.centre)
+
+    def _stored_form_factors(self, room, args):
+        """(k, P_room) float32 form factors of a gather block, the kernel's output as it
+        is read back (a view of its padded rows: the same numbers as
+        :meth:`_form_factors`, without copying them into a second array); None on the
+        numpy backend (its float64 rows are stored as float32 chunk by chunk)."""
+        from invrad_wb.core.forward import form_factors as ff
+        if implementation("form_factors", self.backend) is not ff._form_factors_opencl:
+            return None
+        pts, nrm, local = args
+        ps = room.patches
+        out = np.empty((len(pts), ff.padded_patches(ps.n)), np.float32)
+        ff.form_factor_rows_opencl(pts, nrm, ps.plane[local], ps, local, room.vis,
+                                   room.centre, out)
+        return out[:, :ps.n]
 
     def _patch_matrix(self, room):
         """(P_room, P_room) float64 patch-to-patch form factors (sub-sample mean)."""

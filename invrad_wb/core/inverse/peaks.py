@@ -14,11 +14,16 @@
 
 Running this again with a new threshold or neighbourhood needs only the stored vote buffer
 (no new votes).
+
+The three image filters (Gaussian blur, maximum over a disk, erosion by a square) are
+written here in numpy, the same numbers as ``scipy.ndimage``'s (``tests/core/inverse/
+test_peaks_filters.py`` compares them bit for bit): importing ``scipy.ndimage`` (it brings
+``scipy.special``) was 0.05-0.1 CPU s of every command-line run, a third of that in a
+room without interreflection, where nothing else of scipy is imported.
 """
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from invrad_wb.errors import SettingsError
 
@@ -59,13 +64,53 @@ def _masked_blur(a, mask, sigma):
     r = max(1, int(np.ceil(3 * sigma)))
 
     def blur(img):
-        return ndimage.gaussian_filter(img, sigma, mode="constant", cval=0.0, radius=r)
+        return gaussian_blur(img, sigma, r)
 
     w = blur(mask.astype(np.float64))
     num = blur(np.where(mask, a, 0.0))
     with np.errstate(invalid="ignore", divide="ignore"):
         out = np.where(w > 1e-6, num / w, 0.0)
     return np.where(mask, out, 0.0)
+
+
+def _gaussian_weights(sigma, radius):
+    """The normalised Gaussian of ``scipy.ndimage``'s ``_gaussian_kernel1d`` (order 0):
+    weights at offsets -radius..radius, computed as there."""
+    x = np.arange(-radius, radius + 1)
+    phi = np.exp(-0.5 / (sigma * sigma) * x ** 2)
+    return phi / phi.sum()
+
+
+def _correlate_symmetric(a, w, axis):
+    """``a`` correlated along ``axis`` with the symmetric odd kernel ``w``, zeros beyond the
+    ends: ``scipy.ndimage.correlate1d(a, w, axis, mode='constant', cval=0)`` for float64,
+    with its arithmetic in its order (``ni_filters.c``: the centre term, then the outer
+    pairs first, each pair summed before its weight multiplies it)."""
+    r = len(w) // 2
+    a = np.moveaxis(a, axis, 0)
+    n = a.shape[0]
+    pad = np.zeros((n + 2 * r,) + a.shape[1:])
+    pad[r:r + n] = a
+    out = pad[r:r + n] * w[r]
+    t = np.empty_like(out)
+    for j in range(r, 0, -1):
+        np.add(pad[r - j:r - j + n], pad[r + j:r + j + n], out=t)
+        t *= w[r - j]
+        out += t
+    return np.moveaxis(out, 0, axis)
+
+
+def gaussian_blur(img, sigma, radius):
+    """``scipy.ndimage.gaussian_filter(img, sigma, mode='constant', cval=0.0,
+    radius=radius)`` of a 2-D float64 image (rows, then columns), in numpy."""
+    img = np.asarray(img, dtype=np.float64)
+    if not sigma > 1e-15:
+        return img.copy()
+    w = _gaussian_weights(sigma, int(radius))
+    out = img
+    for axis in range(img.ndim):
+        out = _correlate_symmetric(out, w, axis)
+    return np.ascontiguousarray(out)
 
 
 def laplace_response(a, mask):
@@ -92,9 +137,24 @@ def _disk(r):
 
 
 def _max_filter(a, r):
-    """Maximum over a disk of radius r pixels (r >= 1); outside the map counts as -inf."""
-    return ndimage.maximum_filter(a, footprint=_disk(int(r)), mode="constant",
-                                  cval=-np.inf)
+    """Maximum over a disk of radius r pixels (r >= 1); outside the map counts as -inf
+    (``scipy.ndimage.maximum_filter(a, footprint=_disk(r), mode='constant',
+    cval=-inf)``; a maximum is exact in any order)."""
+    r = int(r)
+    a = np.asarray(a)
+    if np.isnan(a).any():
+        # NaN is not ordered: leave its (order-dependent) answer to scipy
+        from scipy import ndimage
+        return ndimage.maximum_filter(a, footprint=_disk(r), mode="constant",
+                                      cval=-np.inf)
+    nu, nv = a.shape
+    pad = np.full((nu + 2 * r, nv + 2 * r), -np.inf, dtype=a.dtype)
+    pad[r:r + nu, r:r + nv] = a
+    out = a.copy()
+    for di, dj in zip(*np.nonzero(_disk(r))):
+        if di != r or dj != r:
+            np.maximum(out, pad[di:di + nu, dj:dj + nv], out=out)
+    return out
 
 
 #: no mid-air candidate closer than this to the room's outline (metres)
@@ -103,8 +163,19 @@ DUMMY_WALL_GAP_M = 0.2
 
 def _erode(mask, r):
     """Pixels of ``mask`` whose (2r+1)^2 square lies wholly in it (outside counts as off)."""
-    return ndimage.binary_erosion(mask, structure=np.ones((2 * r + 1, 2 * r + 1), bool),
-                                  border_value=0)
+    # (scipy.ndimage.binary_erosion with that square and border_value 0: the rows' run,
+    # then the columns')
+    m = np.asarray(mask, dtype=bool)
+    for axis in (0, 1):
+        m = np.moveaxis(m, axis, 0)
+        n = m.shape[0]
+        pad = np.zeros((n + 2 * r,) + m.shape[1:], bool)
+        pad[r:r + n] = m
+        out = m.copy()
+        for k in range(2 * r + 1):
+            out &= pad[k:k + n]
+        m = np.moveaxis(out, 0, axis)
+    return np.ascontiguousarray(m)
 
 
 def _subpixel(s, i, j):
