@@ -1,7 +1,7 @@
 """The design report a lighting designer hands to a client (HTML + CSV + PNG).
 
-Per room: the room summary as DIALux gives it (task area, immediate surroundings, walls,
-ceiling, cylindrical illuminance, UGR: required, achieved, pass/fail each), Emin, Emax, the
+Per room: the room summary as DIALux gives it (task area, immediate surroundings,
+background area, walls, ceiling, cylindrical illuminance, UGR: required, achieved, pass/fail each), Emin, Emax, the
 room's dimensions and reflectances, the luminaire schedule (type, count, lm, W, efficacy,
 dimming), power drawn at the designed output and installed (rated) W, W/m^2,
 W/m^2/100 lx, a deep-dimming flag and the energy per year where operating hours are given, notes where the catalogue cannot comply, and the work-plane
@@ -470,9 +470,9 @@ def _csv(rows, fields):
 
 def summary_rows(r):
     """The room summary as DIALux gives it: one row per EN 12464-1 item (task area,
-    immediate surroundings, walls, ceiling, cylindrical illuminance, UGR) with its
-    requirement, the achieved figure and the verdict ('pass', 'FAIL', or '-' where the
-    item is stated but not computed)."""
+    immediate surroundings, background area, walls, ceiling, cylindrical illuminance, UGR)
+    with its requirement, the achieved figure and the verdict ('pass', 'FAIL', or '-'
+    where the item is stated but not computed, or the room has none)."""
     m, q, v = r.metrics, r.requirement, r.verdicts
     rows = [{"item": "task area (work plane)",
              "required": f"Em >= {q.lux:g} lx, U0 >= {q.u0:.2f}",
@@ -491,6 +491,18 @@ def summary_rows(r):
         rows.append({"item": "immediate surroundings", "required": "-",
                      "achieved": "not computed", "verdict": "-",
                      "source": "the task area has no border zone around it"})
+    bq = r.surface_reqs.get("background")
+    if bq is not None and "background" in m.surfaces:
+        em, _, u0 = m.surfaces["background"]
+        rows.append({"item": "background area",
+                     "required": f"Em >= {bq.lux:.4g} lx, U0 >= {bq.u0:.2f}",
+                     "achieved": f"Em {em:.0f} lx, U0 {u0:.2f}",
+                     "verdict": "pass" if v.get("background") else "FAIL",
+                     "source": bq.source})
+    else:
+        rows.append({"item": "background area", "required": "-",
+                     "achieved": getattr(r, "background_words", None) or "not computed",
+                     "verdict": "-", "source": "EN 12464-1:2021 4.3.3"})
     for part in ("walls", "ceiling"):
         sq = r.surface_reqs.get(part)
         if sq is None:
