@@ -16,6 +16,7 @@ computation and name the offending key and value in one line::
                      "shade_limit_lux": 5,
                      "walls": {"lux": 75, "u0": 0.1}, "ceiling": {"lux": 50, "u0": 0.1},
                      "ugr_max": 19, "cylindrical": {"lux": 150, "u0": 0.1},
+                     "background": {"lux": 100, "u0": 0.1},
                      "operating_hours": 2500}}}
 
 Room keys are the PLY room id (``"0"``) or the room's name in FreeCAD/IFC; ``"*"`` applies to
