@@ -553,6 +553,8 @@ def room_rows(result):
                        height=f"{q.height_m:g}", margin=f"{q.margin_m:g}",
                        summary=summary_rows(r),
                        walls=_surface_text(r, "walls"), ceiling=_surface_text(r, "ceiling"),
+                       surroundings=_surface_text(r, "surroundings"),
+                       background=_surface_text(r, "background"),
                        walls_ok=v.get("walls", True), ceiling_ok=v.get("ceiling", True),
                        designed_w=f"{r.watts:.1f}", rated_w=f"{r.rated_watts:.1f}",
                        rated_wpm2=f"{r.w_per_m2:.2f}",
@@ -655,7 +657,8 @@ def write_design_report(result, out_dir, title="Lighting design", project=None, 
         _write(tmp, "schedule.csv", _csv(sched, list(sched[0]) if sched else ["room"]))
         rows = room_rows(result)
         _write(tmp, "rooms.csv", _csv(rows, ["name", "area", "size", "em_req", "em", "emin",
-                                              "emax", "u0_req", "u0", "walls", "ceiling",
+                                              "emax", "u0_req", "u0", "surroundings",
+                                              "background", "walls", "ceiling",
                                               "ugr", "ugr_limit", "ok", "watts", "rated_w",
                                               "rated_wpm2", "wpm2_100lx", "energy",
                                               "layout"]))

@@ -190,6 +190,8 @@ def test_designed_room_meets_serves_and_reports_its_background():
     assert rd.compliant
     row = next(r for r in summary_rows(rd) if r["item"] == "background area")
     assert row["verdict"] == "pass" and row["required"] == "Em >= 66.67 lx, U0 >= 0.10"
+    from invrad_wb.core.output.design_report import _surface_text
+    assert _surface_text(rd, "background") == f"{em:.0f} / {u0:.2f}"      # rooms.csv
     d = rd.to_dict()
     assert d["surfaces"]["background"]["required"]["lux"] == pytest.approx(200 / 3)
     assert d["pass"]["background"] is True and "background" not in d
