@@ -15,7 +15,13 @@
    ``AMBIENT`` settings), both maintained (x MF); Em, U0, the default requirement (1/3 of
    the surroundings' Em, U0 0.10) and each engine's verdict.
 
-Run: ``.venv/bin/python bench/bench_background_radiance.py [--from DIR] [room ...]``.
+3. **Designed for a task area set in** (``--design ROOM:MARGIN ...``): the room designed
+   with its task area ``MARGIN`` m in from the walls (the background one more requirement)
+   and the design judged by Radiance on every item (``bench_design_radiance``'s judgement,
+   in ``out/radjobs_bg/<room>_in<MARGIN>``).
+
+Run: ``.venv/bin/python bench/bench_background_radiance.py [--from DIR] [room ...]`` or
+``... --design lab:2``.
 A room whose traced job does not hold the pickled design's luminaires is skipped (said so).
 
 Measured 2026-11-26 (round 10, shared 2-core machine at load 2-3; round 9's designs and
@@ -164,6 +170,59 @@ def main(names, source):
               f" invrad / Radiance Em {em_i / em_r:.3f}", flush=True)
 
 
+def design_set_in(name, margin):
+    """Design room ``name`` for a task area ``margin`` m in from its walls (its background
+    a requirement like every other item) and judge the design by Radiance on every item
+    (the whole judgement of ``bench_design_radiance``, in ``out/radjobs_bg/<name>_in<m>``)."""
+    from invrad_wb.core.design.design import design_room
+    from invrad_wb.core.model.photometry import read_photometry
+    cat = B.catalogue(OUT)
+    phot_paths = {e["name"]: e["photometry"] for e in cat}
+    phot = {n: read_photometry(p) for n, p in phot_paths.items()}
+    build, room = B.ROOMS[name]
+    scene = build()
+    spec = B.spec_from_dict({"maintenance_factor": 0.8, "catalogue": cat, "rooms": {
+        "0": dict(room, work_plane=dict(room["work_plane"], height_m=0.75, margin_m=margin))}})
+    job = os.path.join(OUT, f"{name}_in{margin:g}", "invrad")
+    cache = job + ".pkl"
+    if os.path.exists(cache):
+        with open(cache, "rb") as fh:
+            r = pickle.load(fh)
+    else:
+        t = time.process_time()
+        rd = design_room(scene, spec, 0, photometry=phot)
+        m, su = rd.metrics, rd.metrics.surfaces
+        r = dict(lums=rd.luminaires, watts=rd.watts, s=time.process_time() - t,
+                 compliant=rd.compliant,
+                 own=f"{m.em:.0f}/{m.u0:.2f} " + " ".join(
+                     f"{k} {su[k][0]:.0f}/{su[k][2]:.2f}" for k in su)
+                 + f" UGR {'-' if rd.ugr is None else round(rd.ugr, 1)}",
+                 desc=rd.candidate.geom.describe())
+        if os.path.isdir(job):
+            shutil.rmtree(job)
+        r["plan"] = B.judge_prepare(scene, spec, r["lums"], job, phot_paths)
+        with open(cache, "wb") as fh:
+            pickle.dump(r, fh)
+    print(f"{name}, task area {margin:g} m in: invrad {r['watts']:.1f} W, {r['desc']},"
+          f" compliant by its own model {r['compliant']} ({r['own']}; {r['s']:.0f} CPU s)",
+          flush=True)
+    if not os.path.exists(os.path.join(job, "direct.out")):
+        b, env = B._radiance()
+        t = time.perf_counter()
+        subprocess.run(["sh", os.path.join(job, "run.sh")], env=dict(env, RADBIN=b),
+                       check=True)
+        print(f"{name}: traced in {time.perf_counter() - t:.0f} s", flush=True)
+    rad = B.judge_finish(job, r["plan"], spec, r["lums"])
+    rs = B.judge_grids(scene, spec)[0]
+    ok = B.verdict(rad, rs)
+    print(f"{name}: Radiance Em {rad['em']:.0f} U0 {rad['u0']:.2f}, "
+          + ", ".join(f"{k} {B._fmt(rad, k)} (>= {rs.surfaces[k].lux:.4g}"
+                      f"/{rs.surfaces[k].u0:.2f})" for k in ("surroundings", "background", "walls", "ceiling") if k in rad)
+          + f", UGR {'-' if rad['ugr'] is None else round(rad['ugr'], 1)}"
+          + f": {'compliant' if all(ok.values()) else 'FAILS ' + ','.join(k for k, v in ok.items() if not v)}",
+          flush=True)
+
+
 if __name__ == "__main__":
     args = sys.argv[1:]
     source = "/work/wt9-design/out/radjobs"
@@ -171,4 +230,9 @@ if __name__ == "__main__":
         i = args.index("--from")
         source = args[i + 1]
         del args[i:i + 2]
-    main(args or list(B.ROOMS), source)
+    if "--design" in args:          # --design ROOM:MARGIN ...
+        for a in args[args.index("--design") + 1:]:
+            n, m = a.split(":")
+            design_set_in(n, float(m))
+    else:
+        main(args or list(B.ROOMS), source)

@@ -1,10 +1,11 @@
 """The design report a lighting designer hands to a client (HTML + CSV + PNG).
 
 Per room: the room summary as DIALux gives it (task area, immediate surroundings,
-background area, walls, ceiling, cylindrical illuminance, UGR: required, achieved, pass/fail each), Emin, Emax, the
-room's dimensions and reflectances, the luminaire schedule (type, count, lm, W, efficacy,
-dimming), power drawn at the designed output and installed (rated) W, W/m^2,
-W/m^2/100 lx, a deep-dimming flag and the energy per year where operating hours are given, notes where the catalogue cannot comply, and the work-plane
+background area, walls, ceiling, cylindrical illuminance, UGR: required, achieved,
+pass/fail each), Emin, Emax, the room's dimensions and reflectances, the luminaire
+schedule (type, count, lm, W, efficacy, dimming), power drawn at the designed output and
+installed (rated) W, W/m^2, W/m^2/100 lx, a deep-dimming flag and the energy per year
+where operating hours are given, notes where the catalogue cannot comply, and the work-plane
 plan: false colour over the EN 12464-1 calculation grid, labelled iso-lux lines, the value
 of every grid point, the luminaires and the room outline. A whole-floor plan shows every
 room with its luminaires and Em. Figures are drawn with matplotlib (Agg canvas, no pyplot
