@@ -44,6 +44,33 @@ with a wide margin (the light that serves the whole-room task area spills onto t
 invrad's model and Radiance agree within 1.3 % on Em and 0.01 on U0. Radiance took 0-5 s
 per room (the band's points interpolate the round's ambient cache). The analytic band of
 the hall (19 x 11 less 13 x 5 = 144 m2) against the grid's weights: 145.5 m2.
+
+Designed for a task area set in (``--design``; same machine, load 4-5), judged by
+Radiance on every item (maintained; required in brackets):
+
+* lab, task area 2 m in (4 x 2 m; background 0-1.5 m from the walls): invrad 153.7 W
+  (the whole-room task area: 238.7 W), 23 positions of a 9 x 7 grid, 56 CPU s. Its own
+  model: Em 505 / U0 0.77, surroundings 368 / 0.66, background 198 / 0.44, walls
+  118 / 0.40, ceiling 55 / 0.68, UGR 18.9. Radiance (traced in 150 s): Em 506 / 0.77
+  (500 / 0.60), surroundings 368 / 0.65 (300 / 0.40), background 198 / 0.44 (100 / 0.10),
+  walls 118 / 0.40 (75 / 0.10), ceiling 54 / 0.70 (50 / 0.10), UGR 18.9 (19): compliant.
+* hall, task area 4 m in (12 x 4 m; background 0.5-3.5 m from the walls, 96 points):
+  invrad 585.1 W (whole room: 878.9 W), a 3 x 4 grid, 51 CPU s. Its own model: Em
+  312 / 0.76, surroundings 271 / 0.71, background 181 / 0.35, walls 68 / 0.23, ceiling
+  30 / 0.51, UGR 21.9. Radiance (57 s): Em 312.0 / 0.76 (300 / 0.60), surroundings
+  271 / 0.71 (200 / 0.40), background 181 / 0.35 (66.7 / 0.10), walls 68 / 0.23
+  (50 / 0.10), ceiling 30.2 / 0.50 (30 / 0.10), UGR 21.9 (22): compliant.
+* L office, task area 2.5 m in (background 0-2 m from the walls, 74 points): invrad
+  219.2 W (whole room: 392.7 W), one grid per rectangle, 198 CPU s. Its own model: Em
+  505 / 0.81, surroundings 353 / 0.41, background 198 / 0.47, walls 115 / 0.50, ceiling
+  51 / 0.69, UGR 18.9. Radiance (118 s): Em 501.9 / 0.81 (500 / 0.60), surroundings
+  352 / 0.41 (300 / 0.40), background 198 / 0.48 (100 / 0.10), walls 114 / 0.50
+  (75 / 0.10), ceiling 49.8 / 0.69 (50 / 0.10: met within the judge's 0.5 lx, Radiance's
+  ceiling 2.4 % under invrad's, as in bench_design_radiance), UGR 18.8 (19): compliant.
+
+The background binds in none of them (about twice its minimum): light that meets the task
+area and the surroundings from a ceiling grid spills that far; its U0 (0.35-0.48) is the
+item's closest.
 """
 import os
 import pickle
