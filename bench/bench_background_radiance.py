@@ -242,12 +242,13 @@ def design_set_in(name, margin):
     rad = B.judge_finish(job, r["plan"], spec, r["lums"])
     rs = B.judge_grids(scene, spec)[0]
     ok = B.verdict(rad, rs)
+    items = ("surroundings", "background", "walls", "ceiling")
+    fails = [k for k, v in ok.items() if not v]
     print(f"{name}: Radiance Em {rad['em']:.0f} U0 {rad['u0']:.2f}, "
           + ", ".join(f"{k} {B._fmt(rad, k)} (>= {rs.surfaces[k].lux:.4g}"
-                      f"/{rs.surfaces[k].u0:.2f})" for k in ("surroundings", "background", "walls", "ceiling") if k in rad)
+                      f"/{rs.surfaces[k].u0:.2f})" for k in items if k in rad)
           + f", UGR {'-' if rad['ugr'] is None else round(rad['ugr'], 1)}"
-          + f": {'compliant' if all(ok.values()) else 'FAILS ' + ','.join(k for k, v in ok.items() if not v)}",
-          flush=True)
+          + (": compliant" if not fails else ": FAILS " + ",".join(fails)), flush=True)
 
 
 if __name__ == "__main__":
