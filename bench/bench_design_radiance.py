@@ -16,8 +16,9 @@ dimmable; the diffused high-bay since round 7). For each room:
 * **invrad**: ``design_room`` with the same catalogue (its default ``design_margin``).
 
 Both are judged by Radiance (``pyradiance``'s ies2rad, oconv and rtrace, ``AMBIENT``):
-the EN 12464-1 work-plane grid (Em, U0), the immediate surroundings' band, the walls'
-and the ceiling's grids (Em, U0), Ez where the room asks (the mean over 8 horizontal
+the EN 12464-1 work-plane grid (Em, U0), the immediate surroundings' band, the background
+area beyond it where the task area leaves one (none here: bench_background_radiance.py), the
+walls' and the ceiling's grids (Em, U0), Ez where the room asks (the mean over 8 horizontal
 directions of the vertical illuminance), all maintained (x MF); UGR by the CIE 117
 formula at the standard observers with the background luminance from Radiance's
 interreflected light at the eye (total minus direct, x MF). A mean passes at its
@@ -427,9 +428,11 @@ def full_room_model(scene, spec):
 
 
 def judge_grids(scene, spec):
-    """(room spec with the surroundings' requirement, DesignRoom, work-plane points,
-    surfaces) of room 0: the grids of the design, which the judge uses too."""
+    """(room spec with the surroundings' and the background's requirements, DesignRoom,
+    work-plane points, surfaces) of room 0: the grids of the design, which the judge uses
+    too."""
     from dataclasses import replace
+    from invrad_wb.core.design.background import with_background
     from invrad_wb.core.design.cylindrical import (SURROUNDINGS_SOURCE, SURROUNDINGS_U0,
                                                    surroundings_grid, surroundings_lux)
     from invrad_wb.core.design.spec import SurfaceRequirement
@@ -443,6 +446,9 @@ def judge_grids(scene, spec):
         surfaces["surroundings"] = band
         rs = replace(rs, surfaces={**rs.surfaces, "surroundings": SurfaceRequirement(
             surroundings_lux(req.lux), SURROUNDINGS_U0, SURROUNDINGS_SOURCE)})
+    # the background area beyond them (EN 12464-1:2021 4.3.3), where the task area
+    # leaves one (none in these rooms: their task areas are the rooms less 0.5 m)
+    rs = with_background(rs, droom, req, surfaces, type("Words", (), {})())
     return rs, droom, pts, surfaces
 
 
@@ -644,7 +650,7 @@ def judge_finish(job, plan, spec, lums):
     e = mf * _read_lux(os.path.join(job, "rays.out"))
     sl, _ = plan["work_plane"]
     out = {"em": float(e[sl].mean()), "u0": float(e[sl].min() / e[sl].mean())}
-    for name in ("walls", "ceiling", "surroundings"):
+    for name in ("walls", "ceiling", "surroundings", "background"):
         if name in plan:
             sl, W = plan[name]
             m = float(np.sum(e[sl] * W) / W.sum())
@@ -682,7 +688,7 @@ def _ugr(lums, rad, mf, scale=1.0):
 def rescaled(rad, scale, lums, mf):
     """Radiance's figures of the same luminaires at ``scale`` x their output."""
     out = dict(rad, em=rad["em"] * scale)
-    for k in ("walls", "ceiling", "surroundings", "Ez"):
+    for k in ("walls", "ceiling", "surroundings", "background", "Ez"):
         if k in rad:
             out[k] = (rad[k][0] * scale, rad[k][1])
     out["ugr"] = _ugr(lums, rad, mf, scale)

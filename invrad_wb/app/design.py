@@ -15,7 +15,8 @@ import os
 from invrad_wb.errors import SceneError, SettingsError
 
 _SPEC_ROOM_KEYS = ("work_plane", "room_type", "mounting", "catalogue", "shade_limit_lux",
-                   "ugr_max", "walls", "ceiling", "cylindrical", "operating_hours")
+                   "ugr_max", "walls", "ceiling", "cylindrical", "operating_hours",
+                   "background")
 
 
 def is_design_file(path):

@@ -71,6 +71,14 @@ def _dimmed_words(r):
             f" ({100 * r.candidate.dim:.0f} % of the rated power)")
 
 
+def _no_background(r):
+    """' no background area,' (or why it is not judged) where the room has none."""
+    if "background" in r.surface_reqs:
+        return ""
+    w = r.background_words or ""
+    return " no background area," if w.startswith("none") else " background not judged,"
+
+
 def _print_room(r):
     if r.metrics is None:
         print(f"{r.name}: {'; '.join(r.notes)}")
@@ -81,9 +89,10 @@ def _print_room(r):
     print(f"{r.name}: {types} ({r.candidate.geom.describe()}"
           + _dimmed_words(r)
           + f"): Em {m.em:.0f} lx (>= {q.lux:g}), U0 {m.u0:.2f} (>= {q.u0:g}),"
-          + "".join(f" {k} Em {m.surfaces[k][0]:.0f} lx (>= {s.lux:g})"
+          + "".join(f" {k} Em {m.surfaces[k][0]:.0f} lx (>= {s.lux:.4g})"
                     f" U0 {m.surfaces[k][2]:.2f} (>= {s.u0:g}),"
                     for k, s in r.surface_reqs.items() if k in m.surfaces)
+          + _no_background(r)
           + (f" Ez {r.cyl_figures['em_lux']:.0f} lx (>= {r.cylindrical['lux']:g})"
              f" U0 {r.cyl_figures['u0']:.2f} (>= {r.cylindrical['u0']:g}),"
              if r.cylindrical is not None and r.cyl_figures is not None else "")

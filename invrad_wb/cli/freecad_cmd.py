@@ -557,9 +557,13 @@ def _say_design(d, say):
             continue
         q = r["requirement"]
         types = ", ".join(f"{n} x {t}" for t, n in sorted(r["schedule"].items()))
-        surf = "".join(f" {k} Em {v['em_lux']:.0f} lx (>= {v['required']['lux']:g})"
+        surf = "".join(f" {k} Em {v['em_lux']:.0f} lx (>= {v['required']['lux']:.4g})"
                        f" U0 {v['u0']:.2f} (>= {v['required']['u0']:g}),"
                        for k, v in r.get("surfaces", {}).items() if "required" in v)
+        bg = r.get("background")
+        if bg is not None:
+            surf += (" no background area," if (bg.get("why") or "").startswith("none")
+                     else " background not judged,")
         cz = r.get("cylindrical") or {}
         if cz.get("judged"):
             surf += (f" Ez {cz['em_lux']:.0f} lx (>= {cz['required']['lux']:g})"

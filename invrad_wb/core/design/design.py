@@ -15,6 +15,7 @@ import numpy as np
 from invrad_wb.constants import DEEP_DIMMING
 from invrad_wb.errors import Cancelled, SettingsError
 from invrad_wb.core.accel.workers import map_rooms
+from invrad_wb.core.design.background import with_background
 from invrad_wb.core.design.evaluate import RoomModel, surface_grids
 from invrad_wb.core.design.refine import refine
 from invrad_wb.core.design.room import DesignRoom
@@ -53,6 +54,7 @@ class RoomDesign:
     cyl_figures: dict = None     # Ez achieved (cylindrical.figures) or None
     spots: list = field(default_factory=list)      # accent.SpotResult, spots and goals
     accent_watts: float = 0.0
+    background_words: str = None  # why the background area is not judged (background.py)
 
     @property
     def watts(self):
@@ -190,6 +192,8 @@ class RoomDesign:
                     **({"required": self.surface_reqs[k].to_dict()}
                        if k in self.surface_reqs else {})}
                 for k, v in m.surfaces.items()}
+            if "background" not in self.surface_reqs:
+                d["background"] = {"judged": False, "why": self.background_words}
             if self.cylindrical is not None:
                 d["cylindrical"] = {"required": dict(self.cylindrical),
                                     "judged": self.cyl_figures is not None}
@@ -432,6 +436,7 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
     points, _ = droom.grid(req.height_m, req.margin_m)
     surfaces = surface_grids(scene, room, droom, backend=backend)
     rs = _with_surroundings(rs, droom, req, surfaces, rd)
+    rs = with_background(rs, droom, req, surfaces, rd)
     rd.surface_reqs = {k: v for k, v in rs.surfaces.items() if k in surfaces}
     rd.cylindrical = rs.cylindrical
     model = RoomModel(scene, droom, points, spec.maintenance_factor, backend,

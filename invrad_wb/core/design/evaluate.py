@@ -402,8 +402,9 @@ class RoomModel:
         idx, _ = locate_points(m.triangles[floor][..., :2], self.points[:, :2])
         patch = np.where(idx >= 0, self.rad.face_patch[floor[np.maximum(idx, 0)]], -1)
         plane = np.arange(len(patch)) < self.n_wp
-        if "surroundings" in self.layout.parts:    # work-plane cells too (cylindrical.py)
-            plane[self.layout.parts["surroundings"][0]] = True
+        for name in ("surroundings", "background"):   # work-plane cells too
+            if name in self.layout.parts:                # (cylindrical.py, background.py)
+                plane[self.layout.parts[name][0]] = True
         miss = np.flatnonzero((idx < 0) | ~plane)
         if len(miss):
             patch[miss] = self.rad.face_patch[nearest_site(m.face_centroids,

@@ -35,8 +35,9 @@ MAX_COUNT = 400
 #: surface grids judged on the exact checks only, not by the fast model's ranking: the
 #: immediate surroundings lie next to the work plane and follow it; their fast figures,
 #: corrected per point by the last exact check, would turn away layouts that the exact
-#: check finds compliant (:mod:`.cylindrical`)
-EXACT_ONLY = ("surroundings",)
+#: check finds compliant (:mod:`.cylindrical`); the background area beyond them likewise
+#: (:mod:`.background`)
+EXACT_ONLY = ("surroundings", "background")
 #: UGR margin of the fast model's glare test (its background luminance is that of a
 #: reference layout; the exact check decides)
 UGR_FAST_MARGIN = 0.0

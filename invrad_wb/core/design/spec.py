@@ -16,6 +16,7 @@ computation and name the offending key and value in one line::
                      "shade_limit_lux": 5,
                      "walls": {"lux": 75, "u0": 0.1}, "ceiling": {"lux": 50, "u0": 0.1},
                      "ugr_max": 19, "cylindrical": {"lux": 150, "u0": 0.1},
+                     "background": {"lux": 100, "u0": 0.1},
                      "operating_hours": 2500}}}
 
 Room keys are the PLY room id (``"0"``) or the room's name in FreeCAD/IFC; ``"*"`` applies to
@@ -28,7 +29,10 @@ The walls and the ceiling of every room are held to at least the EN 12464-1:2021
 minimums (walls 50 lx, ceiling 30 lx, U0 0.10 each; 75 / 50 lx in offices and education);
 ``"walls"`` / ``"ceiling"`` may ask for more, never for less. ``"ugr_max"`` is the UGR limit
 (default: the room type's). ``"cylindrical"`` (Ez where people meet and talk) is computed and
-judged (:mod:`.cylindrical`). ``"operating_hours"`` (per
+judged (:mod:`.cylindrical`). ``"background": {"lux", "u0"}`` is the background area beyond
+the task area's immediate surroundings (:mod:`.background`): by default EN 12464-1:2021's
+one third of the surroundings' Em with U0 0.10 wherever the task area leaves one; more
+may be asked, never less; ``"background": null`` is "no limit". ``"operating_hours"`` (per
 room or for the whole spec, h/a) gives the energy estimate.
 A catalogue entry with ``"aimable": true`` (and ``"max_tilt_deg"``, default
 :data:`DEFAULT_MAX_TILT_DEG`) is an adjustable spot: it lights painted spots as an aimed
@@ -211,6 +215,10 @@ class RoomSpec:
     cylindrical: Optional[dict] = None
     #: annual operating hours (for the energy estimate) or None
     operating_hours: Optional[float] = None
+    #: the background area's requirement as the spec gives it (:mod:`.background`):
+    #: None: the EN 12464-1:2021 default (1/3 of the surroundings' Em, U0 0.10); False:
+    #: ``null`` in the spec, no limit; else (lux or None, u0)
+    background: object = None
 
 
 @dataclass
@@ -373,7 +381,7 @@ def _room(key, d, where, catalogue_names, default_hours=None):
     from invrad_wb.core.design import en12464
     d = _object(d, where, ("work_plane", "room_type", "mounting", "catalogue",
                            "shade_limit_lux", "ugr_max", "name", "walls", "ceiling",
-                           "cylindrical", "operating_hours"))
+                           "cylindrical", "operating_hours", "background"))
     rtype = d.get("room_type")
     wp = d.get("work_plane")
     ugr_max = _number(d.get("ugr_max"), where / "ugr_max", "(UGR)", lo=5, hi=40,
@@ -427,9 +435,20 @@ def _room(key, d, where, catalogue_names, default_hours=None):
         cyl = {"lux": en12464.lookup(rtype).cylindrical_lux, "u0": 0.10, "height_m": 1.2}
     hours = _number(d.get("operating_hours", default_hours), where / "operating_hours",
                     "h/a", lo=0, hi=8760.0, allow_none=True)
+    background = None
+    if "background" in d:
+        if d["background"] is None:
+            background = False          # null: no limit
+        else:
+            bd = _object(d["background"], where / "background", ("lux", "u0"))
+            background = (_number(bd.get("lux"), where / "background" / "lux", "lx", lo=0,
+                                  allow_none=True),
+                          _number(bd.get("u0", 0.10), where / "background" / "u0",
+                                  "(Emin/Em)", lo=0, hi=1.0))
     return RoomSpec(key, work_plane, rtype, _mounting(d.get("mounting", "ceiling"),
                                                       where / "mounting"),
-                    cat, shade, ugr_max, surface_requirements(given, rtype), cyl, hours)
+                    cat, shade, ugr_max, surface_requirements(given, rtype), cyl, hours,
+                    background)
 
 
 def spec_from_dict(d, source="design spec", base_dir="."):

@@ -1,10 +1,11 @@
 """The design report a lighting designer hands to a client (HTML + CSV + PNG).
 
-Per room: the room summary as DIALux gives it (task area, immediate surroundings, walls,
-ceiling, cylindrical illuminance, UGR: required, achieved, pass/fail each), Emin, Emax, the
-room's dimensions and reflectances, the luminaire schedule (type, count, lm, W, efficacy,
-dimming), power drawn at the designed output and installed (rated) W, W/m^2,
-W/m^2/100 lx, a deep-dimming flag and the energy per year where operating hours are given, notes where the catalogue cannot comply, and the work-plane
+Per room: the room summary as DIALux gives it (task area, immediate surroundings,
+background area, walls, ceiling, cylindrical illuminance, UGR: required, achieved,
+pass/fail each), Emin, Emax, the room's dimensions and reflectances, the luminaire
+schedule (type, count, lm, W, efficacy, dimming), power drawn at the designed output and
+installed (rated) W, W/m^2, W/m^2/100 lx, a deep-dimming flag and the energy per year
+where operating hours are given, notes where the catalogue cannot comply, and the work-plane
 plan: false colour over the EN 12464-1 calculation grid, labelled iso-lux lines, the value
 of every grid point, the luminaires and the room outline. A whole-floor plan shows every
 room with its luminaires and Em. Figures are drawn with matplotlib (Agg canvas, no pyplot
@@ -470,9 +471,9 @@ def _csv(rows, fields):
 
 def summary_rows(r):
     """The room summary as DIALux gives it: one row per EN 12464-1 item (task area,
-    immediate surroundings, walls, ceiling, cylindrical illuminance, UGR) with its
-    requirement, the achieved figure and the verdict ('pass', 'FAIL', or '-' where the
-    item is stated but not computed)."""
+    immediate surroundings, background area, walls, ceiling, cylindrical illuminance, UGR)
+    with its requirement, the achieved figure and the verdict ('pass', 'FAIL', or '-'
+    where the item is stated but not computed, or the room has none)."""
     m, q, v = r.metrics, r.requirement, r.verdicts
     rows = [{"item": "task area (work plane)",
              "required": f"Em >= {q.lux:g} lx, U0 >= {q.u0:.2f}",
@@ -491,6 +492,18 @@ def summary_rows(r):
         rows.append({"item": "immediate surroundings", "required": "-",
                      "achieved": "not computed", "verdict": "-",
                      "source": "the task area has no border zone around it"})
+    bq = r.surface_reqs.get("background")
+    if bq is not None and "background" in m.surfaces:
+        em, _, u0 = m.surfaces["background"]
+        rows.append({"item": "background area",
+                     "required": f"Em >= {bq.lux:.4g} lx, U0 >= {bq.u0:.2f}",
+                     "achieved": f"Em {em:.0f} lx, U0 {u0:.2f}",
+                     "verdict": "pass" if v.get("background") else "FAIL",
+                     "source": bq.source})
+    else:
+        rows.append({"item": "background area", "required": "-",
+                     "achieved": getattr(r, "background_words", None) or "not computed",
+                     "verdict": "-", "source": "EN 12464-1:2021 4.3.3"})
     for part in ("walls", "ceiling"):
         sq = r.surface_reqs.get(part)
         if sq is None:
@@ -541,6 +554,8 @@ def room_rows(result):
                        height=f"{q.height_m:g}", margin=f"{q.margin_m:g}",
                        summary=summary_rows(r),
                        walls=_surface_text(r, "walls"), ceiling=_surface_text(r, "ceiling"),
+                       surroundings=_surface_text(r, "surroundings"),
+                       background=_surface_text(r, "background"),
                        walls_ok=v.get("walls", True), ceiling_ok=v.get("ceiling", True),
                        designed_w=f"{r.watts:.1f}", rated_w=f"{r.rated_watts:.1f}",
                        rated_wpm2=f"{r.w_per_m2:.2f}",
@@ -643,7 +658,8 @@ def write_design_report(result, out_dir, title="Lighting design", project=None, 
         _write(tmp, "schedule.csv", _csv(sched, list(sched[0]) if sched else ["room"]))
         rows = room_rows(result)
         _write(tmp, "rooms.csv", _csv(rows, ["name", "area", "size", "em_req", "em", "emin",
-                                              "emax", "u0_req", "u0", "walls", "ceiling",
+                                              "emax", "u0_req", "u0", "surroundings",
+                                              "background", "walls", "ceiling",
                                               "ugr", "ugr_limit", "ok", "watts", "rated_w",
                                               "rated_wpm2", "wpm2_100lx", "energy",
                                               "layout"]))
