@@ -55,6 +55,32 @@ first radiosity solve; the "imports" stage counts it either way.) Left: numpy (0
 and pyopencl (0.1 s) imports, the votes kernel (0.3-0.55 s), the optimiser's numpy
 arithmetic and, in rooms with occluders, its shadow rays; the radiosity LU (0.05-0.1 s).
 
+Round 10b (2026-11-26, load average 3.5-4.5, ``--before 96e5d04``; CPU s before -> after):
+classify_rooms imports the design modules (accent, evaluate, layouts, room, en12464,
+metrics, images) only for a room with a work-plane level, and the winding check computes
+the winding numbers in front of a room's faces only where those behind lie inside (half
+of the check). Both are small: about 0.01 s of imports (measured alone, 30 alternating
+processes: start + imports + read + classify, median 0.375 -> 0.374, min 0.273 -> 0.264)
+and 0.01 s of reading the office (check_winding 0.046-0.051 -> 0.035-0.043), under this
+machine's noise. Whole CLI, 3 rounds with the numpy run: office 2.850 -> 2.799 (ratio
+0.117 -> 0.114; the numpy run took 24.5 CPU s), l_room rho 0.6 3.813 -> 3.986 (0.094 ->
+0.098), two_ceiling direct 1.432 -> 1.212 (0.058 -> 0.049); 5 rounds without it: office
+2.264 -> 2.406, l_room 3.657 -> 3.917, two_ceiling 1.239 -> 1.284. One side's medians
+move by up to 0.6 s between runs at this load, so these runs show no change. Every RESULT.json
+identical to 96e5d04's, and office ``--aim fixed``'s. Tried and dropped: BLAS on one thread
+for the radiosity LU (scipy's OpenBLAS is loaded after the room's thread limit, so it
+runs on 2 threads; one thread changes the factors' last bits), unique_rows on one int64 key
+(np.unique with return_index sorts stably: no faster than the lexsort), the pseudo-Huber
+cost's constant factor made once (same numbers, no measurable gain). Where a run goes
+(sampling the office in one process, and its 31 optimiser runs replayed): the
+optimiser's residuals and model 40 %, the mount-clearance projection 16 % and the
+Marquardt step 15 % of the LM; the votes are one cast of the kernel (0.29 CPU s, weights
+4.5 ms); imports are now third-party (numpy 0.12 s, pyopencl 0.1 s with pytools,
+importlib.metadata, attrs, sqlite3 and platformdirs for its kernel invokers, scipy.linalg
+0.07 s at the first radiosity solve; invrad's own 0.04 s). Watch out when measuring: this
+environment sets PYTHONDONTWRITEBYTECODE=1, so a fresh "before" checkout compiles every
+module on every run (bench_cli removes it; a hand-made comparison must too).
+
 Usage: python bench/bench_cli.py [--before REV] [--rounds N] [--quick] [--no-numpy]
 """
 import argparse

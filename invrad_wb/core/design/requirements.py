@@ -26,9 +26,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from invrad_wb.core.design import en12464
-from invrad_wb.core.design.accent import find_goals
-from invrad_wb.core.design.room import DesignRoom
 from invrad_wb.core.output.fitquality import EM_HIGH, EM_LOW, requirement_verdict  # noqa: F401
 
 #: a set of targets is a constant level when its spread is below this fraction of its max
@@ -113,6 +110,11 @@ def classify(scene, room, name=None):
     if not _constant(t[wp_lit]):
         return RoomTargets(room, "exact", f"{label}: the work-plane targets vary"
                            f" ({t[wp_lit].min():.0f}-{t[wp_lit].max():.0f} lx): exact light")
+    # only a room with a work-plane level needs the design modules: a locate run on exact
+    # light does not import them (0.07-0.09 CPU s of every command-line run)
+    from invrad_wb.core.design import en12464
+    from invrad_wb.core.design.accent import find_goals
+    from invrad_wb.core.design.room import DesignRoom
     surfaces, spots = [], 0
     for g in find_goals(scene, room):
         if g.kind == "spot":
@@ -152,6 +154,7 @@ def mountings(scene, room, label=None):
     rises at least
     :data:`PENDANT_CLEARANCE_M` above them somewhere (high or sloped ceilings; a pendant
     is only placed where the ceiling is above it)."""
+    from invrad_wb.core.design.room import DesignRoom
     from invrad_wb.core.design.spec import Mounting
     droom = DesignRoom(scene, room, label)
     centres = droom.floor_tri.mean(axis=1)[:, :2]
@@ -250,6 +253,7 @@ def design_requirements(scene, targets, flux_lm, photometry=None, backend="auto"
     """
     import time
     from invrad_wb.core.design.design import design
+    from invrad_wb.core.design.room import DesignRoom
     t0 = time.perf_counter()
     req_ids = [r for r, rt in targets.items() if rt.requirement]
     if not req_ids:
@@ -313,6 +317,7 @@ def judge(scene, room, rt, achieved, name=None):
     :meth:`~invrad_wb.core.design.room.DesignRoom.grid`) and checked against the level
     and the uniformity of ``rt``. Without such grid points, the work-plane vertices of
     the task area are judged."""
+    from invrad_wb.core.design.room import DesignRoom
     from invrad_wb.core.geometry.raster import locate_points
     t = scene.vertex_targets()
     achieved = np.asarray(achieved, dtype=np.float64)
