@@ -183,6 +183,7 @@ m (array12_issue), 0.023 m (cluster3_mixed), 0.019 m (cluster4), 0.016 m (array1
 """
 import argparse
 import os
+import resource
 import sys
 import time
 
@@ -241,11 +242,30 @@ def scenes():
     }
 
 
+#: the bound's and the truth refit's radiosity gather (numpy: 50 s at 20 000 points, the
+#: same form factors as OpenCL's to float32)
+BACKEND = "auto"
+
+
+#: :func:`build`: the truth render's gather matrix is kept up to this size (MB), beyond it
+#: recomputed in row chunks (the same numbers, bounded memory)
+GATHER_MAX_MB = 128
+
+
 def build(name, noise, seed=0, cell=0.2):
     """(scene with noisy rendered targets, true luminaires)."""
     (w, d, h), lums = scenes()[name]
     scene = g.with_reflectances(g.box_room((w, d, h), cell=cell))
-    lux = render(scene, lums, interreflection=True)
+    # the render's own gather (exact at every vertex) in row chunks of bounded memory,
+    # not its (vertices x patches) matrix kept (816 MB at 170 000 vertices)
+    from invrad_wb import constants as C
+    keep, C.RADIOSITY_GATHER_MAX_MB = C.RADIOSITY_GATHER_MAX_MB, GATHER_MAX_MB
+    try:
+        lux = render(scene, lums, interreflection=True)
+    finally:
+        C.RADIOSITY_GATHER_MAX_MB = keep
+    from invrad_wb.core.forward.radiosity import RadiosityModel
+    RadiosityModel.forget(scene)
     if noise > 0:
         rng = np.random.default_rng(seed)
         lux = lux * np.clip(1.0 + noise * rng.standard_normal(len(lux)), 0.0, None)
@@ -263,14 +283,20 @@ def _vertex_problem(scene, true, free):
     from invrad_wb.core.inverse.refine import Light
     from invrad_wb.core.inverse.votemaps import build_canvas
     from invrad_wb.core.inverse import locate_problem as lp
+    from invrad_wb.core.inverse import locate_vertices as lv
     s = LocateSettings()
     room = int(scene.rooms[0])
     canvas = build_canvas(scene, room, pixel=s.pixel_m, dummy=False)
     flux = true[0].flux_lm
     pts = vertex_points(scene, most=lp.VERTEX_POINTS_MAX)
-    prob, _ = _refine_problem(scene, pts, canvas, _occluders(scene, s), s,
-                              flux, "numpy", True, {"radiosity": 0.0})
-    prob.free_flux = free
+    base, ind = _refine_problem(scene, pts, canvas, _occluders(scene, s), s,
+                                flux, BACKEND, True, {"radiosity": 0.0})
+    base.free_flux = free
+    every = vertex_points(scene, most=lv.VERTICES_MAX)
+    prob = base
+    if len(every) > len(pts):
+        # every vertex, streamed (as locate's last refit: locate_fit.polish_every_vertex)
+        prob = lv.VertexProblem(every, base, pts.plane, indirect_model=ind)
 
     def lights(lums):
         out = []
@@ -278,7 +304,7 @@ def _vertex_problem(scene, true, free):
             L = Light("free", np.asarray(t.position, float), np.array([0, 0, -1.0]), -1,
                       flux_scale=t.flux_lm / flux, free_flux=free)
             out.append(_snap_to_surfaces([L], canvas, scene)[0])
-        return _rebase(prob, out)
+        return _rebase(base, out)
     return prob, lights
 
 
@@ -294,8 +320,10 @@ def bound(scene, true, noise, free, per_luminaire=False):
     so the log residual the refinement fits has a standard deviation of about ``noise``
     per vertex, independent from vertex to vertex (what position_sd assumes)."""
     from invrad_wb.core.inverse.fitcheck import position_sd
+    from invrad_wb.core.inverse import locate_vertices as lv
     prob, lights = _vertex_problem(scene, true, free)
-    sd, fsd = position_sd(prob, lights(true), sigma=max(noise, 1e-12))
+    sd_of = lv.position_sd if isinstance(prob, lv.VertexProblem) else position_sd
+    sd, fsd = sd_of(prob, lights(true), sigma=max(noise, 1e-12))
     out = (100.0 * float(sd.max()), (100.0 * float(fsd.max()) if fsd is not None
                                      else float("nan")),
            100.0 * float(np.sqrt(np.mean(sd ** 2))))
@@ -324,8 +352,16 @@ def truth_refit(scene, true, found, noise, free):
             if not changed:
                 break
         return ls, prob.cost(ls)
-    T, ct = refit(lights(true))
-    cf = prob.cost(lights(found)) if found else float("nan")
+    start = lights(true)
+    if hasattr(prob, "exact_indirect"):
+        prob.exact_indirect(start)
+    T, ct = refit(start)
+    cf = float("nan")
+    if found:
+        F = lights(found)
+        if hasattr(prob, "exact_indirect"):
+            prob.exact_indirect(F)
+        cf = prob.cost(F)
     gap = 2.0 * len(prob.target) * (cf - ct) / max(noise, 1e-12) ** 2
     err = np.array([100.0 * float(np.linalg.norm(L.position - t.position))
                     for L, t in zip(T, true)])
@@ -380,6 +416,8 @@ def main():
     ap.add_argument("--given-only", action="store_true", help="only the flux-given runs")
     ap.add_argument("--cell", type=float, default=0.2,
                     help="the generator's mesh spacing (m): one target per vertex")
+    ap.add_argument("--scene-cells", default="",
+                    help="per scene its own mesh spacing, NAME=METRES,... (others: --cell)")
     ap.add_argument("--bound-only", action="store_true",
                     help="print the Cramer-Rao bounds of the scenes only (no locate)")
     ap.add_argument("--points-max", type=int, default=None,
@@ -410,12 +448,15 @@ def main():
                           + " | sd % " + " ".join(f"{x:.2f}" for x in free[4]), flush=True)
         return
     names = [n for n in scenes() if not args.only or n in args.only.split(",")]
-    print(f"{'scene':16s} {'mode':6s} {'count':>7s} {'ok':>3s} {'max cm':>7s}"
-          f" {'max flux %':>10s} {'s':>7s} {'cpu s':>7s} {'sd cm':>6s} {'sd %':>6s}"
-          f" {'rms/sd':>6s}" + (f" {'gap chi2':>9s}" if args.diagnose else ""))
+    print(f"{'scene':16s} {'mode':6s} {'cell':>5s} {'vertices':>8s} {'count':>7s} {'ok':>3s}"
+          f" {'max cm':>7s} {'max flux %':>10s} {'s':>7s} {'cpu s':>7s} {'rss MB':>6s}"
+          f" {'sd cm':>6s} {'sd %':>6s} {'rms/sd':>6s}"
+          + (f" {'gap chi2':>9s}" if args.diagnose else ""))
     summary = {"free": [], "given": []}
+    per_scene = dict(c.split("=") for c in args.scene_cells.split(",") if c)
     for name in names:
-        scene, true = build(name, args.noise, cell=args.cell)
+        cell = float(per_scene.get(name, args.cell))
+        scene, true = build(name, args.noise, cell=cell)
         modes = [] if args.given_only else [("free", None)]
         if not args.no_flux_given and len({t.flux_lm for t in true}) == 1:
             modes.append(("given", true[0].flux_lm))
@@ -430,8 +471,11 @@ def main():
             summary[mode].append((ok, cm, fe, dt))
             sd, fsd, sd_rms, sds, fsds = bound(scene, true, args.noise, mode == "free",
                                                per_luminaire=True)
-            line = (f"{name:16s} {mode:6s} {len(r.luminaires):>3d}/{len(true):<3d}"
+            rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+            line = (f"{name:16s} {mode:6s} {cell:5.3f} {len(scene.vertices):8d}"
+                    f" {len(r.luminaires):>3d}/{len(true):<3d}"
                     f" {'yes' if ok else 'NO':>3s} {cm:7.2f} {fe:10.2f} {dt:7.1f} {dc:7.1f}"
+                    f" {rss:6.0f}"
                     f" {sd:6.2f} {fsd:6.2f} {rms_error(r.luminaires, true) / sd_rms:6.2f}")
             if not args.diagnose:
                 print(line, flush=True)
