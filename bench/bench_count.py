@@ -10,7 +10,7 @@ unknown, flux given): count right?, worst position error (cm), worst flux error 
 seconds.
 
 Usage: python bench/bench_count.py [--only NAME,...] [--noise 0.05] [--no-flux-given]
-                                   [--given-only] [--cell 0.2]
+                                   [--given-only] [--cell 0.2] [--scene-cells NAME=M,...]
        python bench/bench_count.py --bound-only    (the bounds alone, seconds)
 
 'sd cm' / 'sd %': the Cramer-Rao bound of the true arrangement on every target vertex
@@ -180,6 +180,27 @@ m (array12_issue), 0.023 m (cluster3_mixed), 0.019 m (cluster4), 0.016 m (array1
 0.013 m (array16): 165 000 to 1 800 000 target vertices per room; with the flux given
 (2 cm) 0.062 m (array9) down to 0.018 m (array16). Not run: vertex_points keeps at most
 20000 and a locate at 0.05 m did not finish in 10 minutes on this machine.
+
+2026-11-26 (h10), every target vertex of a finely meshed room: locate's last refit is
+streamed over all of them (locate_vertices.VertexProblem, after regroup on the 20 000-vertex
+subset: LM normal equations summed per 50 000-vertex chunk, direct light exact, each
+luminaire's interreflection gathered exactly once at every vertex, its change as it moves
+interpolated from the subset; the truth render's gather in row chunks, GATHER_MAX_MB).
+Flux unknown, 5 % noise, load 4-5 ('rss': the whole process's peak, truth render and
+bound included; count / ok / max cm / max flux % / wall s / CPU s / rss MB / sd cm / sd % /
+rms/sd):
+  array9_1.0h   0.10 m   27846 v  9/9  yes  1.24 1.29   62  37      |  1.93 1.06 1.15
+  array9_1.0h   0.04 m  170856 v  9/9  yes  1.40 0.82  139  53  881 |  0.78 0.43 2.19
+  array20_1.2h  0.04 m  313008 v 20/20 yes  2.60 0.61  253 129  986 |  0.78 0.39 2.03
+  array12_issue 0.027 m 409022 v 12/12 yes  9.72 3.60  235 142 1224 |  0.79 0.51 10.2
+  (0.2 m, before: array9 8.9 cm 5.5 %, array20 7.7 cm 4.95 %, array12_issue 15.6 cm 6.4 %)
+array9 meets 2 cm / 5 % (the Done-when), array20 is 2.6 cm (3.3 sd) with 0.6 %. array12_issue
+is not the bound's: at 0.06 m (83274 vertices, --diagnose as a script) ten luminaires are
+within 1 cm and the two inner ones of the middle row 9.5 and 7.9 cm off; the truth's own
+refit on the same data leaves them 6.4 and 4.8 cm off (gap 2.3 noise variances: the found
+answer is a neighbouring minimum of that valley, twelve more LM rounds from it move nothing),
+noise-free the truth's refit stays within 0.01 cm (no model bias): the likelihood of those
+two is far from quadratic, the local bound (about 1.7 cm there) says too little.
 """
 import argparse
 import os
@@ -457,6 +478,9 @@ def main():
     for name in names:
         cell = float(per_scene.get(name, args.cell))
         scene, true = build(name, args.noise, cell=cell)
+        rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+        print(f"  {name}: {len(scene.vertices)} vertices at {cell} m, built; peak RSS so far"
+              f" {rss0:.0f} MB", flush=True)
         modes = [] if args.given_only else [("free", None)]
         if not args.no_flux_given and len({t.flux_lm for t in true}) == 1:
             modes.append(("given", true[0].flux_lm))

@@ -408,7 +408,10 @@ class _RoomFit:
         (``s.poor_fit``: the luminaires do not explain the targets; more of them does not
         help) and for ``--aim free`` (not measured there). Fluxes free, groups of close
         or poorly pinned luminaires are then refitted from other starts
-        (:func:`~invrad_wb.core.inverse.locate_count.regroup`).
+        (:func:`~invrad_wb.core.inverse.locate_count.regroup`). The points are at most
+        :data:`~invrad_wb.core.inverse.locate_problem.VERTEX_POINTS_MAX` vertices (an
+        even subset); a room with more is refitted once more on every one of them
+        (:meth:`polish_every_vertex`, streamed in chunks).
 
         Measured (bench/bench_count.py scenes, 5 % noise per vertex, refitted from the
         true arrangement over 6 noise draws, voting points at their corners -> every

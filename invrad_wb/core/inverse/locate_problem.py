@@ -137,7 +137,10 @@ def _at_vertices(scene, pts):
 
 
 #: :func:`vertex_points`: at most this many target vertices (an even random subset of a
-#: room meshed more finely; a refit's time grows with the points)
+#: room meshed more finely; a refit's time grows with the points) in the last refit's
+#: problem on which regroup works; the refit after it takes every target vertex, streamed
+#: in chunks (:meth:`~invrad_wb.core.inverse.locate_fit._RoomFit.polish_every_vertex`,
+#: at most :data:`~invrad_wb.core.inverse.locate_vertices.VERTICES_MAX`)
 VERTEX_POINTS_MAX = 20000
 
 
