@@ -40,6 +40,10 @@ CHUNK_POINTS = 50_000
 #: 250 bytes each, 1 GB at this many
 VERTICES_MAX = 4_000_000
 
+#: visibility masks a chunk keeps (rooms with occluders): a byte per vertex each, so 64 MB
+#: per million vertices at most
+VIS_CACHE_MASKS = 64
+
 #: :class:`IndirectInterpolator`: neighbours of each vertex among the subset's points
 INTERP_NEIGHBOURS = 8
 
@@ -185,6 +189,9 @@ class VertexProblem:
                                 free_aim=base.free_aim)
             sub.w_area = self.w_area[sl]
             sub.separation_m = base.separation_m
+            # visibility masks kept per chunk (a byte per vertex each): at most
+            # VIS_CACHE_MASKS of them, not the 512 of a voting-point problem
+            sub.VIS_CACHE_SIZE = VIS_CACHE_MASKS
             self.chunks.append((sl, sub))
         self.chunks[0][1]._sep_w = self._separation_weight()
 
