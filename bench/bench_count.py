@@ -201,6 +201,22 @@ refit on the same data leaves them 6.4 and 4.8 cm off (gap 2.3 noise variances: 
 answer is a neighbouring minimum of that valley, twelve more LM rounds from it move nothing),
 noise-free the truth's refit stays within 0.01 cm (no model bias): the likelihood of those
 two is far from quadratic, the local bound (about 1.7 cm there) says too little.
+The clusters, same run conditions (count / ok / max cm / max flux % / wall s / CPU s / rss MB /
+sd cm / sd % / rms/sd):
+  cluster4_0.3h  0.019 m 353086 v  4/4  yes 11.32 29.04  132  95 1305 | 0.82 0.95 10.9
+  cluster3_mixed 0.023 m 241740 v  3/3  yes 20.79 64.47   96  54 1399 | 0.80 0.68 36.2
+  (0.2 m: cluster4 41.8 cm 63.8 %, cluster3_mixed 16.1 cm 42.3 %)
+Not the bound's either: the streamed refit starts from the subset's answer (20 000
+vertices, regroup's choice there) and ends in the minimum of its valley; the finer data do
+not move it to the truth's. Tried and left out: regroup's starts (polygons, dictionary; on
+the subset) each refitted on every vertex: array12_issue the same 9.72 cm for 272 instead of
+142 CPU s, cluster4 13.1 cm 30.1 %. Noise-free, a refit of cluster4 (0.1 m, every vertex)
+from 8-10 cm and 15 % off its luminaires ends 9-11 cm off too (cost 4.9e-6 against 3.9e-6
+at the truth): the valley has minima of its own; finding the right one at this precision
+needs a global step that this round has not got.
+Memory at 1.78 million vertices (array16_0.8h's room at 0.013 m, a throwaway script): building the
+scene (box_room, 3.55 million faces) 21 CPU s, 756 MB held, 2.1 GB peak (check_winding's
+edge arrays, about 500 bytes a face, after this round's 287 -> 225 MB at 0.04 m).
 """
 import argparse
 import os
