@@ -10,7 +10,7 @@ unknown, flux given): count right?, worst position error (cm), worst flux error 
 seconds.
 
 Usage: python bench/bench_count.py [--only NAME,...] [--noise 0.05] [--no-flux-given]
-                                   [--given-only] [--cell 0.2]
+                                   [--given-only] [--cell 0.2] [--scene-cells NAME=M,...]
        python bench/bench_count.py --bound-only    (the bounds alone, seconds)
 
 'sd cm' / 'sd %': the Cramer-Rao bound of the true arrangement on every target vertex
@@ -180,9 +180,56 @@ m (array12_issue), 0.023 m (cluster3_mixed), 0.019 m (cluster4), 0.016 m (array1
 0.013 m (array16): 165 000 to 1 800 000 target vertices per room; with the flux given
 (2 cm) 0.062 m (array9) down to 0.018 m (array16). Not run: vertex_points keeps at most
 20000 and a locate at 0.05 m did not finish in 10 minutes on this machine.
+
+2026-11-26 (h10), every target vertex of a finely meshed room: locate's last refit is
+streamed over all of them (locate_vertices.VertexProblem, after regroup on the 20 000-vertex
+subset: LM normal equations summed per 50 000-vertex chunk, direct light exact, each
+luminaire's interreflection gathered exactly once at every vertex, its change as it moves
+interpolated from the subset; the truth render's gather in row chunks, GATHER_MAX_MB).
+Flux unknown, 5 % noise, load 4-5 ('rss': the whole process's peak, truth render and
+bound included; count / ok / max cm / max flux % / wall s / CPU s / rss MB / sd cm / sd % /
+rms/sd):
+  array9_1.0h   0.10 m   27846 v  9/9  yes  1.24 1.29   62  37      |  1.93 1.06 1.15
+  array9_1.0h   0.04 m  170856 v  9/9  yes  1.40 0.82  139  53  881 |  0.78 0.43 2.19
+  array20_1.2h  0.04 m  313008 v 20/20 yes  2.60 0.61  253 129  986 |  0.78 0.39 2.03
+  array12_issue 0.027 m 409022 v 12/12 yes  9.72 3.60  235 142 1224 |  0.79 0.51 10.2
+  (0.2 m, before: array9 8.9 cm 5.5 %, array20 7.7 cm 4.95 %, array12_issue 15.6 cm 6.4 %)
+array9 meets 2 cm / 5 % (the Done-when), array20 is 2.6 cm (3.3 sd) with 0.6 %. array12_issue
+is not the bound's: at 0.06 m (83274 vertices, --diagnose as a script) ten luminaires are
+within 1 cm and the two inner ones of the middle row 9.5 and 7.9 cm off; the truth's own
+refit on the same data leaves them 6.4 and 4.8 cm off (gap 2.3 noise variances: the found
+answer is a neighbouring minimum of that valley, twelve more LM rounds from it move nothing),
+noise-free the truth's refit stays within 0.01 cm (no model bias): the likelihood of those
+two is far from quadratic, the local bound (about 1.7 cm there) says too little.
+The clusters, same run conditions (count / ok / max cm / max flux % / wall s / CPU s / rss MB /
+sd cm / sd % / rms/sd):
+  cluster4_0.3h  0.019 m 353086 v  4/4  yes 11.32 29.04  132  95 1305 | 0.82 0.95 10.9
+  cluster3_mixed 0.023 m 241740 v  3/3  yes 20.79 64.47   96  54 1399 | 0.80 0.68 36.2
+  (0.2 m: cluster4 41.8 cm 63.8 %, cluster3_mixed 16.1 cm 42.3 %)
+Not the bound's either: the streamed refit starts from the subset's answer (20 000
+vertices, regroup's choice there) and ends in the minimum of its valley; the finer data do
+not move it to the truth's. Tried and left out: regroup's starts (polygons, dictionary; on
+the subset) each refitted on every vertex: array12_issue the same 9.72 cm for 272 instead of
+142 CPU s, cluster4 13.1 cm 30.1 %. Noise-free, a refit of cluster4 (0.1 m, every vertex)
+from 8-10 cm and 15 % off its luminaires ends 9-11 cm off too (cost 4.9e-6 against 3.9e-6
+at the truth): the valley has minima of its own; finding the right one at this precision
+needs a global step that this round has not got.
+Memory at 1.78 million vertices (array16_0.8h's room at 0.013 m, a throwaway script): building the
+scene (box_room, 3.55 million faces) 21 CPU s, 756 MB held, 2.1 GB peak (check_winding's
+edge arrays, about 500 bytes a face, after this round's 287 -> 225 MB at 0.04 m). Then,
+targets direct light only + 5 % noise (CPU s / RSS after): render 42 s / 1465 MB; the
+vertices (vertex_points) 2.4 s / 1045 MB; the subset problem (20 000 vertices, its radiosity
+model) and the VertexProblem (36 chunks, interpolation weights) 70 s / 2223 MB, peak 3252 MB;
+the exact gather of 16 luminaires' interreflection at every vertex 646 s / 2452 MB (the
+streamed refit's one expensive step: about 0.36 ms a vertex on this machine); one cost on
+every vertex 4.5 CPU s (2.3 s wall); three LM steps 60 CPU s; the Fisher bound 12 CPU s.
+The refit's own arrays stay bounded by the chunk; the resident memory is the scene's
+(about 200 bytes a face), the vertices' (130 bytes each, held twice in that script) and
+the radiosity model of a 3.55 million-face room.
 """
 import argparse
 import os
+import resource
 import sys
 import time
 
@@ -241,11 +288,30 @@ def scenes():
     }
 
 
+#: the bound's and the truth refit's radiosity gather (numpy: 50 s at 20 000 points, the
+#: same form factors as OpenCL's to float32)
+BACKEND = "auto"
+
+
+#: :func:`build`: the truth render's gather matrix is kept up to this size (MB), beyond it
+#: recomputed in row chunks (the same numbers, bounded memory)
+GATHER_MAX_MB = 128
+
+
 def build(name, noise, seed=0, cell=0.2):
     """(scene with noisy rendered targets, true luminaires)."""
     (w, d, h), lums = scenes()[name]
     scene = g.with_reflectances(g.box_room((w, d, h), cell=cell))
-    lux = render(scene, lums, interreflection=True)
+    # the render's own gather (exact at every vertex) in row chunks of bounded memory,
+    # not its (vertices x patches) matrix kept (816 MB at 170 000 vertices)
+    from invrad_wb import constants as C
+    keep, C.RADIOSITY_GATHER_MAX_MB = C.RADIOSITY_GATHER_MAX_MB, GATHER_MAX_MB
+    try:
+        lux = render(scene, lums, interreflection=True)
+    finally:
+        C.RADIOSITY_GATHER_MAX_MB = keep
+    from invrad_wb.core.forward.radiosity import RadiosityModel
+    RadiosityModel.forget(scene)
     if noise > 0:
         rng = np.random.default_rng(seed)
         lux = lux * np.clip(1.0 + noise * rng.standard_normal(len(lux)), 0.0, None)
@@ -263,14 +329,20 @@ def _vertex_problem(scene, true, free):
     from invrad_wb.core.inverse.refine import Light
     from invrad_wb.core.inverse.votemaps import build_canvas
     from invrad_wb.core.inverse import locate_problem as lp
+    from invrad_wb.core.inverse import locate_vertices as lv
     s = LocateSettings()
     room = int(scene.rooms[0])
     canvas = build_canvas(scene, room, pixel=s.pixel_m, dummy=False)
     flux = true[0].flux_lm
     pts = vertex_points(scene, most=lp.VERTEX_POINTS_MAX)
-    prob, _ = _refine_problem(scene, pts, canvas, _occluders(scene, s), s,
-                              flux, "numpy", True, {"radiosity": 0.0})
-    prob.free_flux = free
+    base, ind = _refine_problem(scene, pts, canvas, _occluders(scene, s), s,
+                                flux, BACKEND, True, {"radiosity": 0.0})
+    base.free_flux = free
+    every = vertex_points(scene, most=lv.VERTICES_MAX)
+    prob = base
+    if len(every) > len(pts):
+        # every vertex, streamed (as locate's last refit: locate_fit.polish_every_vertex)
+        prob = lv.VertexProblem(every, base, pts.plane, indirect_model=ind)
 
     def lights(lums):
         out = []
@@ -278,7 +350,7 @@ def _vertex_problem(scene, true, free):
             L = Light("free", np.asarray(t.position, float), np.array([0, 0, -1.0]), -1,
                       flux_scale=t.flux_lm / flux, free_flux=free)
             out.append(_snap_to_surfaces([L], canvas, scene)[0])
-        return _rebase(prob, out)
+        return _rebase(base, out)
     return prob, lights
 
 
@@ -294,8 +366,10 @@ def bound(scene, true, noise, free, per_luminaire=False):
     so the log residual the refinement fits has a standard deviation of about ``noise``
     per vertex, independent from vertex to vertex (what position_sd assumes)."""
     from invrad_wb.core.inverse.fitcheck import position_sd
+    from invrad_wb.core.inverse import locate_vertices as lv
     prob, lights = _vertex_problem(scene, true, free)
-    sd, fsd = position_sd(prob, lights(true), sigma=max(noise, 1e-12))
+    sd_of = lv.position_sd if isinstance(prob, lv.VertexProblem) else position_sd
+    sd, fsd = sd_of(prob, lights(true), sigma=max(noise, 1e-12))
     out = (100.0 * float(sd.max()), (100.0 * float(fsd.max()) if fsd is not None
                                      else float("nan")),
            100.0 * float(np.sqrt(np.mean(sd ** 2))))
@@ -324,8 +398,16 @@ def truth_refit(scene, true, found, noise, free):
             if not changed:
                 break
         return ls, prob.cost(ls)
-    T, ct = refit(lights(true))
-    cf = prob.cost(lights(found)) if found else float("nan")
+    start = lights(true)
+    if hasattr(prob, "exact_indirect"):
+        prob.exact_indirect(start)
+    T, ct = refit(start)
+    cf = float("nan")
+    if found:
+        F = lights(found)
+        if hasattr(prob, "exact_indirect"):
+            prob.exact_indirect(F)
+        cf = prob.cost(F)
     gap = 2.0 * len(prob.target) * (cf - ct) / max(noise, 1e-12) ** 2
     err = np.array([100.0 * float(np.linalg.norm(L.position - t.position))
                     for L, t in zip(T, true)])
@@ -380,6 +462,8 @@ def main():
     ap.add_argument("--given-only", action="store_true", help="only the flux-given runs")
     ap.add_argument("--cell", type=float, default=0.2,
                     help="the generator's mesh spacing (m): one target per vertex")
+    ap.add_argument("--scene-cells", default="",
+                    help="per scene its own mesh spacing, NAME=METRES,... (others: --cell)")
     ap.add_argument("--bound-only", action="store_true",
                     help="print the Cramer-Rao bounds of the scenes only (no locate)")
     ap.add_argument("--points-max", type=int, default=None,
@@ -410,12 +494,18 @@ def main():
                           + " | sd % " + " ".join(f"{x:.2f}" for x in free[4]), flush=True)
         return
     names = [n for n in scenes() if not args.only or n in args.only.split(",")]
-    print(f"{'scene':16s} {'mode':6s} {'count':>7s} {'ok':>3s} {'max cm':>7s}"
-          f" {'max flux %':>10s} {'s':>7s} {'cpu s':>7s} {'sd cm':>6s} {'sd %':>6s}"
-          f" {'rms/sd':>6s}" + (f" {'gap chi2':>9s}" if args.diagnose else ""))
+    print(f"{'scene':16s} {'mode':6s} {'cell':>5s} {'vertices':>8s} {'count':>7s} {'ok':>3s}"
+          f" {'max cm':>7s} {'max flux %':>10s} {'s':>7s} {'cpu s':>7s} {'rss MB':>6s}"
+          f" {'sd cm':>6s} {'sd %':>6s} {'rms/sd':>6s}"
+          + (f" {'gap chi2':>9s}" if args.diagnose else ""))
     summary = {"free": [], "given": []}
+    per_scene = dict(c.split("=") for c in args.scene_cells.split(",") if c)
     for name in names:
-        scene, true = build(name, args.noise, cell=args.cell)
+        cell = float(per_scene.get(name, args.cell))
+        scene, true = build(name, args.noise, cell=cell)
+        rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+        print(f"  {name}: {len(scene.vertices)} vertices at {cell} m, built; peak RSS so far"
+              f" {rss0:.0f} MB", flush=True)
         modes = [] if args.given_only else [("free", None)]
         if not args.no_flux_given and len({t.flux_lm for t in true}) == 1:
             modes.append(("given", true[0].flux_lm))
@@ -430,8 +520,11 @@ def main():
             summary[mode].append((ok, cm, fe, dt))
             sd, fsd, sd_rms, sds, fsds = bound(scene, true, args.noise, mode == "free",
                                                per_luminaire=True)
-            line = (f"{name:16s} {mode:6s} {len(r.luminaires):>3d}/{len(true):<3d}"
+            rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+            line = (f"{name:16s} {mode:6s} {cell:5.3f} {len(scene.vertices):8d}"
+                    f" {len(r.luminaires):>3d}/{len(true):<3d}"
                     f" {'yes' if ok else 'NO':>3s} {cm:7.2f} {fe:10.2f} {dt:7.1f} {dc:7.1f}"
+                    f" {rss:6.0f}"
                     f" {sd:6.2f} {fsd:6.2f} {rms_error(r.luminaires, true) / sd_rms:6.2f}")
             if not args.diagnose:
                 print(line, flush=True)

@@ -408,7 +408,10 @@ class _RoomFit:
         (``s.poor_fit``: the luminaires do not explain the targets; more of them does not
         help) and for ``--aim free`` (not measured there). Fluxes free, groups of close
         or poorly pinned luminaires are then refitted from other starts
-        (:func:`~invrad_wb.core.inverse.locate_count.regroup`).
+        (:func:`~invrad_wb.core.inverse.locate_count.regroup`). The points are at most
+        :data:`~invrad_wb.core.inverse.locate_problem.VERTEX_POINTS_MAX` vertices (an
+        even subset); a room with more is refitted once more on every one of them
+        (:meth:`polish_every_vertex`, streamed in chunks).
 
         Measured (bench/bench_count.py scenes, 5 % noise per vertex, refitted from the
         true arrangement over 6 noise draws, voting points at their corners -> every
@@ -426,8 +429,9 @@ class _RoomFit:
         if pts is None or len(pts) <= len(prob.target):
             return lights, cost
         _s, backend, photometry, has_rho = run.remake
-        big, _ = _refine_problem(run.scene, pts, run.canvas, run.occluders, s, run.flux,
-                                 backend, has_rho, {"radiosity": 0.0}, photometry)
+        big, big_indirect = _refine_problem(run.scene, pts, run.canvas, run.occluders, s,
+                                            run.flux, backend, has_rho, {"radiosity": 0.0},
+                                            photometry)
         big.free_flux = prob.free_flux
         # free fluxes of close luminaires lie in a long flat valley: the count search's steps
         opt = ((lambda L: big.levenberg_marquardt(L, iterations=100)) if s.optimiser == "lm"
@@ -450,12 +454,51 @@ class _RoomFit:
             # search's split arrangement is one minimum of several), the lowest cost kept
             from invrad_wb.core.inverse.locate_count import regroup
             got, c_got = regroup(big, got, c_got, refit, self.trace)
-        back = _rebase(prob, got)
-        c_back = prob.cost(back)
         self.trace.append({"polish_points": len(pts), "cost_before": c_start,
                            "cost_after": big.cost(got),
                            "moved_m": round(moved, 4)})
+        # more target vertices than that subset: the same refit on every one, streamed
+        if s.optimiser == "lm":
+            got = self.polish_every_vertex(big, big_indirect, pts, got, rounds)
+        back = _rebase(prob, got)
+        c_back = prob.cost(back)
         return back, c_back
+
+    def polish_every_vertex(self, sub, sub_indirect, sub_pts, lights, rounds=4):
+        """The last refit of :meth:`polish` (Levenberg-Marquardt, interreflection
+        refreshed where a luminaire moved more than 5 mm, at most ``rounds`` times) on
+        every target vertex of the room (at most :data:`~invrad_wb.core.inverse.
+        locate_vertices.VERTICES_MAX`), streamed in chunks
+        (:class:`~invrad_wb.core.inverse.locate_vertices.VertexProblem`), from
+        ``lights``, the answer on the subset problem ``sub`` (its points ``sub_pts``):
+        direct light exact at every vertex, each luminaire's interreflection gathered
+        exactly at every vertex once, then its change interpolated from ``sub``'s points.
+        Returns the refitted lights (their interreflection at ``sub``'s points); the
+        lights as they are where the room has no more vertices than ``sub``.
+
+        Measured (bench/bench_count.py, 5 % noise per vertex, flux unknown): see its
+        docstring, the rows of 2026-11-26 (h10)."""
+        from invrad_wb.core.inverse import locate_problem as lp
+        from invrad_wb.core.inverse import locate_vertices as lv
+        if not lights:
+            return lights
+        every = lp.vertex_points(self.run.scene, most=lv.VERTICES_MAX)
+        if every is None or len(every) <= len(sub_pts):
+            return lights
+        vp = lv.VertexProblem(every, sub, sub_pts.plane, indirect_model=sub_indirect)
+        vp.exact_indirect(lights)
+        c_start = vp.cost(lights)
+        got = lights
+        for _round in range(rounds):
+            got, _c = vp.levenberg_marquardt(got, iterations=100)
+            got, changed = vp.refresh_indirect(got, moved=0.005)
+            if not changed:
+                break
+        moved = max(float(np.linalg.norm(a.position - b.position))
+                    for a, b in zip(lights, got))
+        self.trace.append({"polish_vertices": len(every), "cost_before": c_start,
+                           "cost_after": vp.cost(got), "moved_m": round(moved, 4)})
+        return got
 
     def spread(self, lights, cost):
         """Luminaires crowded in pairs moved apart where that costs the fit (almost)

@@ -55,7 +55,8 @@ class _Indirect:
         patch = self.model.face_patch[points.face]
         self.gather = self.model.gather(points.positions, points.normals, patch)
 
-    def __call__(self, lights, flux):
+    def exitance(self, lights, flux):
+        """(P,) patch exitance of ``lights`` together, each of ``flux`` lm."""
         from invrad_wb.core.model.aiming import aimed_c0
         lums = [Luminaire(L.position, L.normal, flux, photometry=self.photometry,
                           c0=None if L.mount is None else aimed_c0(L.mount, L.normal))
@@ -63,7 +64,10 @@ class _Indirect:
         # each patch's mean direct light, exact near a luminaire (as the verification's)
         pdir = self.model.patch_direct(lums, bvh=self.bvh, occlusion=self.bvh is not None,
                                        backend=self.backend)
-        B = self.model.solve(pdir)
+        return self.model.solve(pdir)
+
+    def __call__(self, lights, flux):
+        B = self.exitance(lights, flux)
         g = self.gather
         return g(B) if callable(g) else g @ B
 
@@ -133,7 +137,10 @@ def _at_vertices(scene, pts):
 
 
 #: :func:`vertex_points`: at most this many target vertices (an even random subset of a
-#: room meshed more finely; a refit's time grows with the points)
+#: room meshed more finely; a refit's time grows with the points) in the last refit's
+#: problem on which regroup works; the refit after it takes every target vertex, streamed
+#: in chunks (:meth:`~invrad_wb.core.inverse.locate_fit._RoomFit.polish_every_vertex`,
+#: at most :data:`~invrad_wb.core.inverse.locate_vertices.VERTICES_MAX`)
 VERTEX_POINTS_MAX = 20000
 
 

@@ -531,8 +531,15 @@ class Scene:
         face_of = np.repeat(f_idx, 3)
         room = self.face_room[face_of]
         lo, hi = np.minimum(a, b), np.maximum(a, b)
-        key = np.stack([room, lo, hi], axis=1)
-        ukey, inv = unique_rows(key)
+        room_ids, room_i = np.unique(room, return_inverse=True)
+        if len(a) and int(hi.max()) < 1 << 26 and len(room_ids) < 1 << 11:
+            # (room, lo, hi) packed into one int64: a 1-D unique (three (edges, 3) int64
+            # copies and a lexsort of them peaked at 650 bytes a face, 2.6 GB for a 1.8
+            # million vertex room)
+            key = (room_i.astype(np.int64) << 52) | (lo.astype(np.int64) << 26) | hi
+            ukey, inv = np.unique(key, return_inverse=True)
+        else:
+            ukey, inv = unique_rows(np.stack([room, lo, hi], axis=1))
         counts = np.bincount(inv, minlength=len(ukey))
         forward = (a < b).astype(np.int64)
         n_forward = np.bincount(inv, weights=forward, minlength=len(ukey))
@@ -549,17 +556,25 @@ class Scene:
             sel = np.flatnonzero((self.face_room == r) & real)
             if len(sel) == 0:
                 continue
-            tri = self.vertices[self.faces[sel]]
-            size = float(np.max(tri.reshape(-1, 3).max(0) - tri.reshape(-1, 3).min(0)))
+            used = self.vertices[np.unique(self.faces[sel])]
+            size = float(np.max(used.max(0) - used.min(0)))
             probe = sel[np.argsort(self.face_areas[sel])[::-1][:5]]
             delta = 1e-3 * size
             c = self.face_centroids[probe]
             n = self.face_normals[probe]
-            # the points in front only where those behind lie inside (a room wound
-            # right has them outside: half of the check, 11 ms of reading the office)
-            w_back = winding_number(tri, c - delta * n)
-            if np.median(w_back) > 0.9 and np.median(
-                    np.abs(winding_number(tri, c + delta * n))) < 0.1:
+            # the solid angles summed over chunks of the room's faces: bounded memory (a
+            # 1.8 million vertex room, 3.7 million faces, held (faces, 3, 3) corners and
+            # twenty (faces,) temporaries per probe at once: several GB); the points in
+            # front only where those behind lie inside (a room wound right has them
+            # outside: half of the check)
+            def winding(points, _sel=sel):
+                w = np.zeros(len(points))
+                for k in range(0, len(_sel), WINDING_CHUNK_FACES):
+                    w += winding_number(self.vertices[self.faces[_sel[k:k + WINDING_CHUNK_FACES]]],
+                                        points)
+                return w
+            if np.median(winding(c - delta * n)) > 0.9 and np.median(
+                    np.abs(winding(c + delta * n))) < 0.1:
                 raise SceneError(
                     f"room {int(r)}: face normals point out of the room (faces are clockwise"
                     " seen from inside); flip the winding of its faces", self.source)
@@ -688,6 +703,10 @@ def sample_texture(image, uv):
     y0c, y1c = np.clip(y0, 0, h - 1), np.clip(y0 + 1, 0, h - 1)
     return ((image[y0c, x0c] * (1 - fx) + image[y0c, x1c] * fx) * (1 - fy)
             + (image[y1c, x0c] * (1 - fx) + image[y1c, x1c] * fx) * fy)
+
+
+#: :meth:`Scene.check_winding`: faces per chunk of the winding numbers' sums
+WINDING_CHUNK_FACES = 200_000
 
 
 def winding_number(triangles, points):
