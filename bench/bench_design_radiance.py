@@ -30,6 +30,25 @@ writes the jobs, and ``out/radjobs/run_all.sh N`` traces them N at a time (with
 ``RADBIN`` and ``RAYPATH=.:<pyradiance>/lib`` set: on a many-core machine); the next
 run reads the traced results. Radiance takes minutes per judgement on one core.
 
+Measured 2026-11-26, round 10 (load 4-5; same Radiance settings; grid references
+round 7's): the hall redesigned with a clear / diffused mix (:func:`refine.swap_entry`,
+UGR by a variable per squared output):
+
+==========  ==============  ==============  =====  ========  ========  ========  =======  ====  =======
+room        invrad W        grid W          ratio  task      surround  walls     ceiling  UGR   by Rad.
+==========  ==============  ==============  =====  ========  ========  ========  =======  ====  =======
+hall 6.5 m  824.2 (828.4)   895.0 (895.9)   0.921  302/0.61  210/0.65  120/0.27  44/0.68  21.8  both
+==========  ==============  ==============  =====  ========  ========  ========  =======  ====  =======
+
+* hall (was 878.9, 0.982): 16 HB-13000D and 4 clear HB-15000 of a 4 x 6 grid (5.0 x 1.9
+  m; the clear ones at full output in the end columns by the short walls, second from
+  each long wall, where the observers at the short walls see them steeply; the diffused
+  at 21-40 %), 828.4 W by the exact model (invrad's own UGR 21.9), the diffused dimmed
+  by x 0.990 to Radiance's need and re-traced: 824.2 W, every item met (UGR 21.8 for
+  22). As designed, before Radiance's dimming: 828.4 / 895.9 = 0.925. Design 100 s
+  (load 4-5; round 9: 96 s at load 5-6). Installed (rated) power 2000 W against the
+  grid's 1200 W: the objective is the power drawn at the designed output.
+
 Measured 2026-11-26, round 9 (shared 2-core machine at load 5-7; same Radiance settings).
 Only the hall and the L corridor were redesigned (the other rooms: round 7's designs
 and judgements, below); the grid references are round 7's (unchanged code):

@@ -312,12 +312,11 @@ def _group_watts(search, cand, groups):
     return w, lo, hi
 
 
-def fast_watts(search, cand):
-    """Watts of a layout with per-group outputs by the fast model (no solve; surfaces,
-    Ez and UGR as the fast model knows them: Ez not; UGR with the background light per
-    lumen at the eyes of the search's calibration), or inf where none meets it."""
+def _fast_parts(search, cand, groups):
+    """(parts, glare, watts, lo, hi) of a layout's groups by the fast model (no solve):
+    see :func:`solve_outputs`; glare None where UGR is not constrained or the fast model
+    has no background light at the eyes for a type."""
     m, g = search.model, cand.geom
-    groups = groups_of(g.plan, g.cls)
     idx = np.asarray(cand.entries)[g.cls]
     G = int(groups.max()) + 1
     lux = np.zeros((G, len(m.points)))
@@ -350,16 +349,30 @@ def fast_watts(search, cand):
                 glare[0][:, o] += e.flux_lm ** 2 * np.bincount(groups[sel], weights=u,
                                                                minlength=G)
     w, lo, hi = _group_watts(search, cand, groups)
+    return {"lux": lux, "direct": direct}, glare, w, lo, hi
+
+
+def _fast_solve(search, *args, **kw):
+    """:func:`solve_outputs` as the fast table judges: not Ez, not the surfaces it
+    leaves to the exact checks."""
     saved = search.cyl_req, search.surf_reqs
     try:
-        # as the fast table judges: not Ez, not the surfaces it leaves to the exact checks
         search.cyl_req = None
         search.surf_reqs = {k: v for k, v in saved[1].items() if k not in EXACT_ONLY}
-        # every group burning: the fast model's answer with groups left out is too
-        # hopeful to rank by (the exact check tries leaving them out)
-        x = solve_outputs({"lux": lux, "direct": direct}, w, lo, hi, search, glare)
+        return solve_outputs(*args, **kw)
     finally:
         search.cyl_req, search.surf_reqs = saved
+
+
+def fast_watts(search, cand):
+    """Watts of a layout with per-group outputs by the fast model (no solve; surfaces,
+    Ez and UGR as the fast model knows them: Ez not; UGR with the background light per
+    lumen at the eyes of the search's calibration), or inf where none meets it."""
+    g = cand.geom
+    parts, glare, w, lo, hi = _fast_parts(search, cand, groups_of(g.plan, g.cls))
+    # every group burning: the fast model's answer with groups left out is too hopeful
+    # to rank by (the exact check tries leaving them out)
+    x = _fast_solve(search, parts, w, lo, hi, search, glare)
     return math.inf if x is None else float(x @ w)
 
 
