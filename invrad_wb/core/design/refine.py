@@ -480,7 +480,11 @@ def exact_refine(search, cand, may_drop=True, limit=math.inf, groups=None):
             cls, entries = swapped[keep].astype(int), (own, k)
         sub = replace(g, plan=g.plan[keep], positions=g.positions[keep],
                       normals=g.normals[keep], cls=cls)
-        sub_groups = np.unique(groups[keep] + G * swapped[keep], return_inverse=True)[1]
+        # the kept luminaires' own rows and rings (per type) split by the programme's
+        # groups: every answer of either grouping is one of these
+        rings = groups_of(sub.plan, cls)
+        sub_groups = np.unique(np.c_[groups[keep] + G * swapped[keep], rings], axis=0,
+                               return_inverse=True)[1].ravel()
         r = exact_refine(search, Candidate(sub, entries, 1.0, 0.0, 0, 0, 0, False),
                          may_drop=False, groups=sub_groups)
         if r is not None and r[0].ok and (best is None or not best[0].ok
