@@ -65,8 +65,10 @@ classroom   317.3 (318.4)   344.9 (344.5)   0.920  500/0.69  317/0.40  142/0.36 
   0.002 over it); the classroom's the same 72 positions, dimmed per group over the
   kept luminaires' own rings split by the programme's groups (:func:`refine.exact_refine`).
   Design CPU s at load 4 (round 9's code / this code): meeting 33.0 / 30.2, classroom
-  143.3 / 147.6; the hall 98 s wall (load 3-4). L office, lab and L corridor were not
-  redesigned this round.
+  143.3 / 147.6; the hall 98 s wall (load 3-4). The other rooms designed again, not
+  traced (exact model, round 9's code / this code, CPU s at load 2-3): lab 238.70 W, 63
+  luminaires / 238.10 W, 55 (69.2 / 63.1 s); L office 392.67 W, 105 / 390.56 W, 100
+  (233.4 / 243.0 s); L corridor 52.59 W / 52.59 W (the same 5 x PN-3600, 15.8 s).
 
 Measured 2026-11-26, round 9 (shared 2-core machine at load 5-7; same Radiance settings).
 Only the hall and the L corridor were redesigned (the other rooms: round 7's designs
