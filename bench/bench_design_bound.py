@@ -15,11 +15,14 @@ W, against the grid reference's 52.0 W by Radiance; hall (--step 1.2) 731.7 W, a
 the clear HB-15000 that meets UGR 22 in no layout (grid reference 895.0 W).
 
 ``--full``: every item the design meets (means, every uniformity, Ez, the points that
-must stay dark, UGR by cutting planes as in :mod:`invrad_wb.core.design.refine`), no
-design, uniformity or UGR margin; only the dimming floor and the count are relaxed (each
-position any output 0..1, a type that does not dim too). ``--milp S``: then each position
-off, or on within its type's range (a type that does not dim: full output), HiGHS's
-mixed-integer programme (S s per solve). ``--types A,B``: only these types.
+must stay dark, UGR as in :mod:`invrad_wb.core.design.refine`: a variable per squared
+output), no design, uniformity or UGR margin; only the dimming floor and the count are
+relaxed (each position any output 0..1, a type that does not dim too). ``--milp S``: then
+each position off, or on within its type's range (a type that does not dim: full output),
+HiGHS's mixed-integer programme (S s per solve; its answer and its lower bound are
+printed); ``--cap W``: then the same with at most W watts (infeasible: a proof that none
+exists). ``--types A,B``: only these types. The positions' solves are kept in
+``out/bound_<room>_<step>_...pkl`` for the next run.
 
 Measured 2026-11-26 round 9 (load 5-7; the exact model, which agrees with Radiance within
 0.1-0.7 % on the grid references: 52.3 -> 52.0 W, 895.9 -> 895.0 W):
@@ -39,9 +42,23 @@ Measured 2026-11-26 round 9 (load 5-7; the exact model, which agrees with Radian
   UGR 22 (25.6 by the exact model): whether a mix meets UGR 22 under 850 W is not
   settled by this programme.
 
+Round 10 (2026-11-26, load 3-5), UGR by a variable per squared output (secant and
+tangents, :func:`refine.ugr_rows`) instead of Kelley planes on the glare sum:
+
+* hall, --step 1.2 --full --milp 60 --types HB-15000,HB-13000D: relaxed 734.3 W (as
+  before; without UGR 733.5 W; 20 s of solves); on / off with the floor, every item with
+  UGR 22 and no margin: **812.8 W** (UGR 21.89) in the first 60 s solve, the solver's
+  lower bound then 781.6 W: 4 clear HB-15000 at full output, two by each short wall
+  near its middle ((1.8, 5.4), (1.8, 6.6), (17.4, 3.0), (18.6, 6.6)), where the
+  observers at the short walls see them steeply or not at all, and 13 HB-13000D at
+  10-100 %. So a mix does meet UGR 22 well under 0.95 x the grid (850.3 W): 0.908 of
+  it by the exact model. The design search finds such a mix since round 10
+  (:func:`refine.swap_entry`): 16 HB-13000D + 4 HB-15000 of a 4 x 6 grid, 828.4 W.
+
 Run: ``.venv/bin/python bench/bench_design_bound.py [--step 0.4] [--full [--milp S]]
 [--types A,B] room ...`` (rooms of ``bench_design_radiance``).
 """
+import math
 import os
 import sys
 import time
@@ -59,7 +76,7 @@ from invrad_wb.core.design.search import RoomSearch  # noqa: E402
 from invrad_wb.core.model.photometry import read_photometry  # noqa: E402
 
 
-def bound(name, step, full=False, types=None, milp_s=0):
+def bound(name, step, full=False, types=None, milp_s=0, cap=None):
     from scipy.optimize import linprog
     cat = B.catalogue(B.JOBS)
     phot = {e["name"]: read_photometry(e["photometry"]) for e in cat}
@@ -86,8 +103,15 @@ def bound(name, step, full=False, types=None, milp_s=0):
     cols, watts, what = [], [], []
     luxes, directs, ezs, T, Bg = [], [], [], [], []
     t0 = time.perf_counter()
+    # the positions' solves, kept for the next run (out/, ignored by git)
+    import pickle
+    cache = os.path.join(os.path.dirname(HERE), "out", f"bound_{name}_{step:g}_{full}_"
+                         + ("all" if not types else "+".join(sorted(types))) + ".pkl")
+    if os.path.exists(cache):
+        with open(cache, "rb") as fh:
+            cols, watts, what, luxes, directs, ezs, T, Bg = pickle.load(fh)
     for k, e in enumerate(search.entries):
-        if types and e.name not in types:
+        if types and e.name not in types or os.path.exists(cache):
             continue
         pos, nrm, ok = mount(droom, plan, rs.mounting, search._half_size(e), wp_z)
         for p, n in zip(pos[ok], nrm[ok]):
@@ -113,10 +137,14 @@ def bound(name, step, full=False, types=None, milp_s=0):
             cols.append(m)
             watts.append(e.watts)
             what.append((e.name, e.orientation, tuple(np.round(p[:2], 2))))
+    if not os.path.exists(cache):
+        os.makedirs(os.path.dirname(cache), exist_ok=True)
+        with open(cache, "wb") as fh:
+            pickle.dump((cols, watts, what, luxes, directs, ezs, T, Bg), fh)
     A = np.array(cols).T                                       # (means, positions)
     if full:
         return _full(name, search, rs, cyl, luxes, directs, ezs, T, Bg, watts, what,
-                     time.perf_counter() - t0, milp_s)
+                     time.perf_counter() - t0, milp_s, cap)
     res = linprog(np.array(watts), A_ub=-A, b_ub=-np.array(need),
                   bounds=[(0.0, 1.0)] * len(watts), method="highs")
     s_ = time.perf_counter() - t0
@@ -139,64 +167,50 @@ def bound(name, step, full=False, types=None, milp_s=0):
               f" (best: {what[i][0]} at {what[i][2]})")
 
 
-def _milp(name, search, parts, glare, w, what, limit_s):
+def _milp(name, search, parts, glare, w, what, limit_s, max_watts=None):
     """The same programme with each position on or off: off, or on within its type's
     dimming range (at full output where it has none): a mixed-integer programme
-    (HiGHS), UGR by cutting planes, ``limit_s`` s per solve."""
-    import math
-    from scipy.optimize import Bounds, LinearConstraint, milp
+    (HiGHS, :func:`refine.solve_outputs` with groups of one luminaire), UGR by a variable
+    per squared output and tangents, ``limit_s`` s per solve; ``max_watts``: only
+    answers of at most these watts (infeasible: none exists, a proof)."""
     from invrad_wb.core.design import refine
     ent = {e.name: e for e in search.entries}
     lo = np.array([ent[t[0]].dimming[0] for t in what])
     hi = np.array([ent[t[0]].dimming[1] for t in what])
-    n = len(w)
-    A, b = refine.constraints(parts, search)
-    A = np.hstack([A, np.zeros((len(A), n))])
-    link = np.vstack([np.hstack([np.eye(n), -np.diag(hi)]),
-                      np.hstack([-np.eye(n), np.diag(lo)])])
-    c = np.r_[w, np.full(n, 1e-3)]          # fewer luminaires where watts tie
-    integ = np.r_[np.zeros(n), np.ones(n)]
     t0 = time.perf_counter()
-    for it in range(20):
-        res = milp(c, constraints=[LinearConstraint(A, -np.inf, b),
-                                   LinearConstraint(link, -np.inf, 0.0)],
-                   integrality=integ, bounds=Bounds(0, 1),
-                   options={"time_limit": limit_s, "mip_rel_gap": 1e-3})
-        if res.x is None:
-            print(f"{name}: MILP: {res.message}")
-            return None
-        x = res.x[:n]
-        if glare is None or search.ugr_max is None:
-            break
-        T, B = glare
-        K = 10.0 ** (search.ugr_max / 8.0)
-        gx = 0.25 * math.pi * (x ** 2) @ T - K * (x @ B)
-        worst = int(np.argmax(gx))
-        if gx[worst] <= 1e-3 * max(K * float(x @ B[:, worst]), 1e-12):
-            break
-        grad = 0.5 * math.pi * x * T[:, worst] - K * B[:, worst]
-        A = np.vstack([A, np.r_[grad, np.zeros(n)]])
-        b = np.append(b, grad @ x - gx[worst])
-    used = np.flatnonzero(res.x[n:] > 0.5)
-    if glare is not None and search.ugr_max is not None and gx[worst] > 1e-3 * max(
-            K * float(x @ B[:, worst]), 1e-12):
-        print(f"{name}: MILP: UGR still over its limit after {it + 1} cuts (the last"
-              f" answer, {float(x @ w):.1f} W, is no bound)", flush=True)
+    x = refine.solve_outputs(parts, w, lo, hi, search, glare, may_drop=True,
+                             time_limit=limit_s, max_watts=max_watts,
+                             log=lambda m: print('   ', m, flush=True))
+    bound_w = refine.solve_outputs.dual_bound
+    secs = time.perf_counter() - t0
+    cap = "" if max_watts is None else f" at most {max_watts:.1f} W,"
+    if x is None:
+        why = ("none exists (infeasible)" if bound_w == math.inf
+               else "no answer within the time limit")
+        print(f"{name}: on/off with the floor,{cap} every item with UGR: {why}"
+              f" ({secs:.0f} s)", flush=True)
         return None
-    print(f"{name}: on/off with the floor (MILP, gap {getattr(res, 'mip_gap', float('nan')):.4f},"
-          f" {it + 1} solves, {time.perf_counter() - t0:.0f} s): {float(x @ w):.1f} W, "
-          f"{len(used)} luminaires: "
+    used = np.flatnonzero(x > 0)
+    u = ""
+    if glare is not None:
+        from invrad_wb.core.output.glare import ugr_from_sum
+        uu = ugr_from_sum((x ** 2) @ glare[0], x @ glare[1])
+        u = f", UGR {np.nanmax(uu):.2f}"
+    print(f"{name}: on/off with the floor,{cap} every item with UGR (MILP, {secs:.0f} s):"
+          f" {float(x @ w):.1f} W (solver's lower bound {bound_w or float('nan'):.1f} W)"
+          f"{u}, {len(used)} luminaires: "
           + ", ".join(f"{what[i][0]} {what[i][2]} {100 * x[i]:.0f} %" for i in used),
           flush=True)
     return x
 
 
 def _full(name, search, rs, cyl, luxes, directs, ezs, T, Bg, watts, what, secs,
-          milp_s=0):
+          milp_s=0, cap=None):
     """The least watts of outputs 0 <= x <= 1 at the positions that meet every item the
-    design meets (means, uniformities, stay-dark points, Ez, UGR by cutting planes) with
-    no design margin, no uniformity or UGR margin: only the dimming floor and the count
-    of luminaires (each output any fraction) are relaxed."""
+    design meets (means, uniformities, stay-dark points, Ez, UGR: a variable per squared
+    output, :func:`refine.ugr_rows`) with no design margin, no uniformity or UGR margin:
+    only the dimming floor and the count of luminaires (each output any fraction) are
+    relaxed; then (``milp_s``) on / off with the floor (:func:`_milp`)."""
     from invrad_wb.core.design import refine
     search.margin = 0.0
     saved = refine.U0_MARGIN, refine.UGR_MARGIN, refine.UGR_CUTS
@@ -212,21 +226,24 @@ def _full(name, search, rs, cyl, luxes, directs, ezs, T, Bg, watts, what, secs,
                                  glare)
         x0 = refine.solve_outputs(parts, w, np.zeros(len(w)), np.ones(len(w)), search,
                                   None)
+        w0 = "none" if x0 is None else f"{float(x0 @ w):.1f} W"
+        if x is None:
+            print(f"{name}: no outputs meet every item with UGR (without UGR: {w0};"
+                  f" {len(w)} positions, {secs:.0f} s)")
+        else:
+            used = np.flatnonzero(x > 1e-6)
+            print(f"{name}: least watts for every item but the floor and the count"
+                  f" {float(x @ w):.1f} W (without UGR {w0}; {len(w)} positions x types, "
+                  f"{secs:.0f} s): "
+                  + ", ".join(f"{what[i][0]} {what[i][2]} {100 * x[i]:.0f} %"
+                              for i in used[:12])
+                  + (f" ... ({len(used)} used)" if len(used) > 12 else ""), flush=True)
+        if milp_s and x is not None:
+            _milp(name, search, parts, glare, w, what, milp_s)
+            if cap is not None:
+                _milp(name, search, parts, glare, w, what, milp_s, max_watts=cap)
     finally:
         refine.U0_MARGIN, refine.UGR_MARGIN, refine.UGR_CUTS = saved
-    w0 = "none" if x0 is None else f"{float(x0 @ w):.1f} W"
-    if x is None:
-        print(f"{name}: no outputs meet every item with UGR (without UGR: {w0};"
-              f" {len(w)} positions, {secs:.0f} s)")
-        return
-    used = np.flatnonzero(x > 1e-6)
-    print(f"{name}: least watts for every item but the floor and the count"
-          f" {float(x @ w):.1f} W (without UGR {w0}; {len(w)} positions x types, "
-          f"{secs:.0f} s): "
-          + ", ".join(f"{what[i][0]} {what[i][2]} {100 * x[i]:.0f} %" for i in used[:12])
-          + (f" ... ({len(used)} used)" if len(used) > 12 else ""), flush=True)
-    if milp_s:
-        _milp(name, search, parts, glare, w, what, milp_s)
 
 
 if __name__ == "__main__":
@@ -247,6 +264,11 @@ if __name__ == "__main__":
         i = args.index("--milp")
         milp_s = float(args[i + 1])
         del args[i:i + 2]
+    cap = None
+    if "--cap" in args:
+        i = args.index("--cap")
+        cap = float(args[i + 1])
+        del args[i:i + 2]
     args = [a for a in args if a != "--full"]
     for n in args or ["L_corridor"]:
-        bound(n, step, full, types, milp_s)
+        bound(n, step, full, types, milp_s, cap)

@@ -14,16 +14,27 @@ is linear in the groups' outputs ``x``:
 * the direct light on a point that must stay dark at most its limit;
 
 and the power ``sum_g x_g W_g`` is minimised over ``x_g`` within each type's dimming range
-(:func:`scipy.optimize.linprog`, HiGHS). UGR is not linear (its glare sum grows with
-``x^2``, its background with ``x``) but its constraint ``0.25 pi sum_g x_g^2 T_g <=
-10^(limit / 8) sum_g x_g B_g`` is convex: cutting planes at each solution that breaks it
-(Kelley) until it holds. Every figure of the result is the exact model's (the groups'
-solves added up), judged by :func:`.search.metrics_comply` like any other design.
+(HiGHS through :func:`scipy.optimize.milp`). UGR is not linear: at an observer its glare
+sum grows with ``x^2``, its background with ``x``, and ``UGR <= limit`` is ``0.25 pi
+sum_g x_g^2 T_g <= 10^(limit / 8) sum_g x_g B_g``: convex in ``x`` (a sum of convex
+squares on the left, a linear right-hand side). Each square gets a variable ``s_g >=
+x_g^2``, which makes the constraint linear in ``(x, s)``; ``s_g >= x_g^2`` itself is
+described from below by the secant through 0 and the dimming floor (exact for a group
+that is off or at one output: a type that does not dim) and by tangents, more of them
+where an answer breaks UGR (:func:`ugr_rows`). Each square is cut apart, so the
+programme closes in within a few rounds where cutting planes on the whole glare sum
+(Kelley) stalled: the hall of ``bench_design_bound.py``, 320 on / off positions of two
+types, found a layout meeting UGR 22 in one round that 20 rounds of the sum's planes had
+not. Every figure of the result is the exact model's (the groups' solves added up),
+judged by :func:`.search.metrics_comply` like any other design.
 
 A group may also be left out (its luminaires not installed) where that draws less: the
-same rows with each group off or within its range, a mixed-integer programme
-(:func:`scipy.optimize.milp`); the luminaires kept are then solved again as a layout of
-their own (:func:`exact_refine`).
+same rows with each group off or within its range, a mixed-integer programme; and in a
+layout of one type each group may hold another type instead (:func:`swap_entry`: the
+catalogue's most efficient other type, e.g. a clear high-bay among diffused ones), one
+type or none per group: the programme puts the efficient, glaring type where the CIE 117
+observers see it at high angles or not at all. The luminaires kept are then solved again
+as a layout of their own (:func:`exact_refine`).
 
 Which layouts: the search's own design and the fast model's cheapest candidates (those
 within :data:`WATTS_WINDOW` of it, even ones that miss a uniformity when dimmed evenly:
@@ -77,9 +88,9 @@ FAST_TRUST = 1.05
 #: cutting planes added for UGR at most (Kelley's method closes in slowly; each is one
 #: more small programme)
 UGR_CUTS = 40
-#: a glare sum this share over the limit's counts as met (0.004 UGR; UGR_MARGIN keeps the
+#: a glare sum this share over the limit's counts as met (0.0004 UGR; UGR_MARGIN keeps the
 #: design below the limit)
-UGR_CUT_TOL = 1e-3
+UGR_CUT_TOL = 1e-4
 
 
 def groups_of(plan, cls, rings=None, tol=0.05):
@@ -140,7 +151,8 @@ def constraints(parts, search):
     return np.array(rows), np.array(rhs)
 
 
-def solve_outputs(parts, watts, lo, hi, search, glare=None, may_drop=False):
+def solve_outputs(parts, watts, lo, hi, search, glare=None, may_drop=False,
+                  time_limit=None, max_watts=None, exclusive=(), log=None):
     """The least-power outputs ``x`` (G,) of groups, or None where none meets the room.
 
     ``parts``: dict with ``lux`` (G, k) maintained lux at the model's points at full
@@ -149,50 +161,141 @@ def solve_outputs(parts, watts, lo, hi, search, glare=None, may_drop=False):
     (T (G, O), B (G, O)) glare sums and maintained background lux per group at full output,
     or None (UGR not constrained). ``may_drop``: a group may also be left out (``x = 0``,
     its luminaires not installed) where that draws less: a mixed-integer programme, each
-    group off or within its range (a type that does not dim: off or at full output)."""
-    from scipy.optimize import Bounds, LinearConstraint, linprog, milp
+    group off or within its range (a type that does not dim: off or at full output).
+    ``time_limit``: seconds per programme (HiGHS); ``max_watts``: no answer over it;
+    ``exclusive``: pairs of groups of which at most one is on (with ``may_drop``);
+    ``log``: called with a line per programme solved (figures of the rounds).
+
+    UGR: each group's squared output gets a variable ``s_g >= x_g^2`` (see
+    :func:`ugr_rows`), kept linear by tangents, so that the glare constraint is linear in
+    ``(x, s)``; tangents are added where an answer breaks UGR (per group: Kelley on each
+    square, not on the sum), an exact description where a group is off or at one output.
+    The last programme's answer is returned with :attr:`solve_outputs.dual_bound` set to
+    the solver's lower bound on the watts (``None`` where not known)."""
+    from scipy.optimize import Bounds, LinearConstraint, milp
     A, b = constraints(parts, search)
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
     watts = np.asarray(watts, dtype=float)
     G = len(watts)
     ugr_max = search.ugr_max if glare is not None else None
-    bounds = list(zip(lo, hi))
+    solve_outputs.dual_bound = None
+    # variables: x (G), z (G) when groups may be left out, s (G) when UGR is constrained
+    nz = G if may_drop else 0
+    ns = G if ugr_max is not None else 0
+    n = G + nz + ns
+    c = np.zeros(n)
+    c[:G] = watts
     if may_drop:
-        # x_g <= hi_g z_g, x_g >= lo_g z_g with z_g in {0, 1}; a hair per luminaire on
-        # the objective: of two answers of the same watts, the one with fewer groups on
-        link = LinearConstraint(np.vstack([np.hstack([np.eye(G), -np.diag(hi)]),
-                                           np.hstack([-np.eye(G), np.diag(lo)])]),
-                                -np.inf, 0.0)
-        c = np.r_[watts, np.full(G, DROP_TIE * max(float(watts.max()), 1e-12))]
-        integ = np.r_[np.zeros(G), np.ones(G)]
+        # a hair per luminaire on the objective: of two answers of the same watts, the
+        # one with fewer groups on
+        c[G:G + nz] = DROP_TIE * max(float(watts.max()), 1e-12)
+    rows = [np.hstack([A, np.zeros((len(A), nz + ns))])]
+    ub = [b]
+    if max_watts is not None:
+        rows.append(c[None, :] * (np.arange(n) < G))
+        ub.append([max_watts])
+    if may_drop:
+        # x_g <= hi_g z_g, x_g >= lo_g z_g with z_g in {0, 1}
+        rows.append(np.hstack([np.eye(G), -np.diag(hi), np.zeros((G, ns))]))
+        rows.append(np.hstack([-np.eye(G), np.diag(lo), np.zeros((G, ns))]))
+        ub += [np.zeros(G), np.zeros(G)]
+        for a, b_ in exclusive:
+            r = np.zeros((1, n))
+            r[0, G + a] = r[0, G + b_] = 1.0
+            rows.append(r)
+            ub.append([1.0])
+    integ = np.r_[np.zeros(G), np.ones(nz), np.zeros(ns)]
+    lb_x = np.zeros(G) if may_drop else lo
+    bounds = Bounds(np.r_[lb_x, np.zeros(nz + ns)],
+                    np.r_[hi, np.ones(nz), hi ** 2 if ns else np.zeros(0)])
+    if ugr_max is not None:
+        T, Bg = glare
+        K = 10.0 ** ((ugr_max - UGR_MARGIN) / 8.0)
+        S0 = G + nz
+        r, u = ugr_rows(T, Bg, K, lo, hi, G, n, S0)
+        rows.append(r)
+        ub.append(u)
+    opts = {"mip_rel_gap": MIP_GAP}
+    if time_limit:
+        opts["time_limit"] = float(time_limit)
     for _ in range(UGR_CUTS + 1):
+        res = milp(c, constraints=[LinearConstraint(np.vstack(rows), -np.inf,
+                                                    np.concatenate(ub))],
+                   integrality=integ if may_drop else None, bounds=bounds,
+                   options=opts)
+        solve_outputs.dual_bound = getattr(res, "mip_dual_bound", None)
+        if res.x is None:
+            if res.status == 2:          # infeasible: a bound of +inf
+                solve_outputs.dual_bound = math.inf
+            return None
+        if res.status == 0 and not may_drop:
+            solve_outputs.dual_bound = float(res.fun)
+        x = res.x[:G]
         if may_drop:
-            res = milp(c, constraints=[LinearConstraint(np.hstack([A, np.zeros_like(A)]),
-                                                        -np.inf, b), link],
-                       integrality=integ, bounds=Bounds(0.0, np.r_[hi, np.ones(G)]),
-                       options={"mip_rel_gap": MIP_GAP})
-            if res.x is None:
-                return None
-            on = res.x[G:] > 0.5
-            x = np.where(on, np.clip(res.x[:G], lo, hi), 0.0)
+            on = res.x[G:G + nz] > 0.5
+            x = np.where(on, np.clip(x, lo, hi), 0.0)
         else:
-            res = linprog(watts, A_ub=A, b_ub=b, bounds=bounds, method="highs")
-            if res.status != 0:
-                return None
-            x = np.clip(res.x, lo, hi)
+            x = np.clip(x, lo, hi)
         if ugr_max is None:
             return x
-        T, B = glare
-        K = 10.0 ** ((ugr_max - UGR_MARGIN) / 8.0)
         # g(x) = 0.25 pi sum x^2 T - K sum x B <= 0 at every observer (convex)
-        gx = 0.25 * math.pi * (x ** 2) @ T - K * (x @ B)
-        worst = int(np.argmax(gx))
-        if gx[worst] <= UGR_CUT_TOL * max(K * float(x @ B[:, worst]), 1e-12):
+        gx = 0.25 * math.pi * (x ** 2) @ T - K * (x @ Bg)
+        tol = UGR_CUT_TOL * np.maximum(K * (x @ Bg), 1e-12)
+        if log is not None:
+            u = ugr_from_sum((x ** 2) @ T, x @ Bg)
+            log(f"programme {_ + 1}: {float(x @ watts):.1f} W (lower bound"
+                f" {solve_outputs.dual_bound}), UGR {np.nanmax(u):.2f},"
+                f" {len(rows)} blocks of rows, {res.message}")
+        if (gx <= tol).all():
             return x
-        grad = 0.5 * math.pi * x * T[:, worst] - K * B[:, worst]
-        A = np.vstack([A, grad])
-        b = np.append(b, grad @ x - gx[worst])
+        # tangents of each square where the answer's s_g falls short of x_g^2
+        s = res.x[S0:S0 + G]
+        short = np.flatnonzero(x ** 2 - s > 1e-9 * np.maximum(x ** 2, 1.0))
+        if len(short) == 0:
+            return x                     # the squares are met: UGR is as the solver saw
+        cut = np.zeros((len(short), n))
+        cut[np.arange(len(short)), short] = 2.0 * x[short]
+        cut[np.arange(len(short)), S0 + short] = -1.0
+        rows.append(cut)
+        ub.append(x[short] ** 2)
     return None
+
+
+#: tangents of each group's squared output laid at first, evenly over its range
+UGR_TANGENTS = 8
+
+
+def ugr_rows(T, B, K, lo, hi, G, n, S0):
+    """(rows, ub) of the UGR constraints on the variables ``(x, ..., s)`` (``n`` in all,
+    the squares ``s`` from ``S0``): per observer ``o``, ``UGR <= limit`` is ``0.25 pi
+    sum_g s_g T_go <= K sum_g x_g B_go`` (``K = 10^(limit / 8)``, the background lux
+    ``B`` linear in ``x``, the glare sums ``T`` in ``x^2``), and ``s_g >= x_g^2``
+    described from below: the secant ``s_g >= lo_g x_g`` (exact where ``x_g`` is 0 or
+    ``lo_g``: a type that does not dim, off or on, is described exactly) and tangents at
+    :data:`UGR_TANGENTS` outputs of its range. Every answer of the true constraints is
+    one of these (a relaxation): a lower bound, tightened by the caller's tangents where
+    an answer breaks UGR."""
+    T, B = np.asarray(T, dtype=float), np.asarray(B, dtype=float)
+    O = T.shape[1]
+    rows = np.zeros((O, n))
+    rows[:, S0:S0 + G] = 0.25 * math.pi * T.T
+    rows[:, :G] = -K * B.T
+    ub = [np.zeros(O)]
+    out = [rows]
+    sec = np.zeros((G, n))
+    sec[np.arange(G), np.arange(G)] = lo
+    sec[np.arange(G), S0 + np.arange(G)] = -1.0
+    out.append(sec)
+    ub.append(np.zeros(G))
+    for g in range(G):
+        if hi[g] - lo[g] < 1e-9:
+            continue
+        for a in np.linspace(lo[g], hi[g], UGR_TANGENTS):
+            r = np.zeros(n)
+            r[g], r[S0 + g] = 2.0 * a, -1.0
+            out.append(r[None])
+            ub.append([a * a])
+    return np.vstack(out), np.concatenate(ub)
 
 
 def _group_watts(search, cand, groups):
@@ -209,12 +312,11 @@ def _group_watts(search, cand, groups):
     return w, lo, hi
 
 
-def fast_watts(search, cand):
-    """Watts of a layout with per-group outputs by the fast model (no solve; surfaces,
-    Ez and UGR as the fast model knows them: Ez not; UGR with the background light per
-    lumen at the eyes of the search's calibration), or inf where none meets it."""
+def _fast_parts(search, cand, groups):
+    """(parts, glare, watts, lo, hi) of a layout's groups by the fast model (no solve):
+    see :func:`solve_outputs`; glare None where UGR is not constrained or the fast model
+    has no background light at the eyes for a type."""
     m, g = search.model, cand.geom
-    groups = groups_of(g.plan, g.cls)
     idx = np.asarray(cand.entries)[g.cls]
     G = int(groups.max()) + 1
     lux = np.zeros((G, len(m.points)))
@@ -247,67 +349,148 @@ def fast_watts(search, cand):
                 glare[0][:, o] += e.flux_lm ** 2 * np.bincount(groups[sel], weights=u,
                                                                minlength=G)
     w, lo, hi = _group_watts(search, cand, groups)
+    return {"lux": lux, "direct": direct}, glare, w, lo, hi
+
+
+def _fast_solve(search, *args, **kw):
+    """:func:`solve_outputs` as the fast table judges: not Ez, not the surfaces it
+    leaves to the exact checks."""
     saved = search.cyl_req, search.surf_reqs
     try:
-        # as the fast table judges: not Ez, not the surfaces it leaves to the exact checks
         search.cyl_req = None
         search.surf_reqs = {k: v for k, v in saved[1].items() if k not in EXACT_ONLY}
-        # every group burning: the fast model's answer with groups left out is too
-        # hopeful to rank by (the exact check tries leaving them out)
-        x = solve_outputs({"lux": lux, "direct": direct}, w, lo, hi, search, glare)
+        return solve_outputs(*args, **kw)
     finally:
         search.cyl_req, search.surf_reqs = saved
+
+
+def fast_watts(search, cand):
+    """Watts of a layout with per-group outputs by the fast model (no solve; surfaces,
+    Ez and UGR as the fast model knows them: Ez not; UGR with the background light per
+    lumen at the eyes of the search's calibration), or inf where none meets it."""
+    g = cand.geom
+    parts, glare, w, lo, hi = _fast_parts(search, cand, groups_of(g.plan, g.cls))
+    # every group burning: the fast model's answer with groups left out is too hopeful
+    # to rank by (the exact check tries leaving them out)
+    x = _fast_solve(search, parts, w, lo, hi, search, glare)
     return math.inf if x is None else float(x @ w)
 
 
-def exact_refine(search, cand, may_drop=True, limit=math.inf):
-    """(Candidate with per-luminaire outputs ``dims``, Metrics) of a layout dimmed per
-    group at least power on the exact model, or None where no outputs meet the room.
-    ``may_drop``: groups may also be left out (:func:`solve_outputs`); the luminaires
-    kept are then solved again as a layout of their own (the openings left out no longer
-    cover the ceiling), dimmed per group on that, and win where they draw less; not
-    where the programme's answer draws no less than every group burning, or over
-    :data:`DROP_TRUST` x ``limit`` (the best design's watts so far)."""
-    m, g = search.model, cand.geom
-    groups = groups_of(g.plan, g.cls)
-    G = int(groups.max()) + 1
-    full = search.luminaires(Candidate(g, cand.entries, 1.0, 0.0, 0, 0, 0, False))
+def swap_entry(search, cand):
+    """Index of the catalogue entry that may take the places of some groups of a layout
+    of one type (:func:`exact_refine`), or None: the entry of most lumens per watt among
+    those of another name whose luminous opening the layout's positions are clear for
+    (of a type that is itself the most efficient: the next). A more efficient type
+    glares more or spreads its light otherwise (a clear high-bay beside a diffused one);
+    where each of a layout's groups may be either, the programme puts the efficient one
+    where glare and uniformity allow."""
+    g = cand.geom
+    own = {int(cand.entries[c]) for c in np.unique(g.cls)}
+    if len(own) != 1:
+        return None
+    name = search.entries[own.pop()].name
+    clear = g.clearance if g.clearance is not None else math.inf
+    best, eff = None, -math.inf
+    for k, e in enumerate(search.entries):
+        if e.name == name or search._half_size(e) > clear + 1e-9 or e.watts <= 0:
+            continue
+        if e.flux_lm / e.watts > eff + 1e-12:
+            best, eff = k, e.flux_lm / e.watts
+    return best
+
+
+def _group_solves(search, full, groups, G, covering):
+    """Per group ``g < G`` of luminaires ``full`` (grouped by ``groups``), lit alone
+    under the openings of ``covering``: lists of maintained lux, direct lux, Ez, Eh,
+    glare sums and background lux at the eyes (the last four empty where not asked)."""
+    m = search.model
     lux, direct, ez, eh, T, B = [], [], [], [], [], []
     for gi in range(G):
         lums = [lum for lum, q in zip(full, groups) if q == gi]
         # each group lit alone under the whole layout's openings: the groups add up
-        t, d = m.exact(lums, covering=full)
+        t, d = m.exact(lums, covering=covering)
         lux.append(t)
         direct.append(d)
         if search.cylindrical is not None:
-            z, h = search.cylindrical.evaluate(lums, covering=full)
+            z, h = search.cylindrical.evaluate(lums, covering=covering)
             ez.append(z)
             eh.append(h)
-        gl = search.exact_glare(lums, covering=full)
+        gl = search.exact_glare(lums, covering=covering)
         if gl is not None:
             T.append(gl[0])
             B.append(gl[1])
+    return lux, direct, ez, eh, T, B
+
+
+def exact_refine(search, cand, may_drop=True, limit=math.inf, groups=None):
+    """(Candidate with per-luminaire outputs ``dims``, Metrics) of a layout dimmed per
+    group at least power on the exact model, or None where no outputs meet the room.
+    ``may_drop``: groups may also be left out (:func:`solve_outputs`), and in a layout
+    of one type each group may instead hold the luminaires of :func:`swap_entry` (per
+    group one type or none); the luminaires kept are then solved again as a layout of
+    their own (the openings left out no longer cover the ceiling), dimmed per group on
+    that, and win where they draw less; not where the programme's answer draws no less
+    than every group burning, or over :data:`DROP_TRUST` x ``limit`` (the best design's
+    watts so far). ``groups``: (L,) group of each luminaire (default :func:`groups_of`)."""
+    g = cand.geom
+    if groups is None:
+        groups = groups_of(g.plan, g.cls)
+    G = int(groups.max()) + 1
+    full = search.luminaires(Candidate(g, cand.entries, 1.0, 0.0, 0, 0, 0, False))
+    lux, direct, ez, eh, T, B = _group_solves(search, full, groups, G, full)
     parts = {"lux": np.array(lux), "direct": np.array(direct),
              "ez": np.array(ez) if ez else None, "B": np.array(B) if B else None}
     glare = (np.array(T), np.array(B)) if T and search.ugr_max is not None else None
     w, lo, hi = _group_watts(search, cand, groups)
     x = solve_outputs(parts, w, lo, hi, search, glare)
     best = None if x is None else _refined(search, cand, groups, parts, T, ez, eh, w, x)
-    if may_drop:
-        xd = solve_outputs(parts, w, lo, hi, search, glare, may_drop=True)
-        if (xd is not None and (xd <= 0).any()
-                and (best is None or float(xd @ w) < best[0].watts - 1e-9)
-                and float(xd @ w) < DROP_TRUST * limit):
-            # the luminaires kept, solved again as a layout of their own: kept where it
-            # meets the room for less than every group burning
-            keep = xd[groups] > 0
-            sub = replace(g, plan=g.plan[keep], positions=g.positions[keep],
-                          normals=g.normals[keep], cls=g.cls[keep])
-            r = exact_refine(search, Candidate(sub, cand.entries, 1.0, 0.0, 0, 0, 0,
-                                               False), may_drop=False)
-            if r is not None and r[0].ok and (best is None or not best[0].ok
-                                              or r[0].watts < best[0].watts - 1e-9):
-                best = r
+    if not may_drop:
+        return best
+    # the programme's answers with groups left out: every group of the layout's own
+    # types, and where another type may take their places, per group one type or none
+    xd = solve_outputs(parts, w, lo, hi, search, glare, may_drop=True)
+    offers = [] if xd is None else [(float(xd @ w), xd, None)]
+    k = swap_entry(search, cand)
+    if k is not None:
+        # each group's twin: the same places with entry k's luminaires
+        own = int(cand.entries[int(g.cls[0])])
+        other = Candidate(g, (k, k), 1.0, 0.0, 0, 0, 0, False)
+        twin = search.luminaires(other)
+        lux2, direct2, ez2, eh2, T2, B2 = _group_solves(search, twin, groups, G, full)
+        w2, lo2, hi2 = _group_watts(search, other, groups)
+        both = {"lux": np.array(lux + lux2), "direct": np.array(direct + direct2),
+                "ez": np.array(ez + ez2) if ez else None}
+        glare2 = ((np.array(T + T2), np.array(B + B2))
+                  if T and search.ugr_max is not None else None)
+        xx = solve_outputs(both, np.r_[w, w2], np.r_[lo, lo2], np.r_[hi, hi2], search,
+                           glare2, may_drop=True,
+                           exclusive=[(i, G + i) for i in range(G)])
+        if xx is not None and (xx[G:] > 0).any():
+            offers.append((float(xx @ np.r_[w, w2]), xx[:G], xx[G:]))
+    for wd, xd, alt in sorted(offers, key=lambda o: o[0]):
+        if not ((xd <= 0).any() and (best is None or wd < best[0].watts - 1e-9)
+                and wd < DROP_TRUST * limit):
+            continue
+        # the luminaires kept, solved again as a layout of their own: kept where it
+        # meets the room for less than every group burning
+        swapped = np.zeros(len(groups), dtype=bool) if alt is None else alt[groups] > 0
+        keep = (xd[groups] > 0) | swapped
+        cls, entries = g.cls[keep], cand.entries
+        if swapped.any():
+            cls, entries = swapped[keep].astype(int), (own, k)
+        sub = replace(g, plan=g.plan[keep], positions=g.positions[keep],
+                      normals=g.normals[keep], cls=cls)
+        # the kept luminaires' own rows and rings (per type) split by the programme's
+        # groups: every answer of either grouping is one of these
+        rings = groups_of(sub.plan, cls)
+        sub_groups = np.unique(np.c_[groups[keep] + G * swapped[keep], rings], axis=0,
+                               return_inverse=True)[1].ravel()
+        r = exact_refine(search, Candidate(sub, entries, 1.0, 0.0, 0, 0, 0, False),
+                         may_drop=False, groups=sub_groups)
+        if r is not None and r[0].ok and (best is None or not best[0].ok
+                                          or r[0].watts < best[0].watts - 1e-9):
+            best = r
+            break
     return best
 
 
