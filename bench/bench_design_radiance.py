@@ -70,6 +70,19 @@ classroom   317.3 (318.4)   344.9 (344.5)   0.920  500/0.69  317/0.40  142/0.36 
   traced (exact model, round 9's code / this code, CPU s at load 2-3): lab 238.70 W, 63
   luminaires / 238.10 W, 55 (69.2 / 63.1 s); L office 392.67 W, 105 / 390.56 W, 100
   (233.4 / 243.0 s); L corridor 52.59 W / 52.59 W (the same 5 x PN-3600, 15.8 s).
+* lab and L office with the merged round-10 code (main 671b495, background area and the
+  every-vertex locate merged; 14:19-14:30 UTC, load 1-2), traced:
+
+==========  ==============  ==============  =====  ========  ========  ========  =======  ====  =======
+room        invrad W        grid W          ratio  task      surround  walls     ceiling  UGR   by Rad.
+==========  ==============  ==============  =====  ========  ========  ========  =======  ====  =======
+lab         235.8 (238.1)   255.9 (256.3)   0.922  500/0.73  300/0.49  142/0.38   77/0.70  18.9  both
+L office    389.9 (390.6)   none compliant  -      501/0.61  300/0.40  143/0.40   79/0.61  19.0  invrad
+==========  ==============  ==============  =====  ========  ========  ========  =======  ====  =======
+
+  (round 9: lab 236.6, 0.925; L office 392.7.) Lab: 55 x DL-1200N of a 9 x 7 grid
+  clipped to the room, 43 %, design 58 s; L office: 100 x DL-1200N of a 14 x 10 grid,
+  39 %, design 217 s.
 
 Measured 2026-11-26, round 9 (shared 2-core machine at load 5-7; same Radiance settings).
 Only the hall and the L corridor were redesigned (the other rooms: round 7's designs
