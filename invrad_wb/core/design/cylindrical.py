@@ -232,6 +232,11 @@ def modelling_note(fig):
         return None
     lo, hi = MODELLING_RANGE
     where = ("within" if lo <= r <= hi else "below" if r < lo else "above")
-    return (f"modelling Ez/Eh {r:.2f} (points {fig['modelling_min']:.2f} to"
+    # as many decimals as it takes for a ratio outside the range not to print as its
+    # bound ("0.30 is below the recommended 0.30" for 0.298)
+    d = 2
+    while d < 4 and ((r < lo and round(r, d) >= lo) or (r > hi and round(r, d) <= hi)):
+        d += 1
+    return (f"modelling Ez/Eh {r:.{d}f} (points {fig['modelling_min']:.2f} to"
             f" {fig['modelling_max']:.2f}) is {where} the recommended {lo:.2f} to {hi:.2f}"
             " (EN 12464-1:2021 4.6.2; a recommendation, not judged)")

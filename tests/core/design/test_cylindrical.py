@@ -138,3 +138,15 @@ def test_designed_office_judges_ez_and_surroundings_and_a_strict_ez_fails_the_ro
     assert {r["item"]: r for r in summary_rows(hard)}["cylindrical illuminance Ez"][
         "verdict"] == "FAIL"
     assert hard.to_dict()["cylindrical"]["pass"] is False
+
+
+def test_modelling_note_never_prints_a_ratio_outside_the_range_as_its_bound():
+    from invrad_wb.core.design.cylindrical import modelling_note
+    fig = {"modelling_min": 0.25, "modelling_max": 0.39}
+    below = modelling_note(dict(fig, modelling=0.298))
+    assert "Ez/Eh 0.298 " in below and "below the recommended 0.30 to 0.60" in below
+    above = modelling_note(dict(fig, modelling=0.6004))
+    assert "Ez/Eh 0.6004 " in above and "above" in above
+    inside = modelling_note(dict(fig, modelling=0.4512))
+    assert "Ez/Eh 0.45 " in inside and "within" in inside
+    assert modelling_note({"modelling": None}) is None
