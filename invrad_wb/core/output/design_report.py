@@ -166,9 +166,8 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
     ax.set_title(f"Em {rd.metrics.em:.0f} lx, U0 {rd.metrics.u0:.2f}, iso-lux lines",
                  fontsize=8)
     step = max(1, int(np.ceil(len(pts) / MAX_LABELS)))
-    for p, v in zip(pts[::step], lux[::step]):
-        ax2.text(p[0], p[1], f"{v:.0f}", fontsize=5.5, ha="center", va="center",
-                 color="black")
+    values = [ax2.text(p[0], p[1], f"{v:.0f}", fontsize=5.5, ha="center", va="center",
+                       color="black") for p, v in zip(pts[::step], lux[::step])]
     _outline(ax2, edges)
     ax2.set_title("values (lx) at the calculation points", fontsize=8)
     for a_ in (ax, ax2):
@@ -188,7 +187,41 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
         _room_legend(fig, ax, types, groups or [], fits)
         if fits:
             _label_luminaires(fig, ax, rd.luminaires, groups or [])
+    _thin_values(fig, values)
     return fig
+
+
+def _thin_values(fig, texts):
+    """The values at the calculation points kept on every k-th column and row of the
+    grid, k as small as keeps their boxes apart on the drawn page, then any box still
+    touching a kept one dropped (a small task area on a page-wide room printed its values
+    as one run of digits: 0.25 m apart at about 0.5 inch a metre)."""
+    if len(texts) < 2:
+        return
+    renderer = fig.canvas.get_renderer()
+    ax = texts[0].axes
+    ax.apply_aspect()           # the box as drawn (an equal aspect narrows it at drawing)
+    at = ax.transData.transform(np.array([t.get_position() for t in texts]))
+    boxes = np.array([t.get_window_extent(renderer).extents for t in texts])
+    size = np.max(boxes[:, 2:] - boxes[:, :2], axis=0) * 1.15      # (w, h) px, a gap
+    keep = np.ones(len(texts), dtype=bool)
+    for d in (0, 1):
+        levels, idx = np.unique(np.round(at[:, d], 1), return_inverse=True)
+        if len(levels) < 2:
+            continue
+        pitch = float(np.median(np.diff(levels)))
+        k = max(1, int(np.ceil(size[d] / max(pitch, 1e-9))))
+        keep &= idx % k == 0
+    kept = []
+    for i in np.flatnonzero(keep):
+        b = boxes[i]
+        if any(b[0] < c[2] and c[0] < b[2] and b[1] < c[3] and c[1] < b[3] for c in kept):
+            keep[i] = False
+            continue
+        kept.append(b)
+    for t, k_ in zip(texts, keep):
+        if not k_:
+            t.remove()
 
 
 def dimming_plan_png(rd, edges, types, groups):

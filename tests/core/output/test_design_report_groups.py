@@ -274,3 +274,32 @@ def test_the_result_json_gives_each_room_its_groups_and_each_luminaire_its_lette
             lums[i]["flux_lm"] / 3500.0 for i in g["luminaires"]), abs=1e-3)
     assert sum(g["watts_total"] for g in g_apart) == pytest.approx(apart.watts, abs=0.01)
     assert [g["deep"] for g in g_apart] == [False, False, True, True, True]
+
+
+def test_values_of_a_small_task_area_on_a_wide_room_do_not_overlap():
+    # a 6 x 4 m office with its task area set in 1.5 m (the office example's spec with
+    # "margin_m": 1.5): 7 x 3 points 0.43 m apart on a half-page panel
+    rd = _room(GRID, OUTPUTS)
+    xs, ys = np.meshgrid(np.linspace(1.7, 4.3, 7), np.linspace(1.6, 2.4, 3))
+    rd.grid_points = np.column_stack([xs.ravel(), ys.ravel(), np.full(xs.size, 0.75)])
+    rd.metrics.lux = np.linspace(416.0, 590.0, len(rd.grid_points))
+    fig = D.room_plan_figure(rd, rd.outline, 800.0, [e.name for e in CAT],
+                             D.output_groups(rd, CAT))
+    fig.canvas.draw()                                   # measured as drawn
+    ax2 = fig.axes[1]
+    values = [t for t in ax2.texts if t.get_text().isdigit()]
+    renderer = fig.canvas.get_renderer()
+    boxes = np.array([t.get_window_extent(renderer).extents for t in values])
+    x0, y0, x1, y1 = boxes.T
+    gap = 0.1 * np.median(x1 - x0)                      # apart, not merely touching
+    over = ((x0[:, None] < x1[None] + gap) & (x0[None] < x1[:, None] + gap)
+            & (y0[:, None] < y1[None]) & (y0[None] < y1[:, None]))
+    np.fill_diagonal(over, False)
+    assert not over.any()
+    # a regular lattice of the grid is still shown, from its first point, with at least
+    # two rows and half its columns
+    shown = np.array([t.get_position() for t in values])
+    assert tuple(shown[0][:2]) == tuple(rd.grid_points[0][:2])
+    assert len(set(np.round(shown[:, 1], 3))) >= 2
+    assert len(set(np.round(shown[:, 0], 3))) >= len(set(np.round(xs.ravel(), 3))) // 2
+    assert len(values) < len(rd.grid_points)
