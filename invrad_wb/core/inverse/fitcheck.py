@@ -48,7 +48,13 @@ def position_sd(prob, lights, sigma=None):
         sigma = float(np.sqrt(np.sum(prob.w_area[lit] * r[lit] ** 2)
                               / max(np.sum(prob.w_area[lit]), 1e-300)))
     Jl = J[lit]
-    cov = np.linalg.pinv(Jl.T @ Jl) * sigma ** 2
+    return sd_of(np.linalg.pinv(Jl.T @ Jl) * sigma ** 2, lights)
+
+
+def sd_of(cov, lights):
+    """Per luminaire of ``lights`` (their parameters in order in the covariance ``cov``):
+    the position sd (the largest axis of its position block) and, with free fluxes, the
+    flux sd. Returns ``(pos_sd (K,), flux_sd (K,) or None)``."""
     sizes = [len(L.params()) for L in lights]
     starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
     pos, flux = [], []

@@ -398,16 +398,6 @@ def position_sd(prob, lights, sigma):
     over chunks. Returns ``(pos_sd (K,), flux_sd (K,) or None)``."""
     if not lights:
         return np.zeros(0), None
+    from invrad_wb.core.inverse.fitcheck import sd_of
     F, lights = prob.fisher(lights)
-    cov = np.linalg.pinv(F) * sigma ** 2
-    sizes = [L.n_params() for L in lights]
-    starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
-    pos, flux = [], []
-    for L, a in zip(lights, starts[:-1]):
-        npos = L._npos()
-        block = cov[a:a + npos, a:a + npos]
-        pos.append(float(np.sqrt(max(np.linalg.eigvalsh(block).max(), 0.0))))
-        if L.free_flux:
-            b = a + L.n_params() - 1
-            flux.append(float(np.sqrt(max(cov[b, b], 0.0))))
-    return np.array(pos), (np.array(flux) if flux else None)
+    return sd_of(np.linalg.pinv(F) * sigma ** 2, lights)
