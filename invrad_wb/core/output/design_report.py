@@ -513,30 +513,23 @@ def summary_rows(r):
              "achieved": f"Em {m.em:.0f} lx, U0 {m.u0:.2f}",
              "verdict": "pass" if v["Em"] and v["U0"] else "FAIL", "source": q.source},
             ]
-    sq = r.surface_reqs.get("surroundings")
-    if sq is not None and "surroundings" in m.surfaces:
-        em, _, u0 = m.surfaces["surroundings"]
-        rows.append({"item": "immediate surroundings",
-                     "required": f"Em >= {sq.lux:g} lx, U0 >= {sq.u0:.2f}",
-                     "achieved": f"Em {em:.0f} lx, U0 {u0:.2f}",
-                     "verdict": "pass" if v.get("surroundings") else "FAIL",
-                     "source": sq.source})
-    else:
-        rows.append({"item": "immediate surroundings", "required": "-",
-                     "achieved": "not computed", "verdict": "-",
-                     "source": "the task area has no border zone around it"})
-    bq = r.surface_reqs.get("background")
-    if bq is not None and "background" in m.surfaces:
-        em, _, u0 = m.surfaces["background"]
-        rows.append({"item": "background area",
-                     "required": f"Em >= {bq.lux:.4g} lx, U0 >= {bq.u0:.2f}",
-                     "achieved": f"Em {em:.0f} lx, U0 {u0:.2f}",
-                     "verdict": "pass" if v.get("background") else "FAIL",
-                     "source": bq.source})
-    else:
-        rows.append({"item": "background area", "required": "-",
-                     "achieved": getattr(r, "background_words", None) or "not computed",
-                     "verdict": "-", "source": "EN 12464-1:2021 4.3.3"})
+    # the two bands around the task area: judged where the room has them, else why not
+    for key, item, lux_fmt, none_words, none_source in (
+            ("surroundings", "immediate surroundings", "g", "not computed",
+             "the task area has no border zone around it"),
+            ("background", "background area", ".4g",
+             getattr(r, "background_words", None) or "not computed",
+             "EN 12464-1:2021 4.3.3")):
+        bq = r.surface_reqs.get(key)
+        if bq is not None and key in m.surfaces:
+            em, _, u0 = m.surfaces[key]
+            rows.append({"item": item,
+                         "required": f"Em >= {bq.lux:{lux_fmt}} lx, U0 >= {bq.u0:.2f}",
+                         "achieved": f"Em {em:.0f} lx, U0 {u0:.2f}",
+                         "verdict": "pass" if v.get(key) else "FAIL", "source": bq.source})
+        else:
+            rows.append({"item": item, "required": "-", "achieved": none_words,
+                         "verdict": "-", "source": none_source})
     for part in ("walls", "ceiling"):
         sq = r.surface_reqs.get(part)
         if sq is None:
