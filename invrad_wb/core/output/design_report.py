@@ -169,6 +169,7 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
     values = [ax2.text(p[0], p[1], f"{v:.0f}", fontsize=5.5, ha="center", va="center",
                        color="black") for p, v in zip(pts[::step], lux[::step])]
     _outline(ax2, edges)
+    _task_outlines((ax, ax2), rd)
     ax2.set_title("values (lx) at the calculation points", fontsize=8)
     for a_ in (ax, ax2):
         a_.set_aspect("equal")
@@ -189,6 +190,19 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
             _label_luminaires(fig, ax, rd.luminaires, groups or [])
     _thin_values(fig, values)
     return fig
+
+
+def _task_outlines(axes, rd):
+    """The explicit task areas' outlines on the plan's panels, named on the values'
+    panel (above the area, where no value is printed)."""
+    for a in getattr(rd.requirement, "task_areas", ()):
+        p = np.asarray(a.polygon, dtype=float)
+        q = np.r_[p, p[:1]]
+        axes[0].plot(q[:, 0], q[:, 1], color="white", lw=1.2, ls="--", zorder=3)
+        axes[1].plot(q[:, 0], q[:, 1], color="0.35", lw=0.8, ls="--", zorder=1)
+        axes[1].annotate(a.name, (float(p[:, 0].mean()), float(p[:, 1].max())),
+                         xytext=(0, 2), textcoords="offset points", ha="center",
+                         va="bottom", fontsize=6.5, color="0.25", style="italic")
 
 
 def _thin_values(fig, texts):
@@ -512,7 +526,12 @@ def summary_rows(r):
              "required": f"Em >= {q.lux:g} lx, U0 >= {q.u0:.2f}",
              "achieved": f"Em {m.em:.0f} lx, U0 {m.u0:.2f}",
              "verdict": "pass" if v["Em"] and v["U0"] else "FAIL", "source": q.source},
-            ]
+            ] if not _task_areas(r) else [
+        {"item": f"task area {a['name']} ({a['area_m2']:.2f} m2)",
+         "required": f"Em >= {a['lux']:g} lx, U0 >= {a['u0_req']:.2f}",
+         "achieved": f"Em {a['em']:.0f} lx, U0 {a['u0']:.2f}",
+         "verdict": "pass" if a["ok"] else "FAIL", "source": a["source"]}
+        for a in _task_areas(r)]
     # the two bands around the task area: judged where the room has them, else why not
     for key, item, lux_fmt, none_words, none_source in (
             ("surroundings", "immediate surroundings", "g", "not computed",
@@ -559,6 +578,28 @@ def summary_rows(r):
     return rows
 
 
+def _task_areas(r):
+    """The explicit task areas of a designed room with their figures (dicts: name,
+    area_m2, lux, u0_req, em, emin, u0, ok, source), [] for a room judged on its work
+    plane less a border zone."""
+    areas = getattr(r.requirement, "task_areas", ()) if r.metrics is not None else ()
+    out = []
+    for a in areas:
+        k = a.part                  # its surface grid's name
+        if k not in r.metrics.surfaces:
+            continue
+        em, emin, u0 = r.metrics.surfaces[k]
+        q = r.surface_reqs[k]
+        out.append({"name": a.name, "area_m2": a.area_m2, "lux": q.lux, "u0_req": q.u0,
+                    "em": em, "emin": emin, "u0": u0, "ok": bool(r.verdicts.get(k)),
+                    "source": q.source.split("; task area")[0]})
+    return out
+
+
+def _per_area(areas, fmt):
+    return "; ".join(fmt(a) for a in areas)
+
+
 def room_rows(result):
     """Rows of the compliance table: one per room (dicts, strings formatted)."""
     rows = []
@@ -571,7 +612,7 @@ def room_rows(result):
             m, q, v = r.metrics, r.requirement, r.verdicts
             row.update(em_req=f"{q.lux:g}", em=f"{m.em:.0f}", emin=f"{m.emin:.0f}",
                        emax=f"{m.emax:.0f}", u0_req=f"{q.u0:.2f}", u0=f"{m.u0:.2f}",
-                       em_ok=v["Em"], u0_ok=v["U0"], ok=r.compliant,
+                       em_ok=v.get("Em"), u0_ok=v.get("U0"), ok=r.compliant,
                        watts=f"{r.watts:.1f}", wpm2=f"{r.watts / max(r.area_m2, 1e-9):.2f}",
                        layout=r.candidate.geom.describe(), source=q.source,
                        ugr="n/c" if r.ugr is None else f"{r.ugr:.1f}",
@@ -607,6 +648,21 @@ def room_rows(result):
                                           else None if s.accent is None
                                           else s.accent.extra.get("type"))}
                               for s in r.spots if s.goal.kind == "spot"])
+        areas = _task_areas(r)
+        if areas:        # one figure per task area, in the spec's order
+            row.update(em_req=_per_area(areas, lambda a: f"{a['lux']:g}"),
+                       em=_per_area(areas, lambda a: f"{a['em']:.0f}"),
+                       emin=_per_area(areas, lambda a: f"{a['emin']:.0f}"),
+                       emax="-",
+                       u0_req=_per_area(areas, lambda a: f"{a['u0_req']:.2f}"),
+                       u0=_per_area(areas, lambda a: f"{a['u0']:.2f}"),
+                       em_ok=all(a["em"] >= a["lux"] - 1e-9 for a in areas),
+                       u0_ok=all(a["u0"] >= a["u0_req"] - 1e-9 for a in areas),
+                       margin="-", task_areas=_per_area(
+                           areas, lambda a: f"{a['name']}: Em {a['em']:.0f} lx"
+                           f" (>= {a['lux']:g}), U0 {a['u0']:.2f} (>= {a['u0_req']:.2f}),"
+                           f" {'pass' if a['ok'] else 'FAIL'}"),
+                       task_area_names=", ".join(a["name"] for a in areas))
         rows.append(row)
     return rows
 
@@ -684,7 +740,7 @@ def write_design_report(result, out_dir, title="Lighting design", project=None, 
         _write(tmp, "schedule.csv", _csv(sched, list(sched[0]) if sched else ["room"]))
         rows = room_rows(result)
         _write(tmp, "rooms.csv", _csv(rows, ["name", "area", "size", "em_req", "em", "emin",
-                                              "emax", "u0_req", "u0", "surroundings",
+                                              "emax", "u0_req", "u0", "task_areas", "surroundings",
                                               "background", "walls", "ceiling",
                                               "ugr", "ugr_limit", "ok", "watts", "rated_w",
                                               "rated_wpm2", "wpm2_100lx", "energy",
