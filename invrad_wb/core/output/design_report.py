@@ -26,7 +26,9 @@ from invrad_wb.core.io.atomic import atomic_dir
 from invrad_wb.constants import DEEP_DIMMING, SPOT_TOLERANCE, SURFACE_REFERENCE
 from invrad_wb.core.output import document
 from invrad_wb.core.output.groups import output_groups  # noqa: F401 (the report's groups)
-from invrad_wb.core.output.figures import figure as _fig, iso_levels, png as _png
+from invrad_wb.core.output.figures import figure as _fig, iso_levels, label_iso_lines
+from invrad_wb.core.output.figures import thin_values
+from invrad_wb.core.output.figures import png as _png
 
 _TEMPLATE = "design_report.html.j2"
 #: grid values are printed on the plan up to this many points (else every k-th)
@@ -163,7 +165,10 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
     m = _false_colour(ax, pts, lux, lux_max, rd.requirement.lux, edges)
     _outline(ax, edges)
     _plot_luminaires(ax, rd.luminaires, types)
-    ax.set_title(f"Em {rd.metrics.em:.0f} lx, U0 {rd.metrics.u0:.2f}, iso-lux lines",
+    areas = _task_areas(rd)
+    ax.set_title("; ".join(f"{a['name']}: Em {a['em']:.0f} lx, U0 {a['u0']:.2f}"
+                           for a in areas) + ", iso-lux lines" if areas else
+                 f"Em {rd.metrics.em:.0f} lx, U0 {rd.metrics.u0:.2f}, iso-lux lines",
                  fontsize=8)
     step = max(1, int(np.ceil(len(pts) / MAX_LABELS)))
     values = [ax2.text(p[0], p[1], f"{v:.0f}", fontsize=5.5, ha="center", va="center",
@@ -188,8 +193,21 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
         _room_legend(fig, ax, types, groups or [], fits)
         if fits:
             _label_luminaires(fig, ax, rd.luminaires, groups or [])
-    _thin_values(fig, values)
+    if getattr(ax, "iso_lines", None) is not None:
+        label_iso_lines(ax, ax.iso_lines, rd.requirement.lux,
+                        avoid=[lum.position[:2] for lum in rd.luminaires],
+                        field=ax.iso_field)
+    thin_values(fig, values, None if not areas else _area_of(pts[::step], rd))
     return fig
+
+
+def _area_of(pts, rd):
+    """(n,) index of the explicit task area each plan point lies in (0: none)."""
+    from matplotlib.path import Path
+    out = np.zeros(len(pts), dtype=int)
+    for i, a in enumerate(rd.requirement.task_areas):
+        out[Path(np.asarray(a.polygon, dtype=float)).contains_points(pts[:, :2])] = i + 1
+    return out
 
 
 def _task_outlines(axes, rd):
@@ -198,44 +216,11 @@ def _task_outlines(axes, rd):
     for a in getattr(rd.requirement, "task_areas", ()):
         p = np.asarray(a.polygon, dtype=float)
         q = np.r_[p, p[:1]]
-        axes[0].plot(q[:, 0], q[:, 1], color="white", lw=1.2, ls="--", zorder=3)
+        axes[0].plot(q[:, 0], q[:, 1], color="0.1", lw=1.0, ls="--", zorder=3)
         axes[1].plot(q[:, 0], q[:, 1], color="0.35", lw=0.8, ls="--", zorder=1)
         axes[1].annotate(a.name, (float(p[:, 0].mean()), float(p[:, 1].max())),
                          xytext=(0, 2), textcoords="offset points", ha="center",
                          va="bottom", fontsize=6.5, color="0.25", style="italic")
-
-
-def _thin_values(fig, texts):
-    """The values at the calculation points kept on every k-th column and row of the
-    grid, k as small as keeps their boxes apart on the drawn page, then any box still
-    touching a kept one dropped (a small task area on a page-wide room printed its values
-    as one run of digits: 0.25 m apart at about 0.5 inch a metre)."""
-    if len(texts) < 2:
-        return
-    renderer = fig.canvas.get_renderer()
-    ax = texts[0].axes
-    ax.apply_aspect()           # the box as drawn (an equal aspect narrows it at drawing)
-    at = ax.transData.transform(np.array([t.get_position() for t in texts]))
-    boxes = np.array([t.get_window_extent(renderer).extents for t in texts])
-    size = np.max(boxes[:, 2:] - boxes[:, :2], axis=0) * 1.15      # (w, h) px, a gap
-    keep = np.ones(len(texts), dtype=bool)
-    for d in (0, 1):
-        levels, idx = np.unique(np.round(at[:, d], 1), return_inverse=True)
-        if len(levels) < 2:
-            continue
-        pitch = float(np.median(np.diff(levels)))
-        k = max(1, int(np.ceil(size[d] / max(pitch, 1e-9))))
-        keep &= idx % k == 0
-    kept = []
-    for i in np.flatnonzero(keep):
-        b = boxes[i]
-        if any(b[0] < c[2] and c[0] < b[2] and b[1] < c[3] and c[1] < b[3] for c in kept):
-            keep[i] = False
-            continue
-        kept.append(b)
-    for t, k_ in zip(texts, keep):
-        if not k_:
-            t.remove()
 
 
 def dimming_plan_png(rd, edges, types, groups):
@@ -336,9 +321,11 @@ def _false_colour(ax, pts, lux, lux_max, required, edges=None):
         tri.set_mask(mask)
     m = ax.tripcolor(tri, lux, shading="gouraud", cmap="viridis", vmin=0, vmax=lux_max)
     levels = iso_levels(lux, required)
+    ax.iso_lines = None      # labelled once the page's layout is final (label_iso_lines)
     if len(levels):
-        cs = ax.tricontour(tri, lux, levels=levels, colors="white", linewidths=1.0)
-        ax.clabel(cs, fmt="%d lx", fontsize=7, inline=True)
+        ax.iso_lines = ax.tricontour(tri, lux, levels=levels, colors="white",
+                                     linewidths=1.0)
+        ax.iso_field = tri
     return m
 
 

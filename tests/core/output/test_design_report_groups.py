@@ -303,3 +303,53 @@ def test_values_of_a_small_task_area_on_a_wide_room_do_not_overlap():
     assert len(set(np.round(shown[:, 1], 3))) >= 2
     assert len(set(np.round(shown[:, 0], 3))) >= len(set(np.round(xs.ravel(), 3))) // 2
     assert len(values) < len(rd.grid_points)
+
+
+def _iso_label_boxes(fig):
+    fig.canvas.draw()                                   # measured as drawn
+    ax = fig.axes[0]
+    labels = [t for t in ax.texts if t.get_text().endswith(" lx")]
+    renderer = fig.canvas.get_renderer()
+    return ax, labels, np.array([t.get_window_extent(renderer).extents
+                                 for t in labels]).reshape(-1, 4)
+
+
+def test_iso_lux_labels_of_a_small_task_area_do_not_overlap():
+    # a 1.6 x 1.2 m task area with a bright spot in a 6 x 4 m room on a half-page panel:
+    # matplotlib's clabel, called before the page's layout shrank the panel, put four
+    # labels into it, two pairs on top of each other
+    row = np.array([(x, 3.2) for x in (1.29, 2.15, 3.0, 3.86, 4.71)])
+    rd = _room(row, np.array([1.0, 0.5, 0.3, 0.5, 1.0]))
+    xs, ys = np.meshgrid(np.linspace(0.7, 2.3, 8), np.linspace(0.7, 1.9, 6))
+    pts = np.column_stack([xs.ravel(), ys.ravel(), np.full(xs.size, 0.75)])
+    rd.grid_points = pts
+    d2 = np.sum((pts[:, :2] - [1.5, 1.3]) ** 2, axis=1)
+    rd.metrics.lux = 300 + 700 * np.exp(-d2 / 0.3) + 150 * pts[:, 0]
+    fig = D.room_plan_figure(rd, rd.outline, 1200.0, [e.name for e in CAT],
+                             D.output_groups(rd, CAT))
+    ax, labels, boxes = _iso_label_boxes(fig)
+    assert len(labels) >= 1                             # the lines still say their level
+    x0, y0, x1, y1 = boxes.T
+    over = ((x0[:, None] < x1[None]) & (x0[None] < x1[:, None])
+            & (y0[:, None] < y1[None]) & (y0[None] < y1[:, None]))
+    np.fill_diagonal(over, False)
+    assert not over.any()
+    # each label on the coloured field (white on the white page is unreadable)
+    inv = ax.transData.inverted()
+    lo = inv.transform(boxes[:, :2])
+    hi = inv.transform(boxes[:, 2:])
+    assert np.all(lo >= pts[:, :2].min(axis=0) - 1e-6)
+    assert np.all(hi <= pts[:, :2].max(axis=0) + 1e-6)
+
+
+def test_iso_lux_labels_keep_off_the_luminaire_markers():
+    # the office grid of luminaires over a whole-room work plane: no label under a marker
+    rd = _room(GRID, OUTPUTS)
+    fig = D.room_plan_figure(rd, rd.outline, 800.0, [e.name for e in CAT],
+                             D.output_groups(rd, CAT))
+    ax, labels, boxes = _iso_label_boxes(fig)
+    assert len(labels) >= 1
+    at = ax.transData.transform(GRID)
+    inside = ((at[:, None, 0] > boxes[None, :, 0]) & (at[:, None, 0] < boxes[None, :, 2])
+              & (at[:, None, 1] > boxes[None, :, 1]) & (at[:, None, 1] < boxes[None, :, 3]))
+    assert not inside.any()
