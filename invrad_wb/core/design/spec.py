@@ -19,6 +19,11 @@ computation and name the offending key and value in one line::
                      "background": {"lux": 100, "u0": 0.1},
                      "operating_hours": 2500}}}
 
+The task area is the work plane less its border zone ``margin_m``, or the task areas the
+work plane lists (``"task_areas": [{"name": "desks", "rect": [x0, y0, x1, y1]}, {"name":
+"counter", "polygon": [[x, y], ...], "lux": 300}]``, metres in the scene's coordinates,
+optional ``lux`` / ``u0`` per area; not both: :mod:`.taskareas`).
+
 Room keys are the PLY room id (``"0"``) or the room's name in FreeCAD/IFC; ``"*"`` applies to
 every room not listed. Requirements are *maintained* values (EN 12464-1): a new
 installation must give ``lux / maintenance_factor`` (CIE 97 simplified: one factor for lamp

@@ -386,7 +386,10 @@ def floor_plan_figure(rooms, z, types, catalogue=None):
     for r in rooms:
         _outline(ax, r.outline)
         c = label_point(r.outline, [lum.position[:2] for lum in r.luminaires])
-        text = r.name if r.metrics is None else f"{r.name}\nEm {r.metrics.em:.0f} lx"
+        areas = _task_areas(r)
+        text = (r.name if r.metrics is None else f"{r.name}\nEm {r.metrics.em:.0f} lx"
+                if not areas else r.name + "".join(f"\n{a['name']}: Em {a['em']:.0f} lx"
+                                                    for a in areas))
         ok = r.metrics is not None and r.compliant
         ax.text(c[0], c[1], text, ha="center", va="center", fontsize=8,
                 color="darkgreen" if ok else "darkred",

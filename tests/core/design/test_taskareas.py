@@ -214,3 +214,14 @@ def test_room_designed_for_and_reported_per_task_area():
     assert d["task_areas"][1]["lux"] == 750 and d["task_areas"][1]["pass"] is True
     assert d["task_areas"][1]["em_lux"] == pytest.approx(em_c, abs=0.01)
     assert d["requirement"]["task_areas"][0]["rect"] == [0.8, 0.8, 3.2, 2.4]
+
+
+def test_the_example_spec_with_task_areas_reads():
+    import os
+    from invrad_wb.core.design.spec import read_spec
+    here = os.path.dirname(os.path.abspath(__file__))
+    spec = read_spec(os.path.join(here, "..", "..", "..", "examples",
+                                  "office_task_areas.json"))
+    wp = spec.room_spec(0).work_plane
+    assert [a.name for a in wp.task_areas] == ["desks", "counter"]
+    assert wp.lux == 500 and wp.task_areas[1].lux == 300 and wp.height_m == 0.8
