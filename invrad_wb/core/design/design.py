@@ -457,7 +457,7 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
     rd.cylindrical = rs.cylindrical
     model = RoomModel(scene, droom, points, spec.maintenance_factor, backend,
                       extra=_shade_points(scene, room), surfaces=surfaces)
-    cyl = _cylindrical_grid(model, droom, req, rs, rd)
+    cyl = _cylindrical_grid(model, droom, req, rs, rd, points)
     mount_h = (rs.mounting.height_m if rs.mounting.kind != "ceiling"
                else droom.top_z - droom.floor_z)
     entries = spec.entries_for(rs, mount_h)
@@ -654,13 +654,18 @@ def _with_surroundings(rs, droom, req, surfaces, rd):
     return replace(rs, surfaces={**rs.surfaces, "surroundings": q})
 
 
-def _cylindrical_grid(model, droom, req, rs, rd):
-    """The room's :class:`~.cylindrical.CylindricalGrid` where it asks for Ez, or None."""
+def _cylindrical_grid(model, droom, req, rs, rd, points=None):
+    """The room's :class:`~.cylindrical.CylindricalGrid` where it asks for Ez, or None:
+    on the task area's cells at the requirement's height (explicit task areas: their
+    ``points`` lifted)."""
     if rs.cylindrical is None:
         return None
     from invrad_wb.core.design.cylindrical import CylindricalGrid
     from invrad_wb.errors import SceneError
     c = rs.cylindrical
+    if getattr(rd.requirement, "task_areas", ()):
+        return CylindricalGrid(model, np.c_[points[:, :2], np.full(len(points),
+                                            droom.floor_z + c["height_m"])], c)
     try:
         pts, _ = droom.grid(c["height_m"], req.margin_m)
     except SceneError as e:

@@ -152,6 +152,11 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
     # side by side; one above the other for a long room or one with many grid columns
     # (the values need the page's width)
     columns = len(np.unique(np.round(pts[:, 0], 3))) if len(pts) else 0
+    if getattr(rd.requirement, "task_areas", ()) and len(pts):
+        # explicit task areas: each its own grid, its own columns (the union of a 7- and
+        # a 6-column grid side by side is not 13 columns across the page)
+        at = _area_of(pts, rd)
+        columns = max(len(np.unique(np.round(pts[at == k, 0], 3))) for k in np.unique(at))
     stacked = span[0] > 1.6 * span[1] or columns > 12
     w = 8.0
     panel_w = w - 1.3 if stacked else (w - 1.6) / 2

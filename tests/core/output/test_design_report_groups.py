@@ -353,3 +353,32 @@ def test_iso_lux_labels_keep_off_the_luminaire_markers():
     inside = ((at[:, None, 0] > boxes[None, :, 0]) & (at[:, None, 0] < boxes[None, :, 2])
               & (at[:, None, 1] > boxes[None, :, 1]) & (at[:, None, 1] < boxes[None, :, 3]))
     assert not inside.any()
+
+
+def test_plan_of_two_task_areas_is_side_by_side_and_names_them():
+    # desks (7 x 5 cells) and a counter (6 x 4): the union's 13 columns stacked the two
+    # panels into a figure taller than the page left under the room's heading (the
+    # heading alone on one page, the plan on the next)
+    from invrad_wb.core.design.spec import SurfaceRequirement, TaskArea
+    rd = _room(GRID, OUTPUTS)
+    desks = TaskArea("desks", ((0.8, 0.8), (3.2, 0.8), (3.2, 2.4), (0.8, 2.4)), rect=True)
+    counter = TaskArea("counter", ((4.4, 2.9), (5.6, 2.9), (5.6, 3.6), (4.4, 3.6)), lux=300)
+    cells = []
+    for a, (nx, ny) in ((desks, (7, 5)), (counter, (6, 4))):
+        (x0, y0), (x1, y1) = a.polygon[0], a.polygon[2]
+        gx, gy = np.meshgrid(x0 + (np.arange(nx) + 0.5) * (x1 - x0) / nx,
+                             y0 + (np.arange(ny) + 0.5) * (y1 - y0) / ny)
+        cells.append(np.c_[gx.ravel(), gy.ravel(), np.full(gx.size, 0.8)])
+    rd.grid_points = np.concatenate(cells)
+    rd.metrics.lux = 300.0 + 100.0 * rd.grid_points[:, 0]
+    rd.requirement = SimpleNamespace(lux=500.0, u0=0.6, task_areas=(desks, counter))
+    rd.metrics.surfaces = {desks.part: (520.0, 330.0, 0.63), counter.part: (310.0, 240.0, 0.77)}
+    rd.surface_reqs = {desks.part: SurfaceRequirement(500.0, 0.6),
+                       counter.part: SurfaceRequirement(300.0, 0.6)}
+    fig = D.room_plan_figure(rd, rd.outline, 800.0, [e.name for e in CAT],
+                             D.output_groups(rd, CAT))
+    w, h = fig.get_size_inches()
+    assert h < w and h < 6.0
+    ax, ax2 = fig.axes[:2]
+    assert ax.get_title().startswith("desks: Em 520 lx, U0 0.63; counter: Em 310 lx")
+    assert {t.get_text() for t in ax2.texts} >= {"desks", "counter"}
