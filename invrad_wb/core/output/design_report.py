@@ -33,6 +33,8 @@ from invrad_wb.core.output.figures import png as _png
 _TEMPLATE = "design_report.html.j2"
 #: grid values are printed on the plan up to this many points (else every k-th)
 MAX_LABELS = 160
+#: the plan's two panels one above the other are at most this high each (inches)
+STACKED_PANEL_H = 3.3
 
 
 def _figure(width_in, height_in):
@@ -152,15 +154,12 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
     # side by side; one above the other for a long room or one with many grid columns
     # (the values need the page's width)
     columns = len(np.unique(np.round(pts[:, 0], 3))) if len(pts) else 0
-    if getattr(rd.requirement, "task_areas", ()) and len(pts):
-        # explicit task areas: each its own grid, its own columns (the union of a 7- and
-        # a 6-column grid side by side is not 13 columns across the page)
-        at = _area_of(pts, rd)
-        columns = max(len(np.unique(np.round(pts[at == k, 0], 3))) for k in np.unique(at))
     stacked = span[0] > 1.6 * span[1] or columns > 12
     w = 8.0
     panel_w = w - 1.3 if stacked else (w - 1.6) / 2
-    panel_h = min(4.2, panel_w * span[1] / span[0])
+    # two panels stacked stay under STACKED_PANEL_H each: the figure with the room's
+    # heading fits one page (4.2 in each left the heading alone on an empty page)
+    panel_h = min(STACKED_PANEL_H if stacked else 4.2, panel_w * span[1] / span[0])
     # the key of a room dimmed apart: one line per group (two columns beyond three)
     keyed = [g for g in groups or [] if g["label"]]
     key_in = 0.15 * max(0, -(-len(keyed) // _key_columns(keyed)) - 1) if keyed else 0.0
@@ -171,7 +170,8 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
     _outline(ax, edges)
     _plot_luminaires(ax, rd.luminaires, types)
     areas = _task_areas(rd)
-    ax.set_title("; ".join(f"{a['name']}: Em {a['em']:.0f} lx, U0 {a['u0']:.2f}"
+    ax.set_title(("; " if stacked else "\n").join(
+                     f"{a['name']}: Em {a['em']:.0f} lx, U0 {a['u0']:.2f}"
                            for a in areas) + ", iso-lux lines" if areas else
                  f"Em {rd.metrics.em:.0f} lx, U0 {rd.metrics.u0:.2f}, iso-lux lines",
                  fontsize=8)
