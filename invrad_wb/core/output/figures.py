@@ -162,8 +162,10 @@ ISO_LABEL_GAP_PT = 2.0
 MARKER_HALF_PT = 5.0
 
 
-#: where along an iso-lux line a label is tried, in order (shares of its length)
-LABEL_AT = (0.5, 0.35, 0.65, 0.2, 0.8)
+#: where along an iso-lux line a label is tried, in order (shares of its length): from
+#: the middle outwards in steps of 0.05 (a line between luminaire markers finds its gap)
+LABEL_AT = tuple(sorted(np.round(np.arange(0.1, 0.91, 0.05), 2).tolist(),
+                        key=lambda f: (abs(f - 0.5), f)))
 
 
 def _candidates(ax, cs, values, label_px):
@@ -253,8 +255,11 @@ def label_iso_lines(ax, cs, required=None, avoid=None, fontsize=7, inline_spacin
     def on_field(b):
         if finder is None:
             return True
-        c = to_data.transform([[b[0] + pad, b[1] + pad], [b[2] - pad, b[1] + pad],
-                               [b[0] + pad, b[3] - pad], [b[2] - pad, b[3] - pad]])
+        # the padded box's corners and edge middles (the label as drawn turns by
+        # matplotlib's own angle, a little off the estimate)
+        xm, ym = 0.5 * (b[0] + b[2]), 0.5 * (b[1] + b[3])
+        c = to_data.transform([[b[0], b[1]], [b[2], b[1]], [b[0], b[3]], [b[2], b[3]],
+                               [xm, b[1]], [xm, b[3]], [b[0], ym], [b[2], ym]])
         return bool(np.all(finder(c[:, 0], c[:, 1]) >= 0))
 
     kept, done = [], set()
