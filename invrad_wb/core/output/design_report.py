@@ -170,10 +170,11 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
     _outline(ax, edges)
     _plot_luminaires(ax, rd.luminaires, types)
     areas = _task_areas(rd)
+    iso = iso_words(lux, rd.requirement.lux)
     ax.set_title(("; " if stacked else "\n").join(
                      f"{a['name']}: Em {a['em']:.0f} lx, U0 {a['u0']:.2f}"
-                           for a in areas) + ", iso-lux lines" if areas else
-                 f"Em {rd.metrics.em:.0f} lx, U0 {rd.metrics.u0:.2f}, iso-lux lines",
+                     for a in areas) + f"\n{iso}" if areas else
+                 f"Em {rd.metrics.em:.0f} lx, U0 {rd.metrics.u0:.2f}\n{iso}",
                  fontsize=8)
     step = max(1, int(np.ceil(len(pts) / MAX_LABELS)))
     values = [ax2.text(p[0], p[1], f"{v:.0f}", fontsize=5.5, ha="center", va="center",
@@ -213,6 +214,20 @@ def _area_of(pts, rd):
     for i, a in enumerate(rd.requirement.task_areas):
         out[Path(np.asarray(a.polygon, dtype=float)).contains_points(pts[:, :2])] = i + 1
     return out
+
+
+def iso_words(lux, required):
+    """The plan's words for its iso-lux lines: 'iso-lux lines every 20 lx, 500 lx bold'
+    (or 'at 400, 500, 650 lx' where the required level breaks the step)."""
+    levels = iso_levels(lux, required)
+    if not levels:
+        return "no iso-lux lines (the light is even)"
+    d = np.diff(levels)
+    at = (f"every {d[0]:g} lx" if len(d) and np.allclose(d, d[0])
+          else "at " + ", ".join(f"{v:g}" for v in levels) + " lx")
+    bold = (f", {required:g} lx bold" if required is not None
+            and any(abs(v - required) < 1e-6 for v in levels) else "")
+    return f"iso-lux lines {at}{bold}"
 
 
 def _task_outlines(axes, rd):
@@ -328,8 +343,11 @@ def _false_colour(ax, pts, lux, lux_max, required, edges=None):
     levels = iso_levels(lux, required)
     ax.iso_lines = None      # labelled once the page's layout is final (label_iso_lines)
     if len(levels):
+        # the required level's line bold: it says where the requirement is met even
+        # where no label fits between the luminaires' markers
+        req = [required is not None and abs(v - required) < 1e-6 for v in levels]
         ax.iso_lines = ax.tricontour(tri, lux, levels=levels, colors="white",
-                                     linewidths=1.0)
+                                     linewidths=[2.2 if r else 0.9 for r in req])
         ax.iso_field = tri
     return m
 

@@ -382,3 +382,23 @@ def test_plan_of_two_task_areas_fits_a_page_and_names_them():
     ax, ax2 = fig.axes[:2]
     assert ax.get_title().startswith("desks: Em 520 lx, U0 0.63; counter: Em 310 lx")
     assert {t.get_text() for t in ax2.texts} >= {"desks", "counter"}
+
+
+def test_plan_title_says_the_iso_lux_step_and_bolds_the_required_level():
+    # the office plan: labels fit on few lines between the markers; the title gives the
+    # step and the required level's line is drawn bold
+    rd = _room(GRID, OUTPUTS)
+    fig = D.room_plan_figure(rd, rd.outline, 800.0, [e.name for e in CAT],
+                             D.output_groups(rd, CAT))
+    ax = fig.axes[0]
+    levels = D.iso_levels(rd.metrics.lux, 500.0)
+    step = levels[1] - levels[0]
+    assert ax.get_title().endswith(f"iso-lux lines every {step:g} lx, 500 lx bold")
+    widths = [c.get_linewidth()[0] for c in ax.iso_lines.collections]
+    assert widths[levels.index(500.0)] > 2 * max(w for v, w in zip(levels, widths)
+                                                 if v != 500.0)
+    assert D.iso_words(np.array([100.0, 100.0]), 500.0).startswith("no iso-lux lines")
+    assert D.iso_words(np.array([380.0, 760.0]), 500.0) == (
+        "iso-lux lines every 100 lx, 500 lx bold")
+    assert D.iso_words(np.array([380.0, 760.0]), 550.0) == (
+        "iso-lux lines at 400, 500, 550, 600, 700 lx, 550 lx bold")
