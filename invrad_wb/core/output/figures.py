@@ -249,7 +249,12 @@ def label_iso_lines(ax, cs, required=None, avoid=None, fontsize=7, inline_spacin
             (b[0] < others[:, 2]) & (others[:, 0] < b[2])
             & (b[1] < others[:, 3]) & (others[:, 1] < b[3])))
 
-    finder = None if field is None else field.get_trifinder()
+    finder = None
+    if field is not None:
+        try:
+            finder = field.get_trifinder()
+        except (RuntimeError, ValueError):   # a mesh's triangles that overlap: no check
+            finder = None
     to_data = ax.transData.inverted()
 
     def on_field(b):
