@@ -88,7 +88,8 @@ def _print_room(r):
     verdict = "meets" if r.compliant else "DOES NOT MEET"
     print(f"{r.name}: {types} ({r.candidate.geom.describe()}"
           + _dimmed_words(r)
-          + f"): Em {m.em:.0f} lx (>= {q.lux:g}), U0 {m.u0:.2f} (>= {q.u0:g}),"
+          + ("):" if getattr(q, "task_areas", ()) else     # each area's below
+             f"): Em {m.em:.0f} lx (>= {q.lux:g}), U0 {m.u0:.2f} (>= {q.u0:g}),")
           + "".join(f" {k} Em {m.surfaces[k][0]:.0f} lx (>= {s.lux:.4g})"
                     f" U0 {m.surfaces[k][2]:.2f} (>= {s.u0:g}),"
                     for k, s in r.surface_reqs.items() if k in m.surfaces)

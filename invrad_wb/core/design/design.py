@@ -21,6 +21,8 @@ from invrad_wb.core.design.refine import refine
 from invrad_wb.core.design.room import DesignRoom
 from invrad_wb.core.design.accent import SPOT_TOLERANCE, find_goals, light_spots, within
 from invrad_wb.core.design.accents import light_spots_aimed
+from invrad_wb.core.design.taskareas import check_task_areas
+from invrad_wb.core.design.taskareas import prepare as prepare_task_areas
 from invrad_wb.core.design.search import (Candidate, Metrics, RoomSearch, classic_grids,
                                           margin_kept, metrics_comply, run_search)
 
@@ -121,6 +123,8 @@ class RoomDesign:
         spots = [s for s in self.spots if s.goal.kind == "spot"]
         if spots:
             out["spots"] = all(s.ok for s in spots)
+        if getattr(r, "task_areas", ()):      # each task area judged on its own cells (surface_ok)
+            del out["Em"], out["U0"]
         out.update(m.surface_ok(self.surface_reqs))
         if self.cylindrical is not None and self.cyl_figures is not None:
             from invrad_wb.core.design.cylindrical import complies as cyl_complies
@@ -192,6 +196,13 @@ class RoomDesign:
                     **({"required": self.surface_reqs[k].to_dict()}
                        if k in self.surface_reqs else {})}
                 for k, v in m.surfaces.items()}
+            if getattr(self.requirement, "task_areas", ()):    # each judged on its own cells
+                from invrad_wb.core.design.spec import part_name
+                d["task_areas"] = [
+                    {**ta.to_dict(), "area_m2": round(ta.area_m2, 3),
+                     **d["surfaces"].get(part_name(ta.name), {}),
+                     "pass": bool(self.verdicts.get(part_name(ta.name)))}
+                    for ta in self.requirement.task_areas]
             if "background" not in self.surface_reqs:
                 d["background"] = {"judged": False, "why": self.background_words}
             if self.cylindrical is not None:
@@ -359,13 +370,13 @@ def _ugr_note(rd, droom):
 def _explain(rd, search, entries):
     """Plain-language notes on a non-compliant or wasteful design."""
     r, m, c = rd.requirement, rd.metrics, rd.candidate
-    if m.em < r.lux:
+    if m.em < r.lux and not getattr(r, "task_areas", ()):
         strongest = max(entries, key=lambda e: e.flux_lm)
         rd.notes.append(f"too dark: the closest design gives Em {m.em:.0f} lx of the"
                         f" {r.lux:.0f} lx required with {len(rd.luminaires)} luminaires;"
                         f" the catalogue's strongest entry is {strongest.name}"
                         f" ({strongest.flux_lm:.0f} lm)")
-    if m.u0 < r.u0:
+    if m.u0 < r.u0 and not getattr(r, "task_areas", ()):
         rd.notes.append(f"uniformity U0 {m.u0:.2f} is below the required {r.u0:.2f}:"
                         " no layout of the catalogue's luminaires spreads the light evenly"
                         " enough at the mounting allowed")
@@ -433,15 +444,20 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
         rd.notes.append("no lighting requirement for this room: nothing designed")
         return rd
     req = rd.requirement = rs.work_plane
-    points, _ = droom.grid(req.height_m, req.margin_m)
-    surfaces = surface_grids(scene, room, droom, backend=backend)
-    rs = _with_surroundings(rs, droom, req, surfaces, rd)
-    rs = with_background(rs, droom, req, surfaces, rd)
+    if getattr(req, "task_areas", ()):     # the desks, a counter given explicitly (taskareas.py); the
+        # search takes their union's cells and judges each area as a surface grid
+        surfaces = surface_grids(scene, room, droom, backend=backend)
+        points, rs, req = prepare_task_areas(rs, droom, req, surfaces, rd)
+    else:
+        points, _ = droom.grid(req.height_m, req.margin_m)
+        surfaces = surface_grids(scene, room, droom, backend=backend)
+        rs = _with_surroundings(rs, droom, req, surfaces, rd)
+        rs = with_background(rs, droom, req, surfaces, rd)
     rd.surface_reqs = {k: v for k, v in rs.surfaces.items() if k in surfaces}
     rd.cylindrical = rs.cylindrical
     model = RoomModel(scene, droom, points, spec.maintenance_factor, backend,
                       extra=_shade_points(scene, room), surfaces=surfaces)
-    cyl = _cylindrical_grid(model, droom, req, rs, rd)
+    cyl = _cylindrical_grid(model, droom, req, rs, rd, points)
     mount_h = (rs.mounting.height_m if rs.mounting.kind != "ceiling"
                else droom.top_z - droom.floor_z)
     entries = spec.entries_for(rs, mount_h)
@@ -638,13 +654,18 @@ def _with_surroundings(rs, droom, req, surfaces, rd):
     return replace(rs, surfaces={**rs.surfaces, "surroundings": q})
 
 
-def _cylindrical_grid(model, droom, req, rs, rd):
-    """The room's :class:`~.cylindrical.CylindricalGrid` where it asks for Ez, or None."""
+def _cylindrical_grid(model, droom, req, rs, rd, points=None):
+    """The room's :class:`~.cylindrical.CylindricalGrid` where it asks for Ez, or None:
+    on the task area's cells at the requirement's height (explicit task areas: their
+    ``points`` lifted)."""
     if rs.cylindrical is None:
         return None
     from invrad_wb.core.design.cylindrical import CylindricalGrid
     from invrad_wb.errors import SceneError
     c = rs.cylindrical
+    if getattr(rd.requirement, "task_areas", ()):
+        return CylindricalGrid(model, np.c_[points[:, :2], np.full(len(points),
+                                            droom.floor_z + c["height_m"])], c)
     try:
         pts, _ = droom.grid(c["height_m"], req.margin_m)
     except SceneError as e:
@@ -692,6 +713,7 @@ def design(scene, spec, room_names=None, backend="auto", progress=None, workers=
     """
     names = _room_names(scene, room_names)
     check_rooms(spec, names)
+    check_task_areas(scene, spec, names)
     t0 = time.perf_counter()
     single = len(scene.rooms) <= 1
     labels = [name or f"room {room}" for room, name in names.items()]

@@ -21,6 +21,7 @@ import numpy as np
 from invrad_wb import constants as C
 from invrad_wb.errors import SceneError
 from invrad_wb.core.design import en12464
+from invrad_wb.core.design.spec import TASK_PART
 from invrad_wb.core.forward.direct import direct_illuminance
 from invrad_wb.core.forward.occlusion import segments_occluded
 from invrad_wb.core.forward.radiosity import RadiosityModel
@@ -402,9 +403,9 @@ class RoomModel:
         idx, _ = locate_points(m.triangles[floor][..., :2], self.points[:, :2])
         patch = np.where(idx >= 0, self.rad.face_patch[floor[np.maximum(idx, 0)]], -1)
         plane = np.arange(len(patch)) < self.n_wp
-        for name in ("surroundings", "background"):   # work-plane cells too
-            if name in self.layout.parts:                # (cylindrical.py, background.py)
-                plane[self.layout.parts[name][0]] = True
+        for name, (sl, _) in self.layout.parts.items():   # work-plane cells too
+            if name in ("surroundings", "background") or name.startswith(TASK_PART):
+                plane[sl] = True       # (cylindrical.py, background.py, taskareas.py)
         miss = np.flatnonzero((idx < 0) | ~plane)
         if len(miss):
             patch[miss] = self.rad.face_patch[nearest_site(m.face_centroids,

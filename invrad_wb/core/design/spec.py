@@ -19,6 +19,11 @@ computation and name the offending key and value in one line::
                      "background": {"lux": 100, "u0": 0.1},
                      "operating_hours": 2500}}}
 
+The task area is the work plane less its border zone ``margin_m``, or the task areas the
+work plane lists (``"task_areas": [{"name": "desks", "rect": [x0, y0, x1, y1]}, {"name":
+"counter", "polygon": [[x, y], ...], "lux": 300}]``, metres in the scene's coordinates,
+optional ``lux`` / ``u0`` per area; not both: :mod:`.taskareas`).
+
 Room keys are the PLY room id (``"0"``) or the room's name in FreeCAD/IFC; ``"*"`` applies to
 every room not listed. Requirements are *maintained* values (EN 12464-1): a new
 installation must give ``lux / maintenance_factor`` (CIE 97 simplified: one factor for lamp
@@ -53,6 +58,7 @@ import os
 from typing import Optional
 
 from invrad_wb.errors import SettingsError
+from invrad_wb.core.geometry.polygon import polygon_area, self_intersection
 
 #: Mounting kinds a catalogue entry or a room may allow.
 MOUNTINGS = ("ceiling", "pendant", "wall")
@@ -138,6 +144,50 @@ class CatalogueEntry:
         return d
 
 
+#: the surface grid of an explicit task area is named this prefix and its name
+#: (:mod:`.taskareas`); like the surroundings and the background it lies on the work plane
+TASK_PART = "task area: "
+
+
+def part_name(name):
+    """The surface-grid name of the task area ``name``."""
+    return TASK_PART + name
+
+
+@dataclass(frozen=True)
+class TaskArea:
+    """One task area: ``polygon`` ((k, 2) tuple of (x, y), counter-clockwise), its
+    requirement (None: the work plane's)."""
+
+    name: str
+    polygon: tuple
+    lux: float = None
+    u0: float = None
+    rect: bool = False
+
+    @property
+    def part(self):
+        return part_name(self.name)
+
+    @property
+    def area_m2(self):
+        return abs(polygon_area(self.polygon))
+
+    def to_dict(self):
+        d = {"name": self.name}
+        if self.rect:
+            (x0, y0), (x1, y1) = self.polygon[0], self.polygon[2]
+            d["rect"] = [x0, y0, x1, y1]
+        else:
+            d["polygon"] = [list(p) for p in self.polygon]
+        if self.lux is not None:
+            d["lux"] = self.lux
+        if self.u0 is not None:
+            d["u0"] = self.u0
+        return d
+
+
+
 @dataclass
 class WorkPlaneRequirement:
     """Maintained illuminance ``lux`` with uniformity ``u0`` (Emin/Em) on a work plane."""
@@ -147,10 +197,17 @@ class WorkPlaneRequirement:
     height_m: float = DEFAULT_WORK_PLANE_HEIGHT_M
     margin_m: float = DEFAULT_MARGIN_M
     source: str = "spec"
+    #: the task areas given explicitly (:class:`~.taskareas.TaskArea`), or () : the task
+    #: area is the work plane less ``margin_m``
+    task_areas: tuple = ()
 
     def to_dict(self):
-        return {"lux": self.lux, "u0": self.u0, "height_m": self.height_m,
-                "margin_m": self.margin_m, "source": self.source}
+        d = {"lux": self.lux, "u0": self.u0, "height_m": self.height_m,
+             "margin_m": self.margin_m, "source": self.source}
+        if self.task_areas:
+            del d["margin_m"]        # not used: the task areas are given
+            d["task_areas"] = [a.to_dict() for a in self.task_areas]
+        return d
 
 
 @dataclass
@@ -351,14 +408,83 @@ def _entry(d, where, base_dir):
 
 
 def _work_plane(d, where, source="spec"):
-    d = _object(d, where, ("lux", "u0", "height_m", "margin_m"))
+    d = _object(d, where, ("lux", "u0", "height_m", "margin_m", "task_areas"))
     lux = _number(d.get("lux"), where / "lux", "lx", lo=0, lo_open=True)
     u0 = _number(d.get("u0", 0.0), where / "u0", "(Emin/Em)", lo=0, hi=1.0)
     h = _number(d.get("height_m", DEFAULT_WORK_PLANE_HEIGHT_M), where / "height_m", "m",
                 lo=0, hi=20.0)
     margin = _number(d.get("margin_m", DEFAULT_MARGIN_M), where / "margin_m", "m", lo=0,
                      hi=10.0)
-    return WorkPlaneRequirement(lux, u0, h, margin, source)
+    areas = ()
+    if d.get("task_areas") is not None:
+        if "margin_m" in d:
+            raise (where / "margin_m").error(
+                "give either margin_m (the task area is the room less a border zone) or"
+                " task_areas (the desks, tables, counters), not both")
+        areas = _task_areas(d["task_areas"], where / "task_areas")
+    return WorkPlaneRequirement(lux, u0, h, margin, source, areas)
+
+
+def _point(p, where):
+    if not (isinstance(p, (list, tuple)) and len(p) == 2):
+        raise where.error(f"{p!r}: give a point as [x, y] (metres)")
+    return (_number(p[0], where, "m"), _number(p[1], where, "m"))
+
+
+def _task_areas(value, where):
+    """The work plane's ``"task_areas"``: a non-empty list of
+    ``{"name", "rect": [x0, y0, x1, y1]}`` or ``{"name", "polygon": [[x, y], ...]}``
+    (metres, the scene's coordinates; optional ``"lux"``, ``"u0"``: else the work
+    plane's); polygons simple, of non-zero area, turned counter-clockwise."""
+    if not isinstance(value, list) or not value:
+        raise where.error(f"{value!r}: give a non-empty list of task areas, e.g."
+                          ' [{"name": "desks", "rect": [x0, y0, x1, y1]}]')
+    out, names = [], set()
+    for i, d in enumerate(value):
+        d = _object(d, where / i, ("name", "rect", "polygon", "lux", "u0"))
+        name = d.get("name", f"task area {i + 1}")
+        if not isinstance(name, str) or not name.strip():
+            raise (where / i / "name").error(f"{name!r}: a task area's name is a text")
+        name = name.strip()
+        if name in names:
+            raise (where / name).error("the name is used twice")
+        names.add(name)
+        w = where / name
+        if ("rect" in d) == ("polygon" in d):
+            raise w.error("give either \"rect\": [x0, y0, x1, y1] or \"polygon\":"
+                          " [[x, y], ...] (metres)")
+        if "rect" in d:
+            r = d["rect"]
+            if not (isinstance(r, (list, tuple)) and len(r) == 4):
+                raise (w / "rect").error(f"{r!r}: give [x0, y0, x1, y1] (metres)")
+            x0, y0, x1, y1 = (_number(x, w / "rect", "m") for x in r)
+            if x1 <= x0 or y1 <= y0:
+                raise (w / "rect").error(f"{list(r)!r} has no area: x1 must be > x0 and"
+                                         " y1 > y0")
+            poly, rect = ((x0, y0), (x1, y0), (x1, y1), (x0, y1)), True
+        else:
+            pl = d["polygon"]
+            if not isinstance(pl, (list, tuple)) or len(pl) < 3:
+                raise (w / "polygon").error(f"{pl!r}: a polygon needs at least 3 points"
+                                            " [[x, y], ...]")
+            poly, rect = tuple(_point(p, w / "polygon") for p in pl), False
+            if len(poly) > 3 and poly[0] == poly[-1]:
+                poly = poly[:-1]           # closed by repeating its first point
+            cut = self_intersection(poly)
+            if cut is not None:
+                i0, j0 = cut
+                raise (w / "polygon").error(
+                    f"edges {i0 + 1} and {j0 + 1} cross: the polygon intersects itself"
+                    " (give its corners in order around it)")
+            a = polygon_area(poly)
+            if abs(a) < 1e-6:
+                raise (w / "polygon").error(f"{[list(p) for p in poly]!r} has zero area")
+            if a < 0:
+                poly = poly[::-1]
+        lux = _number(d.get("lux"), w / "lux", "lx", lo=0, lo_open=True, allow_none=True)
+        u0 = _number(d.get("u0"), w / "u0", "(Emin/Em)", lo=0, hi=1.0, allow_none=True)
+        out.append(TaskArea(name, poly, lux, u0, rect))
+    return tuple(out)
 
 
 def _mounting(d, where):

@@ -26,11 +26,15 @@ from invrad_wb.core.io.atomic import atomic_dir
 from invrad_wb.constants import DEEP_DIMMING, SPOT_TOLERANCE, SURFACE_REFERENCE
 from invrad_wb.core.output import document
 from invrad_wb.core.output.groups import output_groups  # noqa: F401 (the report's groups)
-from invrad_wb.core.output.figures import figure as _fig, iso_levels, png as _png
+from invrad_wb.core.output.figures import figure as _fig, iso_levels, label_iso_lines
+from invrad_wb.core.output.figures import thin_values
+from invrad_wb.core.output.figures import png as _png
 
 _TEMPLATE = "design_report.html.j2"
 #: grid values are printed on the plan up to this many points (else every k-th)
 MAX_LABELS = 160
+#: the plan's two panels one above the other are at most this high each (inches)
+STACKED_PANEL_H = 3.3
 
 
 def _figure(width_in, height_in):
@@ -153,7 +157,9 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
     stacked = span[0] > 1.6 * span[1] or columns > 12
     w = 8.0
     panel_w = w - 1.3 if stacked else (w - 1.6) / 2
-    panel_h = min(4.2, panel_w * span[1] / span[0])
+    # two panels stacked stay under STACKED_PANEL_H each: the figure with the room's
+    # heading fits one page (4.2 in each left the heading alone on an empty page)
+    panel_h = min(STACKED_PANEL_H if stacked else 4.2, panel_w * span[1] / span[0])
     # the key of a room dimmed apart: one line per group (two columns beyond three)
     keyed = [g for g in groups or [] if g["label"]]
     key_in = 0.15 * max(0, -(-len(keyed) // _key_columns(keyed)) - 1) if keyed else 0.0
@@ -163,12 +169,18 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
     m = _false_colour(ax, pts, lux, lux_max, rd.requirement.lux, edges)
     _outline(ax, edges)
     _plot_luminaires(ax, rd.luminaires, types)
-    ax.set_title(f"Em {rd.metrics.em:.0f} lx, U0 {rd.metrics.u0:.2f}, iso-lux lines",
+    areas = _task_areas(rd)
+    iso = iso_words(lux, rd.requirement.lux)
+    ax.set_title(("; " if stacked else "\n").join(
+                     f"{a['name']}: Em {a['em']:.0f} lx, U0 {a['u0']:.2f}"
+                     for a in areas) + f"\n{iso}" if areas else
+                 f"Em {rd.metrics.em:.0f} lx, U0 {rd.metrics.u0:.2f}\n{iso}",
                  fontsize=8)
     step = max(1, int(np.ceil(len(pts) / MAX_LABELS)))
     values = [ax2.text(p[0], p[1], f"{v:.0f}", fontsize=5.5, ha="center", va="center",
                        color="black") for p, v in zip(pts[::step], lux[::step])]
     _outline(ax2, edges)
+    _task_outlines((ax, ax2), rd)
     ax2.set_title("values (lx) at the calculation points", fontsize=8)
     for a_ in (ax, ax2):
         a_.set_aspect("equal")
@@ -187,41 +199,48 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
         _room_legend(fig, ax, types, groups or [], fits)
         if fits:
             _label_luminaires(fig, ax, rd.luminaires, groups or [])
-    _thin_values(fig, values)
+    if getattr(ax, "iso_lines", None) is not None:
+        label_iso_lines(ax, ax.iso_lines, rd.requirement.lux,
+                        avoid=[lum.position[:2] for lum in rd.luminaires],
+                        field=ax.iso_field)
+    thin_values(fig, values, None if not areas else _area_of(pts[::step], rd))
     return fig
 
 
-def _thin_values(fig, texts):
-    """The values at the calculation points kept on every k-th column and row of the
-    grid, k as small as keeps their boxes apart on the drawn page, then any box still
-    touching a kept one dropped (a small task area on a page-wide room printed its values
-    as one run of digits: 0.25 m apart at about 0.5 inch a metre)."""
-    if len(texts) < 2:
-        return
-    renderer = fig.canvas.get_renderer()
-    ax = texts[0].axes
-    ax.apply_aspect()           # the box as drawn (an equal aspect narrows it at drawing)
-    at = ax.transData.transform(np.array([t.get_position() for t in texts]))
-    boxes = np.array([t.get_window_extent(renderer).extents for t in texts])
-    size = np.max(boxes[:, 2:] - boxes[:, :2], axis=0) * 1.15      # (w, h) px, a gap
-    keep = np.ones(len(texts), dtype=bool)
-    for d in (0, 1):
-        levels, idx = np.unique(np.round(at[:, d], 1), return_inverse=True)
-        if len(levels) < 2:
-            continue
-        pitch = float(np.median(np.diff(levels)))
-        k = max(1, int(np.ceil(size[d] / max(pitch, 1e-9))))
-        keep &= idx % k == 0
-    kept = []
-    for i in np.flatnonzero(keep):
-        b = boxes[i]
-        if any(b[0] < c[2] and c[0] < b[2] and b[1] < c[3] and c[1] < b[3] for c in kept):
-            keep[i] = False
-            continue
-        kept.append(b)
-    for t, k_ in zip(texts, keep):
-        if not k_:
-            t.remove()
+def _area_of(pts, rd):
+    """(n,) index of the explicit task area each plan point lies in (0: none)."""
+    from matplotlib.path import Path
+    out = np.zeros(len(pts), dtype=int)
+    for i, a in enumerate(rd.requirement.task_areas):
+        out[Path(np.asarray(a.polygon, dtype=float)).contains_points(pts[:, :2])] = i + 1
+    return out
+
+
+def iso_words(lux, required):
+    """The plan's words for its iso-lux lines: 'iso-lux lines every 20 lx, 500 lx bold'
+    (or 'at 400, 500, 650 lx' where the required level breaks the step)."""
+    levels = iso_levels(lux, required)
+    if not levels:
+        return "no iso-lux lines (the light is even)"
+    d = np.diff(levels)
+    at = (f"every {d[0]:g} lx" if len(d) and np.allclose(d, d[0])
+          else "at " + ", ".join(f"{v:g}" for v in levels) + " lx")
+    bold = (f", {required:g} lx bold" if required is not None
+            and any(abs(v - required) < 1e-6 for v in levels) else "")
+    return f"iso-lux lines {at}{bold}"
+
+
+def _task_outlines(axes, rd):
+    """The explicit task areas' outlines on the plan's panels, named on the values'
+    panel (above the area, where no value is printed)."""
+    for a in getattr(rd.requirement, "task_areas", ()):
+        p = np.asarray(a.polygon, dtype=float)
+        q = np.r_[p, p[:1]]
+        axes[0].plot(q[:, 0], q[:, 1], color="0.1", lw=1.0, ls="--", zorder=3)
+        axes[1].plot(q[:, 0], q[:, 1], color="0.35", lw=0.8, ls="--", zorder=1)
+        axes[1].annotate(a.name, (float(p[:, 0].mean()), float(p[:, 1].max())),
+                         xytext=(0, 2), textcoords="offset points", ha="center",
+                         va="bottom", fontsize=6.5, color="0.25", style="italic")
 
 
 def dimming_plan_png(rd, edges, types, groups):
@@ -322,9 +341,14 @@ def _false_colour(ax, pts, lux, lux_max, required, edges=None):
         tri.set_mask(mask)
     m = ax.tripcolor(tri, lux, shading="gouraud", cmap="viridis", vmin=0, vmax=lux_max)
     levels = iso_levels(lux, required)
+    ax.iso_lines = None      # labelled once the page's layout is final (label_iso_lines)
     if len(levels):
-        cs = ax.tricontour(tri, lux, levels=levels, colors="white", linewidths=1.0)
-        ax.clabel(cs, fmt="%d lx", fontsize=7, inline=True)
+        # the required level's line bold: it says where the requirement is met even
+        # where no label fits between the luminaires' markers
+        req = [required is not None and abs(v - required) < 1e-6 for v in levels]
+        ax.iso_lines = ax.tricontour(tri, lux, levels=levels, colors="white",
+                                     linewidths=[2.2 if r else 0.9 for r in req])
+        ax.iso_field = tri
     return m
 
 
@@ -385,7 +409,10 @@ def floor_plan_figure(rooms, z, types, catalogue=None):
     for r in rooms:
         _outline(ax, r.outline)
         c = label_point(r.outline, [lum.position[:2] for lum in r.luminaires])
-        text = r.name if r.metrics is None else f"{r.name}\nEm {r.metrics.em:.0f} lx"
+        areas = _task_areas(r)
+        text = (r.name if r.metrics is None else f"{r.name}\nEm {r.metrics.em:.0f} lx"
+                if not areas else r.name + "".join(f"\n{a['name']}: Em {a['em']:.0f} lx"
+                                                    for a in areas))
         ok = r.metrics is not None and r.compliant
         ax.text(c[0], c[1], text, ha="center", va="center", fontsize=8,
                 color="darkgreen" if ok else "darkred",
@@ -512,7 +539,12 @@ def summary_rows(r):
              "required": f"Em >= {q.lux:g} lx, U0 >= {q.u0:.2f}",
              "achieved": f"Em {m.em:.0f} lx, U0 {m.u0:.2f}",
              "verdict": "pass" if v["Em"] and v["U0"] else "FAIL", "source": q.source},
-            ]
+            ] if not _task_areas(r) else [
+        {"item": f"task area {a['name']} ({a['area_m2']:.2f} m2)",
+         "required": f"Em >= {a['lux']:g} lx, U0 >= {a['u0_req']:.2f}",
+         "achieved": f"Em {a['em']:.0f} lx, U0 {a['u0']:.2f}",
+         "verdict": "pass" if a["ok"] else "FAIL", "source": a["source"]}
+        for a in _task_areas(r)]
     # the two bands around the task area: judged where the room has them, else why not
     for key, item, lux_fmt, none_words, none_source in (
             ("surroundings", "immediate surroundings", "g", "not computed",
@@ -559,6 +591,28 @@ def summary_rows(r):
     return rows
 
 
+def _task_areas(r):
+    """The explicit task areas of a designed room with their figures (dicts: name,
+    area_m2, lux, u0_req, em, emin, u0, ok, source), [] for a room judged on its work
+    plane less a border zone."""
+    areas = getattr(r.requirement, "task_areas", ()) if r.metrics is not None else ()
+    out = []
+    for a in areas:
+        k = a.part                  # its surface grid's name
+        if k not in r.metrics.surfaces:
+            continue
+        em, emin, u0 = r.metrics.surfaces[k]
+        q = r.surface_reqs[k]
+        out.append({"name": a.name, "area_m2": a.area_m2, "lux": q.lux, "u0_req": q.u0,
+                    "em": em, "emin": emin, "u0": u0, "ok": bool(r.verdicts.get(k)),
+                    "source": q.source.split("; task area")[0]})
+    return out
+
+
+def _per_area(areas, fmt):
+    return "; ".join(fmt(a) for a in areas)
+
+
 def room_rows(result):
     """Rows of the compliance table: one per room (dicts, strings formatted)."""
     rows = []
@@ -571,7 +625,7 @@ def room_rows(result):
             m, q, v = r.metrics, r.requirement, r.verdicts
             row.update(em_req=f"{q.lux:g}", em=f"{m.em:.0f}", emin=f"{m.emin:.0f}",
                        emax=f"{m.emax:.0f}", u0_req=f"{q.u0:.2f}", u0=f"{m.u0:.2f}",
-                       em_ok=v["Em"], u0_ok=v["U0"], ok=r.compliant,
+                       em_ok=v.get("Em"), u0_ok=v.get("U0"), ok=r.compliant,
                        watts=f"{r.watts:.1f}", wpm2=f"{r.watts / max(r.area_m2, 1e-9):.2f}",
                        layout=r.candidate.geom.describe(), source=q.source,
                        ugr="n/c" if r.ugr is None else f"{r.ugr:.1f}",
@@ -607,6 +661,21 @@ def room_rows(result):
                                           else None if s.accent is None
                                           else s.accent.extra.get("type"))}
                               for s in r.spots if s.goal.kind == "spot"])
+        areas = _task_areas(r)
+        if areas:        # one figure per task area, in the spec's order
+            row.update(em_req=_per_area(areas, lambda a: f"{a['lux']:g}"),
+                       em=_per_area(areas, lambda a: f"{a['em']:.0f}"),
+                       emin=_per_area(areas, lambda a: f"{a['emin']:.0f}"),
+                       emax="-",
+                       u0_req=_per_area(areas, lambda a: f"{a['u0_req']:.2f}"),
+                       u0=_per_area(areas, lambda a: f"{a['u0']:.2f}"),
+                       em_ok=all(a["em"] >= a["lux"] - 1e-9 for a in areas),
+                       u0_ok=all(a["u0"] >= a["u0_req"] - 1e-9 for a in areas),
+                       margin="-", task_areas=_per_area(
+                           areas, lambda a: f"{a['name']}: Em {a['em']:.0f} lx"
+                           f" (>= {a['lux']:g}), U0 {a['u0']:.2f} (>= {a['u0_req']:.2f}),"
+                           f" {'pass' if a['ok'] else 'FAIL'}"),
+                       task_area_names=", ".join(a["name"] for a in areas))
         rows.append(row)
     return rows
 
@@ -684,7 +753,7 @@ def write_design_report(result, out_dir, title="Lighting design", project=None, 
         _write(tmp, "schedule.csv", _csv(sched, list(sched[0]) if sched else ["room"]))
         rows = room_rows(result)
         _write(tmp, "rooms.csv", _csv(rows, ["name", "area", "size", "em_req", "em", "emin",
-                                              "emax", "u0_req", "u0", "surroundings",
+                                              "emax", "u0_req", "u0", "task_areas", "surroundings",
                                               "background", "walls", "ceiling",
                                               "ugr", "ugr_limit", "ok", "watts", "rated_w",
                                               "rated_wpm2", "wpm2_100lx", "energy",

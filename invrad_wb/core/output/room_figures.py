@@ -368,10 +368,12 @@ def plan_pair(view, required=None):
     norm, cmap = view.norm(), F.lux_cmap()
     _plan(a1, view, "achieved", cmap, norm)
     top = max(ups, key=lambda p: (round(float(p.origin[2]), 3), p.area))
-    _iso_lines(a1, view.display(), top.index, required)
+    iso = _iso_lines(a1, view.display(), top.index, required)
     F.luminaire_marks(a1, view.lum_xyz[:, :2], view.lum_labels)
     for ax in (a1, a2):
         _plan_axes(ax, s, ups)
+    if iso is not None:       # labelled where they fit, on the panel as drawn
+        F.label_iso_lines(a1, iso[0], required, avoid=view.lum_xyz[:, :2], field=iso[1])
     a2.set_ylabel("")
     a2.tick_params(labelleft=False)
     n, cell = _grid_panel(a2, view, top, norm, cmap)
@@ -389,7 +391,8 @@ def _plane_words(scene, room, plane):
 
 
 def _iso_lines(ax, mesh, plane, required):
-    """Labelled iso-lux lines over one plane (matplotlib's tricontour + clabel)."""
+    """Iso-lux lines over one plane (matplotlib's tricontour): (contour set, its
+    triangulation) for :func:`~.figures.label_iso_lines`, or None."""
     from matplotlib.tri import Triangulation
     tri = mesh.tri[mesh.plane == plane]
     verts, inv = np.unique(tri.reshape(-1), return_inverse=True)
@@ -401,8 +404,7 @@ def _iso_lines(ax, mesh, plane, required):
         return
     t = Triangulation(mesh.xyz[verts, 0], mesh.xyz[verts, 1], inv.reshape(-1, 3))
     cs = ax.tricontour(t, v, levels=levels, colors=F.ISO_COLOUR, linewidths=0.9)
-    ax.clabel(cs, fmt=lambda x: f"{x:.0f} lx", fontsize=7, inline=True,
-              inline_spacing=2)
+    return cs, t
 
 
 def scale_top(target, achieved, faces_of_room, scene):

@@ -303,3 +303,102 @@ def test_values_of_a_small_task_area_on_a_wide_room_do_not_overlap():
     assert len(set(np.round(shown[:, 1], 3))) >= 2
     assert len(set(np.round(shown[:, 0], 3))) >= len(set(np.round(xs.ravel(), 3))) // 2
     assert len(values) < len(rd.grid_points)
+
+
+def _iso_label_boxes(fig):
+    fig.canvas.draw()                                   # measured as drawn
+    ax = fig.axes[0]
+    labels = [t for t in ax.texts if t.get_text().endswith(" lx")]
+    renderer = fig.canvas.get_renderer()
+    return ax, labels, np.array([t.get_window_extent(renderer).extents
+                                 for t in labels]).reshape(-1, 4)
+
+
+def test_iso_lux_labels_of_a_small_task_area_do_not_overlap():
+    # a 1.6 x 1.2 m task area with a bright spot in a 6 x 4 m room on a half-page panel:
+    # matplotlib's clabel, called before the page's layout shrank the panel, put four
+    # labels into it, two pairs on top of each other
+    row = np.array([(x, 3.2) for x in (1.29, 2.15, 3.0, 3.86, 4.71)])
+    rd = _room(row, np.array([1.0, 0.5, 0.3, 0.5, 1.0]))
+    xs, ys = np.meshgrid(np.linspace(0.7, 2.3, 8), np.linspace(0.7, 1.9, 6))
+    pts = np.column_stack([xs.ravel(), ys.ravel(), np.full(xs.size, 0.75)])
+    rd.grid_points = pts
+    d2 = np.sum((pts[:, :2] - [1.5, 1.3]) ** 2, axis=1)
+    rd.metrics.lux = 300 + 700 * np.exp(-d2 / 0.3) + 150 * pts[:, 0]
+    fig = D.room_plan_figure(rd, rd.outline, 1200.0, [e.name for e in CAT],
+                             D.output_groups(rd, CAT))
+    ax, labels, boxes = _iso_label_boxes(fig)
+    assert len(labels) >= 1                             # the lines still say their level
+    x0, y0, x1, y1 = boxes.T
+    over = ((x0[:, None] < x1[None]) & (x0[None] < x1[:, None])
+            & (y0[:, None] < y1[None]) & (y0[None] < y1[:, None]))
+    np.fill_diagonal(over, False)
+    assert not over.any()
+    # each label on the coloured field (white on the white page is unreadable)
+    inv = ax.transData.inverted()
+    lo = inv.transform(boxes[:, :2])
+    hi = inv.transform(boxes[:, 2:])
+    assert np.all(lo >= pts[:, :2].min(axis=0) - 1e-6)
+    assert np.all(hi <= pts[:, :2].max(axis=0) + 1e-6)
+
+
+def test_iso_lux_labels_keep_off_the_luminaire_markers():
+    # the office grid of luminaires over a whole-room work plane: no label under a marker
+    rd = _room(GRID, OUTPUTS)
+    fig = D.room_plan_figure(rd, rd.outline, 800.0, [e.name for e in CAT],
+                             D.output_groups(rd, CAT))
+    ax, labels, boxes = _iso_label_boxes(fig)
+    assert len(labels) >= 1
+    at = ax.transData.transform(GRID)
+    inside = ((at[:, None, 0] > boxes[None, :, 0]) & (at[:, None, 0] < boxes[None, :, 2])
+              & (at[:, None, 1] > boxes[None, :, 1]) & (at[:, None, 1] < boxes[None, :, 3]))
+    assert not inside.any()
+
+
+def test_plan_of_two_task_areas_fits_a_page_and_names_them():
+    # desks (7 x 5 cells) and a counter (6 x 4): the union's 13 columns stack the two
+    # panels; at 4.2 in each the figure (10.4 in) left the room's heading alone on an
+    # empty PDF page
+    from invrad_wb.core.design.spec import SurfaceRequirement, TaskArea
+    rd = _room(GRID, OUTPUTS)
+    desks = TaskArea("desks", ((0.8, 0.8), (3.2, 0.8), (3.2, 2.4), (0.8, 2.4)), rect=True)
+    counter = TaskArea("counter", ((4.4, 2.9), (5.6, 2.9), (5.6, 3.6), (4.4, 3.6)), lux=300)
+    cells = []
+    for a, (nx, ny) in ((desks, (7, 5)), (counter, (6, 4))):
+        (x0, y0), (x1, y1) = a.polygon[0], a.polygon[2]
+        gx, gy = np.meshgrid(x0 + (np.arange(nx) + 0.5) * (x1 - x0) / nx,
+                             y0 + (np.arange(ny) + 0.5) * (y1 - y0) / ny)
+        cells.append(np.c_[gx.ravel(), gy.ravel(), np.full(gx.size, 0.8)])
+    rd.grid_points = np.concatenate(cells)
+    rd.metrics.lux = 300.0 + 100.0 * rd.grid_points[:, 0]
+    rd.requirement = SimpleNamespace(lux=500.0, u0=0.6, task_areas=(desks, counter))
+    rd.metrics.surfaces = {desks.part: (520.0, 330.0, 0.63), counter.part: (310.0, 240.0, 0.77)}
+    rd.surface_reqs = {desks.part: SurfaceRequirement(500.0, 0.6),
+                       counter.part: SurfaceRequirement(300.0, 0.6)}
+    fig = D.room_plan_figure(rd, rd.outline, 800.0, [e.name for e in CAT],
+                             D.output_groups(rd, CAT))
+    w, h = fig.get_size_inches()
+    assert h <= 8.8                          # with the heading, on one A4 page
+    ax, ax2 = fig.axes[:2]
+    assert ax.get_title().startswith("desks: Em 520 lx, U0 0.63; counter: Em 310 lx")
+    assert {t.get_text() for t in ax2.texts} >= {"desks", "counter"}
+
+
+def test_plan_title_says_the_iso_lux_step_and_bolds_the_required_level():
+    # the office plan: labels fit on few lines between the markers; the title gives the
+    # step and the required level's line is drawn bold
+    rd = _room(GRID, OUTPUTS)
+    fig = D.room_plan_figure(rd, rd.outline, 800.0, [e.name for e in CAT],
+                             D.output_groups(rd, CAT))
+    ax = fig.axes[0]
+    levels = D.iso_levels(rd.metrics.lux, 500.0)
+    step = levels[1] - levels[0]
+    assert ax.get_title().endswith(f"iso-lux lines every {step:g} lx, 500 lx bold")
+    widths = [c.get_linewidth()[0] for c in ax.iso_lines.collections]
+    assert widths[levels.index(500.0)] > 2 * max(w for v, w in zip(levels, widths)
+                                                 if v != 500.0)
+    assert D.iso_words(np.array([100.0, 100.0]), 500.0).startswith("no iso-lux lines")
+    assert D.iso_words(np.array([380.0, 760.0]), 500.0) == (
+        "iso-lux lines every 100 lx, 500 lx bold")
+    assert D.iso_words(np.array([380.0, 760.0]), 550.0) == (
+        "iso-lux lines at 400, 500, 550, 600, 700 lx, 550 lx bold")

@@ -1,0 +1,235 @@
+"""Task areas given explicitly: the desks, a table, a counter (EN 12464-1:2021 4.3.3).
+
+Where the spec's work plane lists ``"task_areas"`` (rectangles ``"rect": [x0, y0, x1, y1]``
+or polygons ``"polygon": [[x, y], ...]``, metres, in the coordinates of the scene, on the
+work plane at its ``height_m``), the room is designed and judged on them instead of on the
+room less a border zone (``margin_m``, which the spec then refuses: one or the other):
+
+* **each task area** on its own EN 12464-1 grid (cell centres inside its outline, at most
+  ``p = 0.2 * 5^log10(d)`` apart with ``d`` its own longer side, along the room's axes):
+  its own Em and U0 against its own requirement (the work plane's ``lux`` / ``u0`` unless
+  the area gives its own). It is one more surface grid of the design model (name
+  ``'task area: <name>'``, :func:`~.spec.part_name`, gathered with the floor patch under each
+  cell as the work plane is), judged on every exact check and ranked by the fast model;
+* **the immediate surroundings**: the union of the 0.5 m bands around the task areas,
+  clipped to the room, less the task areas (:func:`band_cells` with the distance to the
+  nearest task area in ``(0, 0.5]``), one requirement: EN 12464-1 Table 3 of the highest
+  task Em (the strictest: a band next to the desks and next to the counter is one floor);
+* **the background area**: beyond the surroundings, up to 3 m further (distance in
+  ``(0.5, 3.5]``), clipped to the room: one third of the surroundings' Em, U0 0.10
+  (:mod:`.background`), or what the spec's ``"background"`` asks.
+
+The room's work-plane cells (the first ``n`` receivers of the design model, which the
+search's count range, its fast ranking and the report's plan use) are the union of the
+task areas' cells; the search judges no U0 over that union (two task areas at different
+levels are not one task), only each area's own.
+"""
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+from invrad_wb.core.design import en12464
+from invrad_wb.core.design.background import background_requirement
+from invrad_wb.core.design.cylindrical import SURROUNDINGS_U0, surroundings_lux
+from invrad_wb.core.design.room import in_polygon
+from invrad_wb.core.design.spec import SurfaceRequirement
+from invrad_wb.core.geometry.polygon import polygon_area
+from invrad_wb.core.model.targets import WORK_PLANE_HEADROOM_M, distance_to_segments
+
+#: the immediate surroundings' width around a task area (EN 12464-1:2021 4.3.3), m
+SURROUNDINGS_M = 0.5
+#: the background area's least width beyond the surroundings (EN 12464-1:2021 4.3.3), m
+BACKGROUND_M = 3.0
+#: the bands' cells are at most this on a side (two rows across the 0.5 m band)
+BAND_SPACING_M = 0.25
+#: each band cell's share of the band is counted on SUB x SUB samples
+SUB = 8
+#: a task area's outline may lie this far outside the floor outline (mesh rounding), m
+OUTSIDE_TOL_M = 1e-3
+
+
+def _segments(polys):
+    seg = [np.stack([p, np.roll(p, -1, axis=0)], axis=1)
+           for p in (np.asarray(q, dtype=np.float64) for q in polys)]
+    seg = np.concatenate(seg)
+    return np.concatenate([seg, np.zeros(seg.shape[:2] + (1,))], axis=2)
+
+
+def area_distance(areas, xy):
+    """(k,) distance (m) of plan points ``xy`` (k, 2) to the nearest task area: 0 inside
+    one, else to its outline."""
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    inside = np.zeros(len(xy), dtype=bool)
+    for a in areas:
+        inside |= in_polygon(a.polygon, xy)
+    d = distance_to_segments(np.c_[xy, np.zeros(len(xy))], _segments([a.polygon for a in areas]))
+    return np.where(inside, 0.0, d)
+
+
+def outside_point(droom, area, samples=24):
+    """``(point, metres)``: the point of a task area's outline farthest outside the room's
+    floor (its corners and ``samples`` points along each edge), or None where it lies
+    within the floor (an L's notch crossed by an edge counts as outside)."""
+    p = np.asarray(area.polygon, dtype=np.float64)
+    q = np.roll(p, -1, axis=0)
+    u = np.linspace(0.0, 1.0, samples + 1)[:-1]
+    pts = (p[:, None, :] + u[None, :, None] * (q - p)[:, None, :]).reshape(-1, 2)
+    cen = p.mean(axis=0)
+    pts = np.r_[pts, cen[None]] if abs(polygon_area(p)) > 0 else pts
+    d = droom.wall_distance(pts)
+    i = int(np.argmin(d))
+    return None if d[i] >= -OUTSIDE_TOL_M else (pts[i], float(-d[i]))
+
+
+def check_task_areas(scene, spec, names):
+    """Refuse a task area that reaches outside its room, before any computation: a
+    one-line SettingsError naming the spec, the room, the task area and the point."""
+    from invrad_wb.core.design.room import DesignRoom
+    from invrad_wb.errors import SettingsError
+    for room, name in names.items():
+        rs = spec.room_spec(room, name)
+        wp = None if rs is None else rs.work_plane
+        areas = getattr(wp, "task_areas", ()) if wp is not None else ()
+        if not areas:
+            continue
+        label = name or f"room {room}"
+        droom = DesignRoom(scene, room, label)
+        for a in areas:
+            out = outside_point(droom, a)
+            if out is not None:
+                (x, y), d = out
+                lo = np.round(droom._edges.reshape(-1, 2).min(axis=0), 6) + 0.0
+                hi = np.round(droom._edges.reshape(-1, 2).max(axis=0), 6) + 0.0
+                raise SettingsError(
+                    f"{spec.source}: rooms.{rs.key}.work_plane.task_areas.{a.name}:"
+                    f" reaches {d:.2f} m outside the floor of {label} at ({x:.2f}, {y:.2f})"
+                    f" (the floor spans x {lo[0]:.2f} to {hi[0]:.2f}, y {lo[1]:.2f} to"
+                    f" {hi[1]:.2f} m)")
+
+
+def _headroom(droom, xy, height_m):
+    zc, _ = droom.ceiling_at(xy)
+    return np.nan_to_num(zc, nan=np.inf) >= droom.floor_z + height_m + WORK_PLANE_HEADROOM_M
+
+
+def task_cells(droom, height_m, area):
+    """A task area's EN 12464-1 calculation points: (points (j, 3), normals (j, 3)
+    facing up, weights (j,) m^2), cell centres inside its outline and the room (with head
+    room), at most ``p`` of its own longer side apart along the room's axes. A thin or
+    small area gets a finer grid until at least one centre falls inside it."""
+    st_poly = droom.to_plan(np.asarray(area.polygon, dtype=np.float64))
+    lo, hi = st_poly.min(axis=0), st_poly.max(axis=0)
+    size = np.maximum(hi - lo, 1e-9)
+    ns, nt = en12464.grid_counts(size[0], size[1])
+    for _ in range(6):
+        ds, dt = size[0] / ns, size[1] / nt
+        s = lo[0] + (np.arange(ns) + 0.5) * ds
+        t = lo[1] + (np.arange(nt) + 0.5) * dt
+        xy = droom.to_world(np.stack(np.meshgrid(s, t, indexing="ij"), -1).reshape(-1, 2))
+        keep = (in_polygon(area.polygon, xy) & (droom.wall_distance(xy) >= -OUTSIDE_TOL_M)
+                & _headroom(droom, xy, height_m))
+        if keep.any():
+            break
+        ns, nt = 2 * ns, 2 * nt
+    k = int(keep.sum())
+    if not k:
+        return None
+    pts = np.c_[xy[keep], np.full(k, droom.floor_z + height_m)]
+    return pts, np.tile([0.0, 0.0, 1.0], (k, 1)), np.full(k, ds * dt)
+
+
+def band_cells(droom, height_m, areas, d0, d1, spacing):
+    """Cells of the work plane whose distance to the nearest task area lies in
+    ``(d0, d1]``, clipped to the room's outline and to where the work plane has head room:
+    (points (j, 3), normals (j, 3) facing up, weights (j,) m^2: each cell's share of the
+    band counted on :data:`SUB` x :data:`SUB` samples), or None where none remains. A
+    cell's point is its in-band sample nearest their centroid (in the band for sure)."""
+    p = min(en12464.grid_spacing(float(np.max(droom.size))), spacing)
+    ns = max(1, int(math.ceil(droom.size[0] / p - 1e-9)))
+    nt = max(1, int(math.ceil(droom.size[1] / p - 1e-9)))
+    ds, dt = droom.size[0] / ns, droom.size[1] / nt
+    u = (np.arange(SUB) + 0.5) / SUB
+    cs, ct = np.meshgrid(np.arange(ns), np.arange(nt), indexing="ij")
+    us, ut = np.meshgrid(u, u, indexing="ij")
+    st = np.stack([(cs.reshape(-1, 1) + us.reshape(1, -1)) * ds,
+                   (ct.reshape(-1, 1) + ut.reshape(1, -1)) * dt], axis=-1)
+    xy = droom.to_world(st.reshape(-1, 2))
+    d = area_distance(areas, xy)
+    inb = (d > d0 + 1e-9) & (d <= d1 + 1e-9) & droom.inside(xy)
+    inb[inb] &= _headroom(droom, xy[inb], height_m)
+    inb = inb.reshape(ns * nt, SUB * SUB)
+    n_in = inb.sum(axis=1)
+    cells = np.flatnonzero(n_in)
+    if not len(cells):
+        return None
+    xy = xy.reshape(ns * nt, SUB * SUB, 2)[cells]
+    inb = inb[cells]
+    cen = np.einsum("cs,csj->cj", inb, xy) / n_in[cells, None]
+    far = np.where(inb, np.linalg.norm(xy - cen[:, None, :], axis=2), np.inf)
+    pick = xy[np.arange(len(cells)), np.argmin(far, axis=1)]
+    m = len(cells)
+    return (np.c_[pick, np.full(m, droom.floor_z + height_m)], np.tile([0.0, 0.0, 1.0], (m, 1)),
+            n_in[cells] / (SUB * SUB) * ds * dt)
+
+
+def area_requirement(area, req):
+    """A task area's :class:`~.spec.SurfaceRequirement`: its own lux / u0, else the work
+    plane's."""
+    lux = req.lux if area.lux is None else area.lux
+    u0 = req.u0 if area.u0 is None else area.u0
+    own = area.lux is not None or area.u0 is not None
+    return SurfaceRequirement(lux, u0, ("spec (this task area)" if own else req.source)
+                              + f"; task area {area.area_m2:.2f} m2")
+
+
+def prepare(rs, droom, req, surfaces, rd):
+    """The design model's grids of a room whose work plane lists task areas: returns
+    ``(points, rs, search_req)``: the work-plane points (the union of the task areas'
+    cells), the room spec with a requirement per task area, for the immediate
+    surroundings and for the background (their grids added to ``surfaces``, judged and
+    searched like the walls), and the requirement the search takes for the union
+    (the lowest task Em, no U0 over the union: each area's own is judged)."""
+    from dataclasses import replace
+    from invrad_wb.core.design.background import background_requirement
+    from invrad_wb.core.design.cylindrical import (SURROUNDINGS_U0, surroundings_lux)
+    from invrad_wb.errors import SceneError
+    reqs = dict(rs.surfaces)
+    pts = []
+    lux = []
+    for a in req.task_areas:
+        cells = task_cells(droom, req.height_m, a)
+        if cells is None:
+            raise SceneError(f"{droom.name}: task area {a.name!r} has no point with"
+                             " head room above the work plane")
+        surfaces[a.part] = cells
+        q = reqs[a.part] = area_requirement(a, req)
+        pts.append(cells[0])
+        lux.append(q.lux)
+    top = max(lux)
+    band = band_cells(droom, req.height_m, req.task_areas, 0.0, SURROUNDINGS_M,
+                      BAND_SPACING_M)
+    if band is None:
+        rd.notes.append("immediate surroundings: the task areas leave no floor around"
+                        " them: not computed")
+    else:
+        surfaces["surroundings"] = band
+        reqs["surroundings"] = SurfaceRequirement(
+            surroundings_lux(top), SURROUNDINGS_U0,
+            "EN 12464-1:2021 Table 3 (0.5 m band around the task areas"
+            + (", of the highest task Em)" if len(set(lux)) > 1 else ")"))
+    q = background_requirement(getattr(rs, "background", None), top)
+    if q is None:
+        rd.background_words = "no limit (the spec's \"background\" is null): not judged"
+    else:
+        bg = band_cells(droom, req.height_m, req.task_areas, SURROUNDINGS_M,
+                        SURROUNDINGS_M + BACKGROUND_M, 0.5 * BACKGROUND_M)
+        if bg is None:
+            rd.background_words = ("none: the task areas and their 0.5 m immediate"
+                                   " surroundings cover the room")
+        else:
+            rd.background_words = None
+            surfaces["background"] = bg
+            reqs["background"] = q
+    search_req = replace(req, lux=min(lux), u0=0.0, task_areas=())
+    return np.concatenate(pts), replace(rs, surfaces=reqs), search_req
