@@ -402,3 +402,20 @@ def test_plan_title_says_the_iso_lux_step_and_bolds_the_required_level():
         "iso-lux lines every 100 lx, 500 lx bold")
     assert D.iso_words(np.array([380.0, 760.0]), 550.0) == (
         "iso-lux lines at 400, 500, 550, 600, 700 lx, 550 lx bold")
+
+
+def test_deep_dimming_note_says_what_a_smaller_type_would_trade():
+    rd = _room(GRID, OUTPUTS)
+    # the catalogue's smaller DL-1000 is less efficient (117.6 against 134.6 lm/W): fewer
+    # rated watts, more drawn
+    note = deep_dimming_note(rd, CAT)
+    assert "DL-1000 (8.5 W, 118 lm/W)" in note and "less efficient than DL-3500 (135" in note
+    assert "better choice" not in note
+    # nothing smaller in the room's catalogue
+    alone = deep_dimming_note(rd, CAT[1:])
+    assert "no type with fewer rated watts than DL-3500 (26 W)" in alone
+    # a smaller type as efficient: named as such, not called less efficient
+    good = CatalogueEntry("DL-2000", 2000.0, 14.0, radius_m=0.3)
+    both = deep_dimming_note(rd, CAT + [good])
+    assert "DL-2000 is as efficient as DL-3500" in both and "less efficient" not in both
+    assert both.index("DL-1000") < both.index("DL-2000 (14 W")
