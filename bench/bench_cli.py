@@ -81,6 +81,26 @@ importlib.metadata, attrs, sqlite3 and platformdirs for its kernel invokers, sci
 environment sets PYTHONDONTWRITEBYTECODE=1, so a fresh "before" checkout compiles every
 module on every run (bench_cli removes it; a hand-made comparison must too).
 
+Round 11 (2026-11-26, load average 3-5, ``--before fe3448d``; CPU s before -> after): BLAS
+on one thread from the command line's start (OpenBLAS's second thread busy-waited 0.11
+CPU s after numpy's import, scipy's 0.03 s after the LU: perf, one office run), the
+radiosity's LU and solves on one BLAS thread always (so the factors do not depend on the
+cores), FaceTest.contains through the cell grid (305 -> 83 us per call off the inner
+pixels on the office's 4,800 floor triangles). Office, 9 alternating rounds without the
+numpy run: 2.560 -> 2.413 (imports 0.434 -> 0.385, votes 0.338 -> 0.302, LM 0.823 ->
+0.804, radiosity 0.184 -> 0.155); 5 rounds with the numpy run: 2.323 -> 2.202 (ratio
+0.102 -> 0.096, numpy 22.8 CPU s). With the numpy run, 3 rounds, twice: office 2.391 ->
+2.337 (ratio 0.111 -> 0.108) and 2.199 -> 2.596 (0.102 -> 0.120: one LM median 0.60 ->
+0.90 at this load, the 9-round run shows none), l_room rho 0.6 3.907 -> 3.301 (0.111 ->
+0.094) and 3.633 -> 3.383 (0.090 -> 0.084), two_ceiling direct 1.105 -> 1.235 (0.049 ->
+0.054) and 1.266 -> 1.272 (0.052 -> 0.052). Every RESULT.json identical to fe3448d's, and
+office ``--aim fixed``'s. At this load the same code's office ratio ranges 0.097-0.120
+between 3-round runs: the 5- and 9-round runs (after below before by 0.12-0.15 CPU s, 5-6
+%) are the ones to go by. Tried and dropped: the votes
+kernel returning early for a point that lights none of a block's 16 pixels (other vote
+bits: the compiler contracts the accumulation differently; and no faster, 0.28 -> 0.33 s
+a cast), work-groups of 8, 32, 128 (0.27-0.30 s a cast each, the same votes).
+
 Usage: python bench/bench_cli.py [--before REV] [--rounds N] [--quick] [--no-numpy]
 """
 import argparse

@@ -178,6 +178,26 @@ def room_threads():
         yield
 
 
+def blas_one_thread_limiter():
+    """A callable giving a context in which every BLAS library loaded *now* runs on one
+    thread (threadpoolctl's controller, made once here: entering a context then costs
+    0.1 ms instead of the 1 ms of a fresh :func:`room_threads`).
+
+    For a library loaded after :func:`room_threads` was entered, which that one does not
+    know: scipy's BLAS, which Debian's and some wheels' scipy bring (another OpenBLAS than
+    numpy's) when the radiosity's LU factors are first needed. Left with its own threads
+    (2 on the 2-core machine) ``lu_factor`` of the office example's 1180 x 1180 matrix gave
+    other last bits than on one thread, so a result would depend on the machine's cores
+    and on whether the room ran in this process or in a worker (Dask's and the spawned
+    workers start with one BLAS thread). Without threadpoolctl: no limit."""
+    try:
+        from threadpoolctl import ThreadpoolController
+    except ImportError:
+        return contextlib.nullcontext
+    controller = ThreadpoolController()
+    return lambda: controller.limit(limits=1, user_api="blas")
+
+
 def _call(fn, task):
     with room_threads():
         return fn(*task)

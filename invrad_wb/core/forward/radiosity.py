@@ -166,6 +166,23 @@ def _near_field_correction(ps, p, n, lums, bvh, occlusion):
 
 
 # ---------------------------------------------------------------------------- the model
+
+_LAPACK = []
+
+
+def _lapack():
+    """``(lu_factor, lu_solve, one_thread)``: scipy.linalg's LU (imported on the first
+    direct solve, not with this module) and a context keeping BLAS on one thread while it
+    runs, made once scipy's BLAS is loaded (:func:`~invrad_wb.core.accel.workers.
+    blas_one_thread_limiter`): the factors, and so every result after them, do not depend
+    on the machine's cores nor on where the room runs."""
+    if not _LAPACK:
+        from scipy.linalg import lu_factor, lu_solve
+        from invrad_wb.core.accel.workers import blas_one_thread_limiter
+        _LAPACK.extend((lu_factor, lu_solve, blas_one_thread_limiter()))
+    return _LAPACK
+
+
 class _Room:
     """Geometry-only data of one room (patch slice, patches, visibility, patch matrix)."""
 
@@ -647,8 +664,9 @@ class RadiosityModel:
             if not np.any(b):
                 continue
             if lu is not None:
-                from scipy.linalg import lu_solve
-                out[room.sl] = lu_solve(lu, b, check_finite=False)
+                _, lu_solve, one_thread = _lapack()
+                with one_thread():
+                    out[room.sl] = lu_solve(lu, b, check_finite=False)
                 continue
             for it in range(1, C.RADIOSITY_MAX_ITER + 1):
                 bn = rho * (er + room.F @ b)
@@ -674,11 +692,12 @@ class RadiosityModel:
         if not np.array_equal(rho, self._own_reflectance[room.sl]):
             return None
         if room.lu is None:
-            from scipy.linalg import lu_factor
+            lu_factor, _, one_thread = _lapack()
             t = time.perf_counter()
             a = -rho[:, None] * room.F
             a[np.diag_indices_from(a)] += 1.0
-            room.lu = lu_factor(a, overwrite_a=True, check_finite=False)
+            with one_thread():
+                room.lu = lu_factor(a, overwrite_a=True, check_finite=False)
             self.timings["factors"] = self.timings.get("factors", 0.0) + (
                 time.perf_counter() - t)
         return room.lu

@@ -114,10 +114,22 @@ class FaceTest:
         self.pixel = pixel
 
     def contains(self, q, i, j, tol=1e-9):
-        """q (2,) in the same 2-D frame as the triangles; (i, j) its pixel."""
+        """q (2,) in the same 2-D frame as the triangles; (i, j) its pixel.
+
+        The triangles whose bounding box (grown by ``tol``) holds q are those listed in q's
+        cell of :meth:`_cells` that pass the box test: the same ones, in the same order, as
+        the box test of every triangle (the office example's floor has 4,800 triangles and
+        the mid-air clamp asks this of every trial position off the footprint's inner
+        pixels)."""
         if self.inner[i, j]:
             return True
-        sel = np.flatnonzero(np.all((self.lo <= q + tol) & (self.hi >= q - tol), axis=1))
+        g0, cell, shape, starts, tris = self._cells(tol)
+        c = np.floor((q - g0) / cell)
+        c = np.where(np.isfinite(c), c, 0.0)
+        cid = (min(max(int(c[0]), 0), shape[0] - 1) * shape[1]
+               + min(max(int(c[1]), 0), shape[1] - 1))
+        cand = tris[starts[cid]:starts[cid + 1]]
+        sel = cand[np.all((self.lo[cand] <= q + tol) & (self.hi[cand] >= q - tol), axis=1)]
         if len(sel) == 0:
             return False
         from invrad_wb.core.geometry.raster import barycentric_2d

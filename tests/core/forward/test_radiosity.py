@@ -416,6 +416,38 @@ def test_direct_solve_matches_dense_solve_and_jacobi(monkeypatch):
     assert model.last_iterations == 0
 
 
+
+def test_lu_factors_and_solves_run_blas_on_one_thread(monkeypatch):
+    """The radiosity's LU factors (and their solves) are made with every BLAS on one
+    thread, also scipy's, loaded after a room limited numpy's (a thread count changes the
+    factors' last bits); the threads outside are as they were afterwards."""
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    pytest.importorskip("scipy.linalg")
+
+    def threads():
+        return sorted({d["num_threads"] for d in threadpoolctl.threadpool_info()
+                       if d["user_api"] == "blas"})
+    lu_factor, lu_solve, one_thread = R._lapack()
+    seen = []
+
+    def spy(fn):
+        def wrapped(*a, **kw):
+            seen.append((fn.__name__, threads()))
+            return fn(*a, **kw)
+        return wrapped
+    monkeypatch.setattr(R, "_LAPACK", [spy(lu_factor), spy(lu_solve), one_thread])
+    scene = generate.with_reflectances(generate.box_room(size=(3.0, 2.5, 2.5), cell=0.5))
+    model = R.RadiosityModel(scene, backend=FAST, patch_size=0.5)
+    with threadpoolctl.threadpool_limits(limits=2, user_api="blas"):
+        outside = threads()
+        if outside == [1]:
+            pytest.skip("no BLAS here runs more than one thread")
+        b = model.solve(np.full(model.n_patches, 100.0))
+        assert threads() == outside
+    assert [name for name, _ in seen] == ["lu_factor", "lu_solve"]
+    assert all(t == [1] for _, t in seen), seen
+    assert model.last_iterations == 0 and np.all(b > 0)
+
 def test_gather_streams_when_the_matrix_is_too_big(monkeypatch):
     scene = generate.box_room(size=(3.0, 3.0, 3.0), cell=0.3)
     model = R.RadiosityModel(scene, backend=FAST)
