@@ -1,6 +1,9 @@
 """Task areas entered in FreeCAD: outlines drawn on the plan become the task areas of a
 room's work plane (metres in the design spec), from a selection or a targets file."""
 import json
+import sys
+import types
+import unittest
 
 import numpy as np
 
@@ -185,4 +188,95 @@ class TestTaskAreas(FreeCADTestCase):
                 json.dump({"rooms": {"Office": {"work_plane": wp}}}, fh)
             with self.assertRaisesMessage(SceneError, "rooms.Office", words):
                 targets.apply_targets_file(self.doc, path)
+        self.assertUnchanged(before)
+
+
+def _qt():
+    """(QtUiTools, QtWidgets) of the PySide FreeCAD runs on, or None."""
+    for mod in ("PySide6", "PySide2"):
+        try:
+            uitools = __import__(f"{mod}.QtUiTools", fromlist=["x"])
+            widgets = __import__(f"{mod}.QtWidgets", fromlist=["x"])
+            return uitools, widgets
+        except ImportError:
+            continue
+    return None
+
+
+class TestTaskAreasGui(FreeCADTestCase):
+    """The command and the design panel under freecadcmd, FreeCADGui stood in for (its
+    form loader, selection and doCommand; the panel's settings in a group of their own)."""
+
+    def setUp(self):
+        super().setUp()
+        qt = _qt()
+        if qt is None:
+            self.skipTest("no PySide QtUiTools")
+        uitools, widgets = qt
+        self.app = widgets.QApplication.instance() or widgets.QApplication([])
+        from invrad_wb.gui import params
+        self.params, self._root = params, params.ROOT
+        params.ROOT = "User parameter:BaseApp/Preferences/Mod/InvRadTaskAreasTest"
+        params.reset()
+        fake = types.ModuleType("FreeCADGui")
+        fake.PySideUic = types.SimpleNamespace(
+            loadUi=lambda path: uitools.QUiLoader().load(path))
+        self.lines, console = [], {"App": FreeCAD, "FreeCAD": FreeCAD}
+
+        def do(line):              # FreeCAD's Python console: one namespace for all lines
+            self.lines.append(line)
+            exec(line, console)
+        fake.doCommand = do
+        self._saved = sys.modules.get("FreeCADGui")
+        sys.modules["FreeCADGui"] = fake
+        self.space = make_box_space(self.doc, hi=(6, 4, 2.7), label="Office")
+        self.desks = _rectangle(self.doc, 800, 800, 3200, 2400, label="desk row")
+
+    def tearDown(self):
+        if self._saved is None:
+            sys.modules.pop("FreeCADGui", None)
+        else:
+            sys.modules["FreeCADGui"] = self._saved
+        self.params.reset()
+        FreeCAD.ParamGet("User parameter:BaseApp/Preferences/Mod").RemGroup(
+            "InvRadTaskAreasTest")
+        self.params.ROOT = self._root
+        super().tearDown()
+
+    def _select(self, *items):
+        from invrad_wb.gui import selection
+        sel = [types.SimpleNamespace(Object=o, SubElementNames=list(subs))
+               for o, subs in items]
+        saved = selection.current
+        selection.current = lambda: sel
+        self.addCleanup(setattr, selection, "current", saved)
+
+    def test_command_records_set_task_areas_and_the_panel_designs_for_them(self):
+        from invrad_wb.gui import commands, designpanel, messages
+        targets.set_work_plane(self.space, 500.0)
+        self._select((self.space, []), (self.desks, []))
+        messages.LOG.clear()
+        commands.TaskAreas().Activated()
+        self.assertEqual(messages.LOG, [])
+        self.assertTrue(any("set_task_areas(" in ln for ln in self.lines), self.lines)
+        wp = targets.work_plane_target(self.space)
+        self.assertEqual([o for o, _ in wp.TaskAreas], [self.desks])
+        panel = designpanel.DesignPanel(self.doc, [self.space])
+        spec, _ = panel.check()
+        wpd = spec["rooms"]["Office"]["work_plane"]
+        self.assertNotIn("margin_m", wpd)
+        self.assertEqual(wpd["task_areas"], [{"name": "desk row", "polygon": [
+            [0.8, 0.8], [3.2, 0.8], [3.2, 2.4], [0.8, 2.4]]}])
+
+    def test_command_with_a_bad_selection_says_why_and_changes_nothing(self):
+        from invrad_wb.gui import commands, messages
+        targets.set_work_plane(self.space, 500.0)
+        before = document.snapshot(self.doc)
+        self._select((self.space, []))
+        messages.LOG.clear()
+        commands.TaskAreas().Activated()
+        self.assertEqual(len(messages.LOG), 1, messages.LOG)
+        level, title, text = messages.LOG[0]
+        self.assertEqual((level, title), ("error", "Set task areas"))
+        self.assertIn("select the task-area outlines of room 'Office'", text)
         self.assertUnchanged(before)
