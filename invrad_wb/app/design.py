@@ -83,6 +83,28 @@ def work_planes_for(spaces, spec):
     return changed
 
 
+def with_task_areas(room, space):
+    """A design spec's room dict (``{"work_plane": {...}, ...}``) with the task areas of
+    ``space``'s work-plane target (outlines drawn in the document, in metres) where the
+    room gives none of its own: they replace the border zone (``margin_m``). The room
+    dict unchanged where the document has none; raises SceneError naming the target and
+    the outline at fault."""
+    from invrad_wb.app.targets import task_areas_m, work_plane_target
+    wp_obj = work_plane_target(space)
+    if wp_obj is None or not isinstance(room, dict):
+        return room
+    wp = room.get("work_plane")
+    wp = {} if wp is None else (dict(wp) if isinstance(wp, dict) else {"lux": wp})
+    if wp.get("task_areas") is not None:
+        return room
+    areas = task_areas_m(wp_obj)
+    if not areas:
+        return room
+    wp.pop("margin_m", None)
+    wp["task_areas"] = areas
+    return dict(room, work_plane=wp)
+
+
 def design_summary(result):
     """Per-room design figures for the pipeline's summary (JSON-ready)."""
     return {"total_watts": round(result.watts, 2),

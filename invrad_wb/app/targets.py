@@ -26,7 +26,9 @@ Uniform     Faces, Lux
 Spot        Faces (the face the centre is on), Centre, Radius, Lux (peak), Falloff
 Texture     Faces (one face), Image (path), LuxScale
 Shade       Faces; optionally Centre + Radius (a dark disk on them)
-WorkPlane   Lux, Height (default 750 mm), Margin (border zone left out)
+WorkPlane   Lux, Height (default 750 mm), Margin (border zone left out); for a design,
+            TaskAreas (outlines drawn on the plan: the desks, a counter; they replace
+            Margin) and TaskAreaLux (each area's own Em, 0: the work plane's Lux)
 Reflectance Reflectance for Faces, or for all faces of a SurfaceType
 ==========  ===================================================================
 
@@ -62,6 +64,13 @@ _PROPS = [
     ("App::PropertyLength", "Height", "Work-plane height above the floor"),
     ("App::PropertyLength", "Margin", "Border zone along the walls left out of the work"
                                       " plane"),
+    ("App::PropertyLinkSubList", "TaskAreas", "Work plane: the outlines of its task areas"
+                                              " (closed wires or horizontal faces on the"
+                                              " plan: desks, tables, a counter); empty: the"
+                                              " room less Margin"),
+    ("App::PropertyFloatList", "TaskAreaLux", "Work plane: each task area's own Em in lux,"
+                                              " in the order of TaskAreas (0 or none: the"
+                                              " work plane's Lux)"),
     ("App::PropertyFloat", "Reflectance", "Diffuse reflectance in [0, 1)"),
     ("App::PropertyEnumeration", "SurfaceType", "Reflectance: for the listed Faces or for"
                                                 " all faces of a type"),
@@ -258,6 +267,193 @@ def work_plane_target(space):
     return wp[0] if wp else None
 
 
+# --------------------------------------------------------------------------- task areas
+#: an outline whose corners differ more than this in height is not on the plan, mm
+FLAT_TOL_MM = 1.0
+#: curved edges (a round table) are followed to within this, mm
+CURVE_DEFLECTION_MM = 5.0
+
+
+def _outline_pairs(selection):
+    """[(object, 'FaceN' or None)] of a selection: objects, (object, [subs]) pairs
+    (LinkSubList values, GUI selection's SubElementNames)."""
+    out = []
+    for item in selection:
+        obj, subs = item if isinstance(item, (tuple, list)) else (item, ())
+        subs = [s for s in (subs or ()) if s]
+        if not subs:
+            out.append((obj, None))
+        out.extend((obj, s) for s in subs)
+    return out
+
+
+def _area_name(obj, sub):
+    return obj.Label if sub is None else f"{obj.Label} {sub}"
+
+
+def outline_polygon(obj, sub=None):
+    """A task area's plan polygon, ((k, 2) metres, global x/y) from a closed wire or face
+    (a Draft rectangle or wire drawn on the plan, or ``sub`` = 'FaceN' of any object, e.g.
+    a desk's top). Raises SceneError naming the object when it is not one closed
+    horizontal outline."""
+    import Part
+    from invrad_wb.app.document import global_shape
+    from invrad_wb.app.units import points_mm_to_m
+    what = describe(obj) + (f" {sub}" if sub else "")
+    hint = ("select a closed wire or a horizontal face drawn on the plan (a Draft rectangle)"
+            " as a task area")
+    shape = getattr(obj, "Shape", None)
+    if shape is None or shape.isNull():
+        raise SceneError(f"{what} has no shape: {hint}", obj.Label)
+    shape = global_shape(obj)
+    if sub is not None:
+        if not (sub.startswith("Face") and sub[4:].isdigit()
+                and 1 <= int(sub[4:]) <= len(shape.Faces)):
+            raise SceneError(f"{what} is not a face of {describe(obj)}: {hint}", obj.Label)
+        faces = [shape.Faces[int(sub[4:]) - 1]]
+    else:
+        faces = shape.Faces
+    if len(faces) == 1:
+        wire = faces[0].OuterWire
+    elif not faces and len(shape.Wires) == 1 and shape.Wires[0].isClosed():
+        wire = shape.Wires[0]
+    else:
+        raise SceneError(f"{what} is not one closed outline ({len(faces)} faces,"
+                         f" {len(shape.Wires)} wires): {hint}", obj.Label)
+    if all(isinstance(e.Curve, (Part.Line, Part.LineSegment)) for e in wire.Edges):
+        pts = [v.Point for v in wire.OrderedVertexes]
+    else:
+        pts = wire.discretize(Deflection=CURVE_DEFLECTION_MM)
+    xyz = points_mm_to_m(pts)
+    if len(xyz) > 1 and np.allclose(xyz[0], xyz[-1]):
+        xyz = xyz[:-1]
+    if len(xyz) < 3:
+        raise SceneError(f"{what} has {len(xyz)} corners, not an outline: {hint}", obj.Label)
+    lo, hi = float(xyz[:, 2].min()), float(xyz[:, 2].max())
+    if hi - lo > FLAT_TOL_MM / 1000.0:
+        raise SceneError(f"{what} is not horizontal (its outline spans z {lo:.3f} to"
+                         f" {hi:.3f} m): {hint}", obj.Label)
+    return xyz[:, :2]
+
+
+def set_task_areas(space, outlines, lux=None):
+    """The task areas of ``space``'s work plane (one undoable step): ``outlines`` are the
+    objects (or ``(object, ['FaceN'])`` pairs) whose closed outline is a task area;
+    ``lux`` None or a list (one per outline, None: the work plane's). Each outline is
+    checked first (:func:`outline_polygon`); the room needs a work-plane target. Returns
+    the work-plane target."""
+    wp = work_plane_target(space)
+    if wp is None:
+        raise SceneError(f"room {describe(space)} has no work plane: set its illuminance"
+                         " first (Set lighting target on the room, or Design)", space.Label)
+    pairs = _outline_pairs(outlines)
+    if not pairs:
+        raise SceneError(f"no task area given for room {describe(space)}: select closed"
+                         " wires or faces drawn on the plan", space.Label)
+    for obj, sub in pairs:
+        if obj == space or is_target(obj):
+            raise SceneError(f"{describe(obj)} cannot be a task area of room"
+                             f" {describe(space)}: select outlines drawn on the plan",
+                             obj.Label)
+        outline_polygon(obj, sub)
+    lux = [None] * len(pairs) if lux is None else list(lux)
+    if len(lux) != len(pairs):
+        raise SceneError(f"{len(lux)} lux values for {len(pairs)} task areas", space.Label)
+    values = []
+    for v in lux:
+        values.append(0.0 if v is None else
+                      CT.check_lux(float(v), f"{_who(wp)}: task area lux", None))
+    with transaction(space.Document, "Set task areas"):
+        wp.TaskAreas = [(o, s) if s else o for o, s in pairs]
+        wp.TaskAreaLux = values
+    return wp
+
+
+def task_area_selection(doc, items):
+    """``(space, [(object, 'FaceN' or None), ...])`` of a selection for
+    :func:`set_task_areas`: ``items`` are ``(object, [subs])`` pairs; the room is the
+    selected Space (or the document's only one), the rest are the outlines. Raises
+    SceneError naming what is missing or ambiguous."""
+    from invrad_wb.app.rooms import find_spaces, is_space
+    pairs = _outline_pairs(items)
+    spaces = []
+    for o, _ in pairs:
+        if is_space(o) and o not in spaces:
+            spaces.append(o)
+    outlines = [(o, s) for o, s in pairs if not is_space(o)]
+    if not spaces:
+        spaces = find_spaces(doc)
+        if len(spaces) != 1:
+            raise SceneError("select the room (its Space) together with the task-area"
+                             f" outlines: the document has {len(spaces)} rooms", doc.Label)
+    if len(spaces) > 1:
+        raise SceneError("select one room (Space) with its task-area outlines, not"
+                         f" {len(spaces)} ({', '.join(describe(o) for o in spaces)})",
+                         doc.Label)
+    if not outlines:
+        raise SceneError(f"select the task-area outlines of room {describe(spaces[0])}"
+                         " (closed wires or faces drawn on the plan) with it",
+                         spaces[0].Label)
+    return spaces[0], outlines
+
+
+def _task_area_pairs(wp):
+    out = []
+    for obj, subs in wp.TaskAreas:
+        out.extend(_outline_pairs([(obj, subs)]))
+    return out
+
+
+def task_areas_m(wp):
+    """A WorkPlane target's task areas as the design spec's ``"task_areas"``: [{"name",
+    "polygon": [[x, y], ...] metres, "lux" where given}], [] without. Raises SceneError
+    naming the target and the outline at fault."""
+    pairs = _task_area_pairs(wp)
+    lux = list(wp.TaskAreaLux)
+    if len(lux) > len(pairs):
+        raise SceneError(f"{_who(wp)}: TaskAreaLux has {len(lux)} values for"
+                         f" {len(pairs)} task areas (an outline was deleted?): give one"
+                         " per task area, or Set task areas again", wp.Label)
+    out, names = [], set()
+    for i, (obj, sub) in enumerate(pairs):
+        try:
+            poly = outline_polygon(obj, sub)
+        except SceneError as exc:
+            raise SceneError(f"{_who(wp)}: task area {exc}", wp.Label)
+        name, k = _area_name(obj, sub), 2
+        while name in names:
+            name, k = f"{_area_name(obj, sub)} ({k})", k + 1
+        names.add(name)
+        d = {"name": name, "polygon": [[round(float(x), 6), round(float(y), 6)]
+                                       for x, y in poly]}
+        v = lux[i] if i < len(lux) else 0.0
+        if v:
+            d["lux"] = CT.check_lux(float(v), f"{_who(wp)}: TaskAreaLux[{i}]", None)
+        out.append(d)
+    return out
+
+
+def add_task_area_outlines(space, areas, height_m):
+    """Outline objects (a flat face each, labelled with the area's name, in the targets
+    group) for task areas given in metres (the targets file's ``"task_areas"``), at the
+    work plane's height above the room's floor; returns them. Call inside a
+    transaction."""
+    import FreeCAD
+    import Part
+    from invrad_wb.app.document import global_shape
+    doc = space.Document
+    z = global_shape(space).BoundBox.ZMin + m_to_mm(height_m)
+    out = []
+    for a in areas:
+        pts = [FreeCAD.Vector(m_to_mm(x), m_to_mm(y), z) for x, y in a.polygon]
+        obj = doc.addObject("Part::Feature", "TaskArea")
+        obj.Shape = Part.Face(Part.makePolygon(pts + pts[:1]))
+        obj.Label = a.name
+        targets_group(doc).addObject(obj)
+        out.append(obj)
+    return out
+
+
 def set_reflectance(space, reflectance, faces=None, surface_type=None):
     """Reflectance for some faces of a room, or for all its floor/walls/ceiling."""
     st = "Faces" if faces is not None else (surface_type or "All")
@@ -388,6 +584,10 @@ TARGETS_JSON_DOC = """Targets file (``--targets T.json``), all keys optional exc
        "Wohnen": {                               # a room's label, name or IFC GlobalId
          "replace": true,                        # drop the room's existing targets first
          "work_plane": {"lux": 300, "height_m": 0.75, "margin_m": 0.5},   # or just 300
+         # or task areas instead of margin_m (metres, plan x/y; they become outlines in
+         # the document, linked from the work plane's TaskAreas):
+         # "work_plane": {"lux": 500, "task_areas": [{"name": "desks", "rect": [x0, y0,
+         #   x1, y1]}, {"name": "counter", "polygon": [[x, y], ...], "lux": 300}]},
          "reflectance": {"floor": 0.2, "walls": 0.5, "ceiling": 0.7, "Face3": 0.8},
          "targets": [
            {"kind": "uniform", "faces": "floor", "lux": 200},   # faces: floor, walls,
@@ -471,9 +671,15 @@ def _expand_rooms(doc, data):
                 spec = dict(spec, work_plane={"lux": req.em_lux, "u0": req.u0})
         if isinstance(spec, dict) and spec.get("work_plane") is not None:
             # the same work plane as the design's: EN 12464-1 border zone by default
+            # (none where task areas are given); a room type's Em where no lux is given
             wp = spec["work_plane"]
             wp = dict(wp) if isinstance(wp, dict) else {"lux": wp}
-            wp.setdefault("margin_m", DEFAULT_MARGIN_M)
+            if "lux" not in wp and spec.get("room_type"):
+                req = en12464.lookup(spec["room_type"])
+                if req is not None:
+                    wp["lux"] = req.em_lux
+            if wp.get("task_areas") is None:
+                wp.setdefault("margin_m", DEFAULT_MARGIN_M)
             spec = dict(spec, work_plane=wp)
         out[key] = spec
     return out
@@ -487,18 +693,28 @@ def _apply_room(space, spec, base, where):
                          f" {', '.join(sorted(known))}")
     doc = space.Document
     if spec.get("replace"):
+        group = targets_group(doc, create=False)
         for o in room_targets(space, enabled_only=False):
+            # the task-area outlines a targets file made go with their work plane
+            made = [a for a, _ in o.TaskAreas
+                    if group is not None and a in group.Group and a.Name.startswith("TaskArea")]
             doc.removeObject(o.Name)
+            for a in made:
+                doc.removeObject(a.Name)
     wp = spec.get("work_plane")
     if wp is not None:
         if not isinstance(wp, dict):
             wp = {"lux": wp}
-        _check_keys(wp, {"lux", "height_m", "margin_m", "u0"}, "work_plane")
+        _check_keys(wp, {"lux", "height_m", "margin_m", "u0", "task_areas"}, "work_plane")
         if "lux" not in wp:
             raise SceneError("work_plane needs 'lux'")
-        set_work_plane(space, _num(wp["lux"], "work_plane.lux"),
-                       _num(wp.get("height_m", S.WORK_PLANE_HEIGHT_M), "work_plane.height_m"),
+        areas = _file_task_areas(wp)
+        height = _num(wp.get("height_m", S.WORK_PLANE_HEIGHT_M), "work_plane.height_m")
+        set_work_plane(space, _num(wp["lux"], "work_plane.lux"), height,
                        _num(wp.get("margin_m", S.WORK_PLANE_MARGIN_M), "work_plane.margin_m"))
+        if areas:
+            set_task_areas(space, add_task_area_outlines(space, areas, height),
+                           [a.lux for a in areas])
     for k, v in (spec.get("reflectance") or {}).items():
         kl = k.lower()
         if kl in ("floor", "walls", "wall", "ceiling", "all"):
@@ -539,6 +755,22 @@ def _apply_room(space, spec, base, where):
         else:
             raise SceneError(f"{w}: unknown kind {t['kind']!r}; use uniform, spot, texture"
                              " or shade")
+
+
+def _file_task_areas(wp):
+    """The work plane's ``"task_areas"`` checked as the design spec checks them (core
+    TaskArea objects, metres), () without."""
+    if wp.get("task_areas") is None:
+        return ()
+    if "margin_m" in wp:
+        raise SceneError("work_plane: give either margin_m (the task area is the room less"
+                         " a border zone) or task_areas, not both")
+    from invrad_wb.core.design.spec import _Where, _task_areas
+    from invrad_wb.errors import SettingsError
+    try:
+        return _task_areas(wp["task_areas"], _Where("work_plane") / "task_areas")
+    except SettingsError as exc:
+        raise SceneError(str(exc))
 
 
 def _check_keys(d, known, where):

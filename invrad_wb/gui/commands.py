@@ -9,6 +9,8 @@ macros record them:
 InvRad_SetTarget            target on the selected faces of a room (task panel: uniform,
                             spot, illuminance image, shade, work plane)
 InvRad_MarkShade            the selected faces must stay dark (0 lx)
+InvRad_TaskAreas            the selected outlines become the task areas of the selected
+                            room's work plane (design)
 InvRad_ToggleTargets        show/hide the targets in false colour (a view overlay)
 InvRad_ToggleDeviation      switch the achieved illuminance to its deviation from the
                             targets and back
@@ -119,6 +121,31 @@ class MarkShade(_Command):
                 lines.append(_call("invrad_wb.app.targets.add_shade_target",
                                    obj_src(space), faces))
             do_command(*lines)
+        except Exception as exc:
+            messages.exception(self.MENU, exc)
+
+
+class TaskAreas(_Command):
+    NAME = "InvRad_TaskAreas"
+    PIXMAP = "set_target.svg"
+    MENU = "Set task areas"
+    TIP = ("Make the selected closed outlines (Draft rectangles or wires drawn on the plan,"
+           " or a desk's top face) the task areas of the selected room's work plane: the"
+           " design lights them, their surroundings and background (instead of the room"
+           " less a border zone)")
+
+    def Activated(self):
+        from invrad_wb.app.targets import task_area_selection
+        from invrad_wb.gui import selection
+        from invrad_wb.gui.taskpanel import _Src, _call, do_command, obj_src
+        try:
+            items = [(s.Object, list(s.SubElementNames)) for s in selection.current()]
+            space, outlines = task_area_selection(_active_doc(), items)
+            src = _Src("[" + ", ".join(str(obj_src(o)) if sub is None else
+                                       f"({obj_src(o)}, [{sub!r}])"
+                                       for o, sub in outlines) + "]")
+            do_command("import invrad_wb.app.targets",
+                       _call("invrad_wb.app.targets.set_task_areas", obj_src(space), src))
         except Exception as exc:
             messages.exception(self.MENU, exc)
 
@@ -247,11 +274,11 @@ class Settings(_Command):
         return _no_task_dialog() and not _busy()
 
 
-COMMANDS = [SetTarget, MarkShade, ToggleTargets, ToggleDeviation, Locate, Design, Repeak,
+COMMANDS = [SetTarget, MarkShade, TaskAreas, ToggleTargets, ToggleDeviation, Locate, Design, Repeak,
             Verify, Settings]
 #: Toolbar and menu layout ("Separator" between groups).
-TOOLBAR = ["InvRad_SetTarget", "InvRad_MarkShade", "InvRad_ToggleTargets",
-           "InvRad_ToggleDeviation", "Separator",
+TOOLBAR = ["InvRad_SetTarget", "InvRad_MarkShade", "InvRad_TaskAreas",
+           "InvRad_ToggleTargets", "InvRad_ToggleDeviation", "Separator",
            "InvRad_Locate", "InvRad_Design", "InvRad_Repeak", "InvRad_Verify"]
 MENU = TOOLBAR + ["Separator", "InvRad_Settings"]
 CONTEXT = ["InvRad_SetTarget", "InvRad_MarkShade", "InvRad_Locate", "InvRad_Design"]

@@ -332,6 +332,12 @@ class DesignPanel(Panel):
             else:
                 rooms[label] = {"room_type": kind, "work_plane": dict(plane),
                                 "mounting": mounting}
+            # the task areas drawn in the document (Set task areas) replace the margin
+            from PySide import QtCore
+            from invrad_wb.app.design import with_task_areas
+            space = self.doc.getObject(req.item(row, 0).data(QtCore.Qt.UserRole) or "")
+            if space is not None:
+                rooms[label] = with_task_areas(rooms[label], space)
         return {"maintenance_factor": get_value(self.widget("maintenance_factor")),
                 "catalogue": entries, "rooms": rooms}
 
