@@ -765,10 +765,10 @@ def _file_task_areas(wp):
     if "margin_m" in wp:
         raise SceneError("work_plane: give either margin_m (the task area is the room less"
                          " a border zone) or task_areas, not both")
-    from invrad_wb.core.design.spec import _Where, _task_areas
+    from invrad_wb.core.design.spec import task_areas_from
     from invrad_wb.errors import SettingsError
     try:
-        return _task_areas(wp["task_areas"], _Where("work_plane") / "task_areas")
+        return task_areas_from(wp["task_areas"], "work_plane", ("task_areas",))
     except SettingsError as exc:
         raise SceneError(str(exc))
 

@@ -487,6 +487,13 @@ def _task_areas(value, where):
     return tuple(out)
 
 
+def task_areas_from(value, source, path=()):
+    """The public reader of a ``"task_areas"`` list for callers outside the spec (the
+    workbench's targets file): checked exactly as :func:`spec_from_dict` checks it, errors
+    prefixed ``source: path...`` (:class:`~invrad_wb.errors.SettingsError`)."""
+    return _task_areas(value, _Where(source, path))
+
+
 def _mounting(d, where):
     if isinstance(d, str):
         d = {"type": d}
