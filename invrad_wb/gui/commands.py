@@ -127,7 +127,7 @@ class MarkShade(_Command):
 
 class TaskAreas(_Command):
     NAME = "InvRad_TaskAreas"
-    PIXMAP = "set_target.svg"
+    PIXMAP = "task_areas.svg"
     MENU = "Set task areas"
     TIP = ("Make the selected closed outlines (Draft rectangles or wires drawn on the plan,"
            " or a desk's top face) the task areas of the selected room's work plane: the"
