@@ -175,10 +175,12 @@ def _candidates(ax, cs, values, label_px):
     out = []
     to_data = ax.transData.inverted()
     line = 0
-    for coll, v in zip(cs.collections, values):
+    # allsegs (per level, its lines' vertices) is in every matplotlib since 3.x; the
+    # per-level ``collections`` were removed in 3.10 (a ContourSet is one Collection now)
+    for segs, v in zip(cs.allsegs, values):
         w = label_px(v)[0]
-        for path in coll.get_paths():
-            xy = ax.transData.transform(path.vertices)
+        for seg in segs:
+            xy = ax.transData.transform(seg)
             if len(xy) < 2:
                 continue
             seg = np.linalg.norm(np.diff(xy, axis=0), axis=1)

@@ -384,6 +384,15 @@ def test_plan_of_two_task_areas_fits_a_page_and_names_them():
     assert {t.get_text() for t in ax2.texts} >= {"desks", "counter"}
 
 
+def _level_widths(cs):
+    """The line width of each level of a contour set, in any matplotlib (3.10 dropped the
+    per-level ``collections``: the set is one Collection with a width per level)."""
+    from matplotlib.collections import Collection
+    if isinstance(cs, Collection):
+        return [float(w) for w in np.ravel(cs.get_linewidth())]
+    return [c.get_linewidth()[0] for c in cs.collections]
+
+
 def test_plan_title_says_the_iso_lux_step_and_bolds_the_required_level():
     # the office plan: labels fit on few lines between the markers; the title gives the
     # step and the required level's line is drawn bold
@@ -394,7 +403,7 @@ def test_plan_title_says_the_iso_lux_step_and_bolds_the_required_level():
     levels = D.iso_levels(rd.metrics.lux, 500.0)
     step = levels[1] - levels[0]
     assert ax.get_title().endswith(f"iso-lux lines every {step:g} lx, 500 lx bold")
-    widths = [c.get_linewidth()[0] for c in ax.iso_lines.collections]
+    widths = _level_widths(ax.iso_lines)
     assert widths[levels.index(500.0)] > 2 * max(w for v, w in zip(levels, widths)
                                                  if v != 500.0)
     assert D.iso_words(np.array([100.0, 100.0]), 500.0).startswith("no iso-lux lines")
