@@ -290,7 +290,8 @@ def requirements_of_run(building, summary):
     """Each room's work-plane requirement and what a run achieved, for the IFC lighting
     set: ``{space Name: (required lux, {"Em", "Emin", "U0", "Watts"})}`` (rooms with a
     work plane only). A design's own figures (exact EN 12464 metrics) are used where
-    there are some, else the verification's work-plane mean and minimum."""
+    there are some (with task areas given: the area furthest below its own requirement,
+    and that requirement), else the verification's work-plane mean and minimum."""
     design = {r.get("room"): r for r in (summary.get("design") or {}).get("rooms", [])}
     stats = {r["space"]: r for r in summary.get("rooms", [])}
     out = {}
@@ -298,7 +299,17 @@ def requirements_of_run(building, summary):
         if p.work_plane is None:
             continue
         d = design.get(p.room_id)
-        if d is not None and "em_lux" in d:
+        required = float(p.work_plane.lux)
+        if d is not None and d.get("task_areas"):
+            # task areas given: each is judged on its own; the space carries the one
+            # furthest below its own requirement (its Em against its lux, U0 likewise)
+            worst = min(d["task_areas"], key=lambda a: min(
+                a["em_lux"] / max(a["required"]["lux"], 1e-9),
+                a["u0"] / max(a["required"]["u0"], 1e-9)))
+            required = float(worst["required"]["lux"])
+            achieved = {"Em": worst["em_lux"], "Emin": worst.get("emin_lux"),
+                        "U0": worst.get("u0"), "Watts": d.get("watts")}
+        elif d is not None and "em_lux" in d:
             achieved = {"Em": d["em_lux"], "Emin": d.get("emin_lux"), "U0": d.get("u0"),
                         "Watts": d.get("watts")}
         else:
@@ -306,5 +317,5 @@ def requirements_of_run(building, summary):
             em, emin = wp.get("mean_achieved_lux"), wp.get("min_achieved_lux")
             achieved = {"Em": em, "Emin": emin,
                         "U0": (emin / em) if em and emin is not None else None}
-        out[p.space.Name] = (float(p.work_plane.lux), achieved)
+        out[p.space.Name] = (required, achieved)
     return out

@@ -571,8 +571,11 @@ def _say_design(d, say):
         ugr = ("UGR not computable" if r.get("ugr") is None else f"UGR {r['ugr']:.1f}"
                + (f" (<= {r['ugr_limit']:g})" if r.get("ugr_limit") is not None else ""))
         pw = r.get("power", {})
-        say(f"design {r['name']}: {types}: Em {r['em_lux']:.0f} lx (>= {q['lux']:g}),"
-            f" U0 {r['u0']:.2f} (>= {q['u0']:g}),{surf} {ugr}, {r['watts']:.1f} W drawn,"
+        # task areas given: each is judged on its own cells (among the surfaces), not
+        # the work plane's figures over all of them
+        wp = ("" if r.get("task_areas") else
+              f" Em {r['em_lux']:.0f} lx (>= {q['lux']:g}), U0 {r['u0']:.2f} (>= {q['u0']:g}),")
+        say(f"design {r['name']}: {types}:{wp}{surf} {ugr}, {r['watts']:.1f} W drawn,"
             f" {pw.get('rated_w', r['watts']):.1f} W installed"
             f" ({pw.get('rated_w_per_m2', r['w_per_m2']):.2f} W/m^2):"
             f" {'meets' if r['compliant'] else 'DOES NOT MEET'} the requirement")

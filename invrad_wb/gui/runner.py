@@ -236,9 +236,17 @@ def describe_design(res):
         name = r.get("name") or r.get("room")
         req = r.get("requirement") or {}
         verdict = "meets its requirements" if r.get("compliant") else "FAILS"
-        lines.append(f"  {name}: {verdict}; Em {r.get('em_lux', nan):.0f} lx for"
-                     f" {req.get('lux', nan):.0f}, U0 {r.get('u0', nan):.2f} for"
-                     f" {req.get('u0', nan):.2f}; {r.get('watts', 0):.1f} W"
+        # task areas given: each one's own figures (the work plane's over all of them
+        # are not what is judged)
+        areas = r.get("task_areas") or [
+            {"name": None, "em_lux": r.get("em_lux", nan), "u0": r.get("u0", nan),
+             "required": req}]
+        figs = "; ".join(
+            ("" if a["name"] is None else f"{a['name']} ")
+            + f"Em {a.get('em_lux', nan):.0f} lx for {a['required'].get('lux', nan):.0f},"
+            f" U0 {a.get('u0', nan):.2f} for {a['required'].get('u0', nan):.2f}"
+            for a in areas)
+        lines.append(f"  {name}: {verdict}; {figs}; {r.get('watts', 0):.1f} W"
                      f" ({r.get('w_per_m2', 0):.1f} W/m2)")
         lines += [f"    {n}" for n in r.get("notes") or []
                   if not collect_small_sources(n, small)]

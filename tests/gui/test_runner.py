@@ -44,3 +44,24 @@ def test_locate_message_says_the_point_source_note_once():
     assert sum("point sources (Downlight A" in ln for ln in lines) == 1, lines
     assert not any("give no luminous area" in ln for ln in lines)
     assert lines.count("    keep this") == 2
+
+
+def test_task_areas_each_reported_against_their_own_requirement():
+    # a design with task areas judges each on its own cells: the message gives each
+    # area's Em and U0 against its own requirement, not the work plane's over all of them
+    # (423 lx / U0 0.55 against 500 / 0.60 read as a failure in a compliant room)
+    room = {"name": "office", "compliant": True, "em_lux": 423.0, "u0": 0.55,
+            "watts": 106.4, "w_per_m2": 4.4, "notes": [],
+            "requirement": {"lux": 500, "u0": 0.6},
+            "task_areas": [
+                {"name": "desks", "em_lux": 505.0, "u0": 0.63,
+                 "required": {"lux": 500, "u0": 0.6}},
+                {"name": "counter", "em_lux": 303.0, "u0": 0.76,
+                 "required": {"lux": 300, "u0": 0.6}}]}
+    line = [ln for ln in runner.describe_design(_res([room])) if "office" in ln][0]
+    assert "desks Em 505 lx for 500, U0 0.63 for 0.60" in line
+    assert "counter Em 303 lx for 300, U0 0.76 for 0.60" in line
+    assert "423" not in line and "0.55" not in line
+    plain = dict(room, task_areas=None)
+    line = [ln for ln in runner.describe_design(_res([plain])) if "office" in ln][0]
+    assert "Em 423 lx for 500, U0 0.55 for 0.60" in line
