@@ -34,7 +34,9 @@ from invrad_wb.core.design.background import background_requirement
 from invrad_wb.core.design.cylindrical import SURROUNDINGS_U0, surroundings_lux
 from invrad_wb.core.design.room import in_polygon
 from invrad_wb.core.design.spec import SurfaceRequirement
-from invrad_wb.core.geometry.polygon import polygon_area
+from invrad_wb.core.geometry.outline import inside_outline
+from invrad_wb.core.geometry.polygon import (crossing_t, edges_3d, polygon_edges,
+                                             segments_cross)
 from invrad_wb.core.model.targets import WORK_PLANE_HEADROOM_M, distance_to_segments
 
 #: the immediate surroundings' width around a task area (EN 12464-1:2021 4.3.3), m
@@ -49,13 +51,6 @@ SUB = 8
 OUTSIDE_TOL_M = 1e-3
 
 
-def _segments(polys):
-    seg = [np.stack([p, np.roll(p, -1, axis=0)], axis=1)
-           for p in (np.asarray(q, dtype=np.float64) for q in polys)]
-    seg = np.concatenate(seg)
-    return np.concatenate([seg, np.zeros(seg.shape[:2] + (1,))], axis=2)
-
-
 def area_distance(areas, xy):
     """(k,) distance (m) of plan points ``xy`` (k, 2) to the nearest task area: 0 inside
     one, else to its outline."""
@@ -63,28 +58,55 @@ def area_distance(areas, xy):
     inside = np.zeros(len(xy), dtype=bool)
     for a in areas:
         inside |= in_polygon(a.polygon, xy)
-    d = distance_to_segments(np.c_[xy, np.zeros(len(xy))], _segments([a.polygon for a in areas]))
+    d = distance_to_segments(np.c_[xy, np.zeros(len(xy))],
+                             edges_3d(np.concatenate([polygon_edges(a.polygon) for a in areas])))
     return np.where(inside, 0.0, d)
 
 
-def outside_point(droom, area, samples=24):
-    """``(point, metres)``: the point of a task area's outline farthest outside the room's
-    floor (its corners and ``samples`` points along each edge), or None where it lies
-    within the floor (an L's notch crossed by an edge counts as outside)."""
-    p = np.asarray(area.polygon, dtype=np.float64)
-    q = np.roll(p, -1, axis=0)
-    u = np.linspace(0.0, 1.0, samples + 1)[:-1]
-    pts = (p[:, None, :] + u[None, :, None] * (q - p)[:, None, :]).reshape(-1, 2)
-    cen = p.mean(axis=0)
-    pts = np.r_[pts, cen[None]] if abs(polygon_area(p)) > 0 else pts
-    d = droom.wall_distance(pts)
-    i = int(np.argmin(d))
-    return None if d[i] >= -OUTSIDE_TOL_M else (pts[i], float(-d[i]))
+def outline_breach(outline, polygon, tol=OUTSIDE_TOL_M):
+    """Where a plan polygon leaves a closed outline (segments (k, 2, 2), even-odd), found
+    exactly: ``None`` where it lies within (its edges may run along the outline), else
+    ``(point, crosses)``: the point where an edge crosses the outline (``crosses``) or,
+    for a polygon wholly outside, one of its corners. Each edge is cut at every point it
+    meets the outline (crossings, outline corners on it, within ``tol`` m); between two
+    such points it is wholly inside or outside, told by the middle of the stretch."""
+    out = np.asarray(outline, dtype=np.float64).reshape(-1, 2, 2)
+    seg3 = edges_3d(out)
+    corners = out.reshape(-1, 2)
+    hit = None
+    for a, b in polygon_edges(polygon):
+        ab = b - a
+        ll = float(ab @ ab)
+        if ll <= 0:
+            continue
+        ts = [0.0, 1.0]
+        for c, d in out:
+            if segments_cross(a, b, c, d, touch=False, tol=tol):
+                ts.append(crossing_t(a, b, c, d))
+        t = (corners - a) @ ab / ll
+        near = np.linalg.norm(a + np.clip(t, 0, 1)[:, None] * ab - corners, axis=1) <= tol
+        ts.extend(np.clip(t[near], 0.0, 1.0))
+        ts = np.unique(np.round(ts, 12))
+        mids = a + (0.5 * (ts[:-1] + ts[1:]))[:, None] * ab
+        gone = ~inside_outline(out, mids) & (
+            distance_to_segments(np.c_[mids, np.zeros(len(mids))], seg3) > tol)
+        for i in np.flatnonzero(gone):
+            contact = [ts[i]] if ts[i] > 0 or _on(a, seg3, tol) else []
+            contact += [ts[i + 1]] if ts[i + 1] < 1 or _on(b, seg3, tol) else []
+            if contact:
+                return a + contact[0] * ab, True
+            hit = hit or (a, False)
+    return hit
+
+
+def _on(p, seg3, tol):
+    return bool(distance_to_segments(np.r_[p, 0.0][None], seg3)[0] <= tol)
 
 
 def check_task_areas(scene, spec, names):
-    """Refuse a task area that reaches outside its room, before any computation: a
-    one-line SettingsError naming the spec, the room, the task area and the point."""
+    """Refuse a task area before any computation: one that reaches outside its room's
+    outer outline (a column inside the area is no fault: its cells are left out); a
+    one-line SettingsError naming the spec key, the room, the task area and the point."""
     from invrad_wb.core.design.room import DesignRoom
     from invrad_wb.errors import SettingsError
     for room, name in names.items():
@@ -95,17 +117,16 @@ def check_task_areas(scene, spec, names):
             continue
         label = name or f"room {room}"
         droom = DesignRoom(scene, room, label)
+        outer = droom.outer_outline()
         for a in areas:
-            out = outside_point(droom, a)
+            key = f"{spec.source}: rooms.{rs.key}.work_plane.task_areas.{a.name}"
+            out = outline_breach(outer, a.polygon)
             if out is not None:
-                (x, y), d = out
-                lo = np.round(droom._edges.reshape(-1, 2).min(axis=0), 6) + 0.0
-                hi = np.round(droom._edges.reshape(-1, 2).max(axis=0), 6) + 0.0
+                (x, y), crosses = out
                 raise SettingsError(
-                    f"{spec.source}: rooms.{rs.key}.work_plane.task_areas.{a.name}:"
-                    f" reaches {d:.2f} m outside the floor of {label} at ({x:.2f}, {y:.2f})"
-                    f" (the floor spans x {lo[0]:.2f} to {hi[0]:.2f}, y {lo[1]:.2f} to"
-                    f" {hi[1]:.2f} m)")
+                    f"{key}: crosses the outline of {label} at ({x:.2f}, {y:.2f})" if crosses
+                    else f"{key}: lies outside {label} (its corner ({x:.2f}, {y:.2f}) is"
+                    " beyond the room's outline)")
 
 
 def _headroom(droom, xy, height_m):

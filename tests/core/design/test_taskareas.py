@@ -133,8 +133,42 @@ def test_task_area_outside_the_room_is_refused_before_any_work():
     with pytest.raises(SettingsError) as e:
         design(sc, spec, backend="numpy")
     msg = str(e.value)
-    assert "\n" not in msg and "rooms.0.work_plane.task_areas.counter: reaches 0.40 m outside the floor" in msg
-    assert "(5.40, " in msg and "x 0.00 to 5.00" in msg
+    assert "\n" not in msg and msg.endswith(
+        "rooms.0.work_plane.task_areas.counter: crosses the outline of room 0 at (5.00, 3.00)")
+
+
+@pytest.mark.parametrize("rect, words", [
+    ([2, 1, 4, 3], None),              # the pillar (2.8-3.2 x 1.8-2.2) inside the area
+    ([2, 1, 5, 3], None),
+    ([1, 1.9, 5, 2.1], None),          # a thin strip across the pillar
+    ([0, 0, 6, 4], None),              # the whole room, edges along the walls
+    ([5, 1, 7, 2], "crosses the outline of room 0 at (6.00, 1.00)"),
+    ([0, 0, 7, 4], "crosses the outline of room 0 at (6.00, 0.00)"),   # along a wall, out
+    ([7, 1, 8, 2], "lies outside room 0 (its corner (7.00, 1.00)"),
+])
+def test_task_area_checked_against_the_outer_outline_only_a_column_inside_is_no_fault(
+        rect, words):
+    from invrad_wb.core.design.taskareas import check_task_areas
+    spec = _spec(_wp([{"name": "a", "rect": rect}]))
+    sc = g.pillar_room(cell=1.0)
+    if words is None:
+        check_task_areas(sc, spec, {0: None})
+        return
+    with pytest.raises(SettingsError) as e:
+        check_task_areas(sc, spec, {0: None})
+    assert str(e.value).startswith("d.json: rooms.0.work_plane.task_areas.a: " + words)
+
+
+def test_task_area_crossing_an_l_rooms_notch_is_refused_where_it_crosses():
+    from invrad_wb.core.design.taskareas import check_task_areas
+    sc = g.l_room(cell=1.0)                # 6 x 5, the notch x > 3, y > 2.5
+    for poly in ([[1, 1], [5, 1], [5, 2.5], [3, 2.5], [3, 4.5], [1, 4.5]],  # along the notch
+                 [[1, 1], [5, 1], [1, 4]]):    # its long side through the notch's corner
+        check_task_areas(sc, _spec(_wp([{"name": "t", "polygon": poly}])), {0: None})
+    bad = _spec(_wp([{"name": "t", "polygon": [[4, 1], [5, 1], [4, 3.5]]}]))
+    with pytest.raises(SettingsError, match=r"task_areas.t: crosses the outline of room 0"
+                       r" at \(4.40, 2.50\)$"):
+        check_task_areas(sc, bad, {0: None})
 
 
 def test_task_area_em_against_the_inverse_square_law_of_a_point_source():
