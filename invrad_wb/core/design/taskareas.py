@@ -105,8 +105,9 @@ def _on(p, seg3, tol):
 
 def check_task_areas(scene, spec, names):
     """Refuse a task area before any computation: one that reaches outside its room's
-    outer outline (a column inside the area is no fault: its cells are left out); a
-    one-line SettingsError naming the spec key, the room, the task area and the point."""
+    outer outline (a column inside the area is no fault: its cells are left out), or one
+    with no point where the work plane has head room; a one-line SettingsError naming the
+    spec key, the room, the task area and the point or the heights."""
     from invrad_wb.core.design.room import DesignRoom
     from invrad_wb.errors import SettingsError
     for room, name in names.items():
@@ -127,6 +128,13 @@ def check_task_areas(scene, spec, names):
                     f"{key}: crosses the outline of {label} at ({x:.2f}, {y:.2f})" if crosses
                     else f"{key}: lies outside {label} (its corner ({x:.2f}, {y:.2f}) is"
                     " beyond the room's outline)")
+            if task_cells(droom, wp.height_m, a) is None:
+                zc, _ = droom.ceiling_at(np.asarray(a.polygon, dtype=np.float64))
+                top = np.nanmax(zc) - droom.floor_z if np.isfinite(zc).any() else 0.0
+                raise SettingsError(
+                    f"{key}: no head room over it: the work plane at {wp.height_m:.2f} m needs"
+                    f" the ceiling above {wp.height_m + WORK_PLANE_HEADROOM_M:.2f} m, it is at"
+                    f" most {top:.2f} m over the area")
 
 
 def _headroom(droom, xy, height_m):
@@ -134,11 +142,13 @@ def _headroom(droom, xy, height_m):
     return np.nan_to_num(zc, nan=np.inf) >= droom.floor_z + height_m + WORK_PLANE_HEADROOM_M
 
 
-def task_cells(droom, height_m, area):
+def task_cells(droom, height_m, area, headroom=True):
     """A task area's EN 12464-1 calculation points: (points (j, 3), normals (j, 3)
     facing up, weights (j,) m^2), cell centres inside its outline and the room (with head
     room), at most ``p`` of its own longer side apart along the room's axes. A thin or
-    small area gets a finer grid until at least one centre falls inside it."""
+    small area gets a finer grid until at least one centre falls inside it. With
+    ``headroom`` False, the cells regardless of the ceiling (the part without head room
+    measured against them)."""
     st_poly = droom.to_plan(np.asarray(area.polygon, dtype=np.float64))
     lo, hi = st_poly.min(axis=0), st_poly.max(axis=0)
     size = np.maximum(hi - lo, 1e-9)
@@ -149,7 +159,7 @@ def task_cells(droom, height_m, area):
         t = lo[1] + (np.arange(nt) + 0.5) * dt
         xy = droom.to_world(np.stack(np.meshgrid(s, t, indexing="ij"), -1).reshape(-1, 2))
         keep = (in_polygon(area.polygon, xy) & (droom.wall_distance(xy) >= -OUTSIDE_TOL_M)
-                & _headroom(droom, xy, height_m))
+                & (_headroom(droom, xy, height_m) if headroom else True))
         if keep.any():
             break
         ns, nt = 2 * ns, 2 * nt
@@ -214,15 +224,16 @@ def prepare(rs, droom, req, surfaces, rd):
     from dataclasses import replace
     from invrad_wb.core.design.background import background_requirement
     from invrad_wb.core.design.cylindrical import (SURROUNDINGS_U0, surroundings_lux)
-    from invrad_wb.errors import SceneError
     reqs = dict(rs.surfaces)
     pts = []
     lux = []
     for a in req.task_areas:
-        cells = task_cells(droom, req.height_m, a)
-        if cells is None:
-            raise SceneError(f"{droom.name}: task area {a.name!r} has no point with"
-                             " head room above the work plane")
+        cells = task_cells(droom, req.height_m, a)     # not None: check_task_areas
+        whole = task_cells(droom, req.height_m, a, headroom=False)[2].sum()
+        if cells[2].sum() < whole - 1e-6:
+            rd.notes.append(f"task area {a.name!r}: judged on {cells[2].sum():.2f} of"
+                            f" {whole:.2f} m2 (the rest has no head room above the work"
+                            " plane)")
         surfaces[a.part] = cells
         q = reqs[a.part] = area_requirement(a, req)
         pts.append(cells[0])

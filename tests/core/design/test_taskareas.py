@@ -259,3 +259,25 @@ def test_the_example_spec_with_task_areas_reads():
     wp = spec.room_spec(0).work_plane
     assert [a.name for a in wp.task_areas] == ["desks", "counter"]
     assert wp.lux == 500 and wp.task_areas[1].lux == 300 and wp.height_m == 0.8
+
+
+def test_task_area_without_head_room_refused_before_any_work_and_a_part_noted():
+    from types import SimpleNamespace
+    from invrad_wb.core.design.room import DesignRoom
+    from invrad_wb.core.design.taskareas import check_task_areas, prepare
+    sc = g.sloped_room(size=(6.0, 4.0), low=1.0, high=3.0, cell=1.0)   # 1 m high at x = 0
+    bad = _spec(_wp([{"name": "bench", "rect": [0.1, 0.5, 0.5, 3.5]}]))
+    with pytest.raises(SettingsError) as e:
+        check_task_areas(sc, bad, {0: None})
+    msg = str(e.value)
+    assert "\n" not in msg and msg.startswith(
+        "d.json: rooms.0.work_plane.task_areas.bench: no head room over it: the work plane"
+        " at 0.75 m needs the ceiling above")
+    assert "it is at most 1.17 m over the area" in msg          # 1 + 2 * 0.5 / 6
+    part = _spec(_wp([{"name": "bench", "rect": [0.1, 0.5, 2.1, 3.5]}]))
+    check_task_areas(sc, part, {0: None})
+    rs = part.room_spec(0)
+    rd = SimpleNamespace(notes=[], background_words=None)
+    prepare(rs, DesignRoom(sc, 0), rs.work_plane, {}, rd)
+    (note,) = [n for n in rd.notes if n.startswith("task area 'bench'")]
+    assert note.startswith("task area 'bench': judged on ") and "of 6.00 m2" in note
