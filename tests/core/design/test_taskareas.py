@@ -59,9 +59,21 @@ def test_spec_reads_rectangles_and_polygons_and_turns_them_counter_clockwise():
     ([{"name": "a", "rect": [0, 0, 1, 1]}], {"margin_m": 0.5},
      "work_plane.margin_m: give either margin_m"),
     ([], {}, "task_areas: []: give a non-empty list"),
+    ([{"name": "a", "rect": [0, 0, 1e-9, 1]}], {}, "task_areas.a.rect: [0, 0, 1e-09, 1] has"
+     " zero area (under 1e-06 m2)"),
+    ([{"name": "a", "polygon": [[0, 0], [1, 0], [1, 0], [1, 1], [0, 1]]}], {},
+     None),                                       # a repeated corner: a simple square
+    ([{"name": "a", "polygon": [[0, 0], [1, 0], [1, 0], [0, 0]]}], {}, "task_areas.a.polygon:"
+     " [[0, 0], [1, 0], [1, 0], [0, 0]]: a polygon needs at least 3 distinct points"),
+    ([{"name": "desk.1", "rect": [0, 0, 1, 1]}], {}, "task_areas.0.name: 'desk.1': a task"
+     " area's name may not contain \".\""),
     ([{"name": "a", "rect": [0, 0, 1, 1], "depth": 2}], {}, "unknown key 'depth'"),
 ])
 def test_spec_refuses_bad_task_areas_in_one_line_naming_key_and_value(areas, extra, words):
+    if words is None:
+        (a,) = _spec(_wp(areas, **extra)).room_spec(0).work_plane.task_areas
+        assert a.polygon == ((0, 0), (1, 0), (1, 1), (0, 1))
+        return
     with pytest.raises(SettingsError) as e:
         _spec(_wp(areas, **extra))
     msg = str(e.value)
