@@ -293,3 +293,28 @@ def test_task_area_without_head_room_refused_before_any_work_and_a_part_noted():
     prepare(rs, DesignRoom(sc, 0), rs.work_plane, {}, rd)
     (note,) = [n for n in rd.notes if n.startswith("task area 'bench'")]
     assert note.startswith("task area 'bench': judged on ") and "of 6.00 m2" in note
+
+
+def test_too_much_light_note_weighs_each_task_area_against_its_own_em():
+    from types import SimpleNamespace as NS
+    from invrad_wb.core.design.design import _explain
+    from invrad_wb.core.design.search import Metrics
+    from invrad_wb.core.design.spec import SurfaceRequirement
+    req = _spec({"work_plane": {"lux": 200, "u0": 0.4, "task_areas": [
+        {"name": "a", "rect": [0, 0, 1, 1], "lux": 500},
+        {"name": "b", "rect": [2, 0, 3, 1], "lux": 500}]}}).room_spec(0).work_plane
+    a, b = req.task_areas
+
+    def notes(em_a, em_b):
+        m = Metrics.__new__(Metrics)
+        m.em, m.u0, m.shade_max = 640.0, 0.7, 0.0
+        m.surfaces = {a.part: (em_a, 0, 0.7), b.part: (em_b, 0, 0.7)}
+        rd = NS(requirement=req, metrics=m, candidate=NS(ok=True, dim=1.0), notes=[],
+                ugr=None, ugr_limit=None, verdicts={}, deep_dimming=False,
+                luminaires=[], surface_reqs={a.part: SurfaceRequirement(500, 0.6, "s"),
+                                             b.part: SurfaceRequirement(500, 0.6, "s")})
+        _explain(rd, NS(rs=NS(shade_limit_lux=1.0)), [NS(name="DL", flux_lm=3500)])
+        return [n for n in rd.notes if " x the " in n]
+    assert notes(640.0, 650.0) == []             # 1.3 x their own 500 lx: no waste to tell
+    (n,) = notes(900.0, 800.0)
+    assert n.startswith("Em 800 lx on the task area least above its own is 1.6 x the 500 lx")
