@@ -24,7 +24,7 @@ search's count range, its fast ranking and the report's plan use) are the union 
 task areas' cells; the search judges no U0 over that union (two task areas at different
 levels are not one task), only each area's own.
 """
-from dataclasses import dataclass
+from dataclasses import replace
 import math
 
 import numpy as np
@@ -221,9 +221,6 @@ def prepare(rs, droom, req, surfaces, rd):
     surroundings and for the background (their grids added to ``surfaces``, judged and
     searched like the walls), and the requirement the search takes for the union
     (the lowest task Em, no U0 over the union: each area's own is judged)."""
-    from dataclasses import replace
-    from invrad_wb.core.design.background import background_requirement
-    from invrad_wb.core.design.cylindrical import (SURROUNDINGS_U0, surroundings_lux)
     reqs = dict(rs.surfaces)
     pts = []
     lux = []
