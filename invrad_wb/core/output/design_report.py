@@ -150,6 +150,7 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
     (:func:`output_groups`): a room dimmed apart gets each luminaire's group letter in its
     marker and the groups' key (type, output, lm, W, count) under the plan; an evenly
     dimmed one its types' output in the legend."""
+    from matplotlib import patheffects
     pts, lux = rd.grid_points, rd.metrics.lux[:len(rd.grid_points)]
     lo, hi = np.min(edges, axis=(0, 1)), np.max(edges, axis=(0, 1))
     span = np.maximum(hi - lo, 1e-6)
@@ -179,8 +180,12 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
                  f"Em {rd.metrics.em:.0f} lx, U0 {rd.metrics.u0:.2f}\n{iso}",
                  fontsize=8)
     step = max(1, int(np.ceil(len(pts) / MAX_LABELS)))
+    # a white halo: a value printed over a task area's dashed outline stays readable
+    # ("328" read "528" where the dash crossed its first digit)
+    halo = [patheffects.withStroke(linewidth=1.6, foreground="white")]
     values = [ax2.text(p[0], p[1], f"{v:.0f}", fontsize=5.5, ha="center", va="center",
-                       color="black") for p, v in zip(pts[::step], lux[::step])]
+                       color="black", zorder=4, path_effects=halo)
+              for p, v in zip(pts[::step], lux[::step])]
     _outline(ax2, edges)
     draw_task_outlines((ax, ax2), rd)
     ax2.set_title("values (lx) at the calculation points", fontsize=8)
