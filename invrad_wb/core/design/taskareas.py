@@ -25,12 +25,11 @@ task areas' cells; the search judges no U0 over that union (two task areas at di
 levels are not one task), only each area's own.
 """
 from dataclasses import replace
-import math
 
 import numpy as np
 
 from invrad_wb.core.design import en12464
-from invrad_wb.core.design.background import background_requirement
+from invrad_wb.core.design.background import background_requirement, band_grid, has_headroom
 from invrad_wb.core.design.cylindrical import SURROUNDINGS_U0, surroundings_lux
 from invrad_wb.core.design.room import in_polygon
 from invrad_wb.core.design.spec import SurfaceRequirement
@@ -137,11 +136,6 @@ def check_task_areas(scene, spec, names):
                     f" most {top:.2f} m over the area")
 
 
-def _headroom(droom, xy, height_m):
-    zc, _ = droom.ceiling_at(xy)
-    return np.nan_to_num(zc, nan=np.inf) >= droom.floor_z + height_m + WORK_PLANE_HEADROOM_M
-
-
 def task_cells(droom, height_m, area, headroom=True):
     """A task area's EN 12464-1 calculation points: (points (j, 3), normals (j, 3)
     facing up, weights (j,) m^2), cell centres inside its outline and the room (with head
@@ -159,7 +153,7 @@ def task_cells(droom, height_m, area, headroom=True):
         t = lo[1] + (np.arange(nt) + 0.5) * dt
         xy = droom.to_world(np.stack(np.meshgrid(s, t, indexing="ij"), -1).reshape(-1, 2))
         keep = (in_polygon(area.polygon, xy) & (droom.wall_distance(xy) >= -OUTSIDE_TOL_M)
-                & (_headroom(droom, xy, height_m) if headroom else True))
+                & (has_headroom(droom, xy, height_m) if headroom else True))
         if keep.any():
             break
         ns, nt = 2 * ns, 2 * nt
@@ -177,31 +171,11 @@ def band_cells(droom, height_m, areas, d0, d1, spacing):
     band counted on :data:`SUB` x :data:`SUB` samples), or None where none remains. A
     cell's point is its in-band sample nearest their centroid (in the band for sure)."""
     p = min(en12464.grid_spacing(float(np.max(droom.size))), spacing)
-    ns = max(1, int(math.ceil(droom.size[0] / p - 1e-9)))
-    nt = max(1, int(math.ceil(droom.size[1] / p - 1e-9)))
-    ds, dt = droom.size[0] / ns, droom.size[1] / nt
-    u = (np.arange(SUB) + 0.5) / SUB
-    cs, ct = np.meshgrid(np.arange(ns), np.arange(nt), indexing="ij")
-    us, ut = np.meshgrid(u, u, indexing="ij")
-    st = np.stack([(cs.reshape(-1, 1) + us.reshape(1, -1)) * ds,
-                   (ct.reshape(-1, 1) + ut.reshape(1, -1)) * dt], axis=-1)
-    xy = droom.to_world(st.reshape(-1, 2))
-    d = area_distance(areas, xy)
-    inb = (d > d0 + 1e-9) & (d <= d1 + 1e-9) & droom.inside(xy)
-    inb[inb] &= _headroom(droom, xy[inb], height_m)
-    inb = inb.reshape(ns * nt, SUB * SUB)
-    n_in = inb.sum(axis=1)
-    cells = np.flatnonzero(n_in)
-    if not len(cells):
-        return None
-    xy = xy.reshape(ns * nt, SUB * SUB, 2)[cells]
-    inb = inb[cells]
-    cen = np.einsum("cs,csj->cj", inb, xy) / n_in[cells, None]
-    far = np.where(inb, np.linalg.norm(xy - cen[:, None, :], axis=2), np.inf)
-    pick = xy[np.arange(len(cells)), np.argmin(far, axis=1)]
-    m = len(cells)
-    return (np.c_[pick, np.full(m, droom.floor_z + height_m)], np.tile([0.0, 0.0, 1.0], (m, 1)),
-            n_in[cells] / (SUB * SUB) * ds * dt)
+
+    def in_band(xy):
+        d = area_distance(areas, xy)
+        return (d > d0 + 1e-9) & (d <= d1 + 1e-9)
+    return band_grid(droom, height_m, p, SUB, in_band)
 
 
 def area_requirement(area, req):
