@@ -53,13 +53,46 @@ OUTSIDE_TOL_M = 1e-3
 def area_distance(areas, xy):
     """(k,) distance (m) of plan points ``xy`` (k, 2) to the nearest task area: 0 inside
     one, else to its outline."""
+    return nearest_area(areas, xy)[0]
+
+
+def nearest_area(areas, xy, reach=np.inf):
+    """``(d, i)``: (k,) distance (m) of plan points ``xy`` (k, 2) to the nearest task area
+    (0 inside one, else to its outline) and (k,) that area's index (the first of areas at
+    one distance). Each area is measured only at the points within ``reach`` of its
+    bounding box (a band around 28 desks in a large room: a few of them near each point);
+    a point beyond ``reach`` of every area gets ``inf`` and ``-1``."""
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-    inside = np.zeros(len(xy), dtype=bool)
-    for a in areas:
-        inside |= in_polygon(a.polygon, xy)
-    d = distance_to_segments(np.c_[xy, np.zeros(len(xy))],
-                             edges_3d(np.concatenate([polygon_edges(a.polygon) for a in areas])))
-    return np.where(inside, 0.0, d)
+    d = np.full(len(xy), np.inf)
+    idx = np.full(len(xy), -1)
+    for i, a in enumerate(areas):
+        p = np.asarray(a.polygon, dtype=np.float64)
+        lo, hi = p.min(axis=0) - reach, p.max(axis=0) + reach
+        sel = np.flatnonzero(np.all((xy >= lo) & (xy <= hi), axis=1))
+        if not len(sel):
+            continue
+        q = xy[sel]
+        di = distance_to_segments(np.c_[q, np.zeros(len(q))], edges_3d(polygon_edges(p)))
+        di[in_polygon(p, q)] = 0.0
+        better = di < d[sel]
+        d[sel[better]] = di[better]
+        idx[sel[better]] = i
+    return d, idx
+
+
+def near_areas(areas, reach):
+    """``near(centres, r)`` for :func:`~.background.band_grid`: the cells whose centre lies
+    within ``reach + r`` of some task area's bounding box."""
+    boxes = np.array([np.r_[np.min(a.polygon, axis=0), np.max(a.polygon, axis=0)]
+                      for a in areas], dtype=np.float64)
+
+    def near(centres, r):
+        g = reach + r
+        return np.any((centres[:, None, 0] >= boxes[None, :, 0] - g)
+                      & (centres[:, None, 1] >= boxes[None, :, 1] - g)
+                      & (centres[:, None, 0] <= boxes[None, :, 2] + g)
+                      & (centres[:, None, 1] <= boxes[None, :, 3] + g), axis=1)
+    return near
 
 
 def outline_breach(outline, polygon, tol=OUTSIDE_TOL_M):
@@ -172,10 +205,12 @@ def band_cells(droom, height_m, areas, d0, d1, spacing):
     cell's point is its in-band sample nearest their centroid (in the band for sure)."""
     p = min(en12464.grid_spacing(float(np.max(droom.size))), spacing)
 
+    reach = d1 + 1e-6
+
     def in_band(xy):
-        d = area_distance(areas, xy)
+        d = nearest_area(areas, xy, reach)[0]
         return (d > d0 + 1e-9) & (d <= d1 + 1e-9)
-    return band_grid(droom, height_m, p, SUB, in_band)
+    return band_grid(droom, height_m, p, SUB, in_band, near_areas(areas, reach))
 
 
 def area_requirement(area, req):
