@@ -203,7 +203,7 @@ class RoomDesign:
                      **d["surfaces"].get(part_name(ta.name), {}),
                      "pass": bool(self.verdicts.get(part_name(ta.name)))}
                     for ta in self.requirement.task_areas]
-            if "background" not in self.surface_reqs:
+            if not any(k.startswith("background") for k in self.surface_reqs):
                 d["background"] = {"judged": False, "why": self.background_words}
             if self.cylindrical is not None:
                 d["cylindrical"] = {"required": dict(self.cylindrical),

@@ -11,13 +11,16 @@ room less a border zone (``margin_m``, which the spec then refuses: one or the o
   the area gives its own). It is one more surface grid of the design model (name
   ``'task area: <name>'``, :func:`~.spec.part_name`, gathered with the floor patch under each
   cell as the work plane is), judged on every exact check and ranked by the fast model;
-* **the immediate surroundings**: the union of the 0.5 m bands around the task areas,
-  clipped to the room, less the task areas (:func:`band_cells` with the distance to the
-  nearest task area in ``(0, 0.5]``), one requirement: EN 12464-1 Table 3 of the highest
-  task Em (the strictest: a band next to the desks and next to the counter is one floor);
+* **the immediate surroundings**: the 0.5 m bands around the task areas, clipped to the
+  room, less the task areas (:func:`band_cells` with the distance to the nearest task area
+  in ``(0, 0.5]``), each area's from its own Em (EN 12464-1:2021 4.3.3, Table 3): where the
+  areas ask for different Table-3 levels (desks at 500 lx, a counter at 300 lx), one grid
+  per level (``'surroundings (desks)'``), each cell in the band of its nearest task area
+  (:func:`surroundings_levels`); one ``'surroundings'`` grid where all share a level;
 * **the background area**: beyond the surroundings, up to 3 m further (distance in
-  ``(0.5, 3.5]``), clipped to the room: one third of the surroundings' Em, U0 0.10
-  (:mod:`.background`), or what the spec's ``"background"`` asks.
+  ``(0.5, 3.5]``), clipped to the room, split by the same levels (``'background
+  (desks)'``): one third of its surroundings' Em, U0 0.10 (:mod:`.background`), or what the
+  spec's ``"background"`` asks.
 
 The room's work-plane cells (the first ``n`` receivers of the design model, which the
 search's count range, its fast ranking and the report's plan use) are the union of the
@@ -197,20 +200,41 @@ def task_cells(droom, height_m, area, headroom=True):
     return pts, np.tile([0.0, 0.0, 1.0], (k, 1)), np.full(k, ds * dt)
 
 
-def band_cells(droom, height_m, areas, d0, d1, spacing):
+def band_cells(droom, height_m, areas, d0, d1, spacing, only=None):
     """Cells of the work plane whose distance to the nearest task area lies in
     ``(d0, d1]``, clipped to the room's outline and to where the work plane has head room:
     (points (j, 3), normals (j, 3) facing up, weights (j,) m^2: each cell's share of the
     band counted on :data:`SUB` x :data:`SUB` samples), or None where none remains. A
-    cell's point is its in-band sample nearest their centroid (in the band for sure)."""
+    cell's point is its in-band sample nearest their centroid (in the band for sure).
+    ``only`` (indices into ``areas``): the part of the band nearest to those areas (their
+    own surroundings where other areas ask for another level)."""
     p = min(en12464.grid_spacing(float(np.max(droom.size))), spacing)
-
     reach = d1 + 1e-6
+    mine = None if only is None else np.asarray(sorted(only))
 
     def in_band(xy):
-        d = nearest_area(areas, xy, reach)[0]
-        return (d > d0 + 1e-9) & (d <= d1 + 1e-9)
-    return band_grid(droom, height_m, p, SUB, in_band, near_areas(areas, reach))
+        d, i = nearest_area(areas, xy, reach)
+        ok = (d > d0 + 1e-9) & (d <= d1 + 1e-9)
+        return ok if mine is None else ok & np.isin(i, mine)
+    return band_grid(droom, height_m, p, SUB, in_band,
+                     near_areas(areas if mine is None else [areas[i] for i in mine], reach))
+
+
+def surroundings_levels(areas, lux):
+    """The task areas grouped by the Table-3 level of their immediate surroundings
+    (EN 12464-1:2021 4.3.3: each task area's from its own Em): a list of ``(key suffix,
+    indices, task lux)``, the highest level first; one group (suffix ``''``) where all
+    share a level, else each named after its areas ``' (desks)'``."""
+    groups = {}
+    for i, x in enumerate(lux):
+        groups.setdefault(surroundings_lux(x), []).append(i)
+    out = []
+    for level in sorted(groups, reverse=True):
+        idx = groups[level]
+        names = [areas[i].name for i in idx]
+        words = ", ".join(names) if len(names) <= 3 else f"{names[0]} and {len(names) - 1} more"
+        out.append(("" if len(groups) == 1 else f" ({words})", idx, max(lux[i] for i in idx)))
+    return out
 
 
 def area_requirement(area, req):
@@ -244,30 +268,38 @@ def prepare(rs, droom, req, surfaces, rd):
         q = reqs[a.part] = area_requirement(a, req)
         pts.append(cells[0])
         lux.append(q.lux)
-    top = max(lux)
-    band = band_cells(droom, req.height_m, req.task_areas, 0.0, SURROUNDINGS_M,
-                      BAND_SPACING_M)
-    if band is None:
-        rd.notes.append("immediate surroundings: the task areas leave no floor around"
-                        " them: not computed")
-    else:
-        surfaces["surroundings"] = band
-        reqs["surroundings"] = SurfaceRequirement(
-            surroundings_lux(top), SURROUNDINGS_U0,
-            "EN 12464-1:2021 Table 3 (0.5 m band around the task areas"
-            + (", of the highest task Em)" if len(set(lux)) > 1 else ")"))
-    q = background_requirement(getattr(rs, "background", None), top)
-    if q is None:
-        rd.background_words = "no limit (the spec's \"background\" is null): not judged"
-    else:
-        bg = band_cells(droom, req.height_m, req.task_areas, SURROUNDINGS_M,
-                        SURROUNDINGS_M + BACKGROUND_M, 0.5 * BACKGROUND_M)
-        if bg is None:
-            rd.background_words = ("none: the task areas and their 0.5 m immediate"
-                                   " surroundings cover the room")
+    given = getattr(rs, "background", None)
+    levels = surroundings_levels(req.task_areas, lux)
+    bg_any = False
+    for suffix, idx, task_lux in levels:
+        only = None if len(levels) == 1 else idx
+        band = band_cells(droom, req.height_m, req.task_areas, 0.0, SURROUNDINGS_M,
+                          BAND_SPACING_M, only)
+        if band is None:
+            rd.notes.append(f"immediate surroundings{suffix}: the task areas leave no floor"
+                            " around them: not computed")
         else:
-            rd.background_words = None
-            surfaces["background"] = bg
-            reqs["background"] = q
+            surfaces["surroundings" + suffix] = band
+            reqs["surroundings" + suffix] = SurfaceRequirement(
+                surroundings_lux(task_lux), SURROUNDINGS_U0,
+                "EN 12464-1:2021 Table 3 (0.5 m band around the task areas"
+                + (f" nearest to {suffix[2:-1]}, of their Em {task_lux:g} lx)" if suffix
+                   else ")"))
+        q = background_requirement(given, task_lux)
+        if q is None:
+            continue
+        bg = band_cells(droom, req.height_m, req.task_areas, SURROUNDINGS_M,
+                        SURROUNDINGS_M + BACKGROUND_M, 0.5 * BACKGROUND_M, only)
+        if bg is not None:
+            bg_any = True
+            surfaces["background" + suffix] = bg
+            reqs["background" + suffix] = q
+    if given is False:
+        rd.background_words = "no limit (the spec's \"background\" is null): not judged"
+    elif not bg_any:
+        rd.background_words = ("none: the task areas and their 0.5 m immediate"
+                               " surroundings cover the room")
+    else:
+        rd.background_words = None
     search_req = replace(req, lux=min(lux), u0=0.0, task_areas=())
     return np.concatenate(pts), replace(rs, surfaces=reqs), search_req

@@ -523,14 +523,15 @@ def summary_rows(r):
             ("background", "background area", ".4g",
              getattr(r, "background_words", None) or "not computed",
              "EN 12464-1:2021 4.3.3")):
-        bq = r.surface_reqs.get(key)
-        if bq is not None and key in m.surfaces:
-            em, _, u0 = m.surfaces[key]
-            rows.append({"item": item,
+        # one row per Table-3 level where task areas ask for several ('surroundings (desks)')
+        keys = [k for k in r.surface_reqs if k.startswith(key) and k in m.surfaces]
+        for k in keys:
+            bq, (em, _, u0) = r.surface_reqs[k], m.surfaces[k]
+            rows.append({"item": item + k[len(key):],
                          "required": f"Em >= {bq.lux:{lux_fmt}} lx, U0 >= {bq.u0:.2f}",
                          "achieved": f"Em {em:.0f} lx, U0 {u0:.2f}",
-                         "verdict": "pass" if v.get(key) else "FAIL", "source": bq.source})
-        else:
+                         "verdict": "pass" if v.get(k) else "FAIL", "source": bq.source})
+        if not keys:
             rows.append({"item": item, "required": "-", "achieved": none_words,
                          "verdict": "-", "source": none_source})
     for part in ("walls", "ceiling"):
@@ -653,11 +654,15 @@ def _deep_text(r):
 
 
 def _surface_text(r, part):
-    """'Em lx / U0' of a surface grid, or '-'."""
-    if r.metrics is None or part not in r.metrics.surfaces:
+    """'Em lx / U0' of a surface grid, or '-'; of each grid named ``part (...)`` where the
+    task areas' surroundings come at several levels: '(desks) 320 / 0.55; ...'."""
+    if r.metrics is None:
         return "-"
-    em, _, u0 = r.metrics.surfaces[part]
-    return f"{em:.0f} / {u0:.2f}"
+    if part in r.metrics.surfaces:
+        em, _, u0 = r.metrics.surfaces[part]
+        return f"{em:.0f} / {u0:.2f}"
+    parts = [k for k in r.metrics.surfaces if k.startswith(part + " (")]
+    return "; ".join(f"{k[len(part) + 1:]} {_surface_text(r, k)}" for k in parts) or "-"
 
 
 def write_design_report(result, out_dir, title="Lighting design", project=None, pdf=True,

@@ -118,6 +118,13 @@ def test_task_cells_surroundings_and_background_of_two_rectangles():
     # both 0.5 m bands (rounded corners), apart and within the room: perimeter r + pi r^2
     ring = sum(2 * (r[2] - r[0] + r[3] - r[1]) * 0.5 + math.pi * 0.25 for r in rects)
     assert w.sum() == pytest.approx(ring, rel=0.02)
+    # split by the nearest area (surroundings at each area's own Table-3 level): the two
+    # parts make up the band, each cell nearer its own area
+    parts = [band_cells(dr, 0.75, areas, 0.0, 0.5, 0.25, only=[i]) for i in (0, 1)]
+    assert sum(p[2].sum() for p in parts) == pytest.approx(w.sum(), rel=1e-9)
+    for i, (p, _, _) in enumerate(parts):
+        assert np.all(_rect_distance(p[:, :2], rects[i]) <= _rect_distance(p[:, :2],
+                                                                           rects[1 - i]))
     bg, _, wb = band_cells(dr, 0.75, areas, 0.5, 3.5, 1.5)
     assert np.all((d(bg) > 0.5) & (d(bg) <= 3.5 + 1e-9))
     # the room less the task areas less their surroundings: all within 3.5 m here
@@ -202,13 +209,17 @@ def test_task_area_em_against_the_inverse_square_law_of_a_point_source():
     rd = RoomDesign(0, "r", rs.work_plane, [])
     pts, rs2, sreq = prepare(rs, dr, rs.work_plane, surfaces, rd)
     assert sreq.lux == 300 and sreq.u0 == 0.0 and not sreq.task_areas
-    assert set(surfaces) == {"task area: desks", "task area: counter", "surroundings",
-                             "background"}
+    assert set(surfaces) == {"task area: desks", "task area: counter",
+                             "surroundings (desks)", "surroundings (counter)",
+                             "background (desks)", "background (counter)"}
     assert rs2.surfaces["task area: counter"].lux == 300
     assert rs2.surfaces["task area: counter"].u0 == 0.4
     assert rs2.surfaces["task area: desks"].u0 == 0.6
-    assert rs2.surfaces["surroundings"].lux == 300      # Table 3 of the highest (500 lx)
-    assert rs2.surfaces["background"].lux == pytest.approx(100)
+    # each area's surroundings from its own Em (Table 3), the background a third of them
+    assert rs2.surfaces["surroundings (desks)"].lux == 300           # of 500 lx
+    assert rs2.surfaces["surroundings (counter)"].lux == 200         # of 300 lx
+    assert rs2.surfaces["background (desks)"].lux == pytest.approx(100)
+    assert rs2.surfaces["background (counter)"].lux == pytest.approx(200 / 3)
     model = RoomModel(sc, dr, pts, 1.0, "numpy", surfaces=surfaces)
     src, flux = np.array([2.0, 2.0, 2.99]), 20000.0
     lux, direct = model.exact([Luminaire(src, [0, 0, -1.0], flux)])
@@ -249,12 +260,19 @@ def test_room_designed_for_and_reported_per_task_area():
                                              "task area counter (0.84 m2)"]
     assert rows[1]["required"] == "Em >= 750 lx, U0 >= 0.60" and rows[1]["verdict"] == "pass"
     assert rows[1]["achieved"] == f"Em {em_c:.0f} lx, U0 {u0_c:.2f}"
-    assert rows[2]["item"] == "immediate surroundings" and rows[2]["verdict"] == "pass"
-    assert rows[2]["required"] == "Em >= 500 lx, U0 >= 0.40"      # Table 3 of 750 lx
+    # each area's immediate surroundings from its own Em (Table 3: 750 -> 500, 500 -> 300)
+    assert [(r["item"], r["required"], r["verdict"]) for r in rows[2:4]] == [
+        ("immediate surroundings (counter)", "Em >= 500 lx, U0 >= 0.40", "pass"),
+        ("immediate surroundings (desks)", "Em >= 300 lx, U0 >= 0.40", "pass")]
+    assert "nearest to counter, of their Em 750 lx" in rows[2]["source"]
+    bg = {r["item"]: r["required"] for r in rows if r["item"].startswith("background")}
+    assert bg == {"background area (counter)": "Em >= 166.7 lx, U0 >= 0.10",
+                  "background area (desks)": "Em >= 100 lx, U0 >= 0.10"}
     result = type("R", (), {"rooms": [rd], "spec": _spec(room)})()
     row = room_rows(result)[0]
     assert row["em_req"] == "500; 750" and row["em"] == f"{em_d:.0f}; {em_c:.0f}"
     assert row["task_areas"].startswith(f"desks: Em {em_d:.0f} lx (>= 500), U0 {u0_d:.2f}")
+    assert row["surroundings"].startswith("(counter) ") and "; (desks) " in row["surroundings"]
     d = rd.to_dict()
     assert [a["name"] for a in d["task_areas"]] == ["desks", "counter"]
     assert d["task_areas"][1]["lux"] == 750 and d["task_areas"][1]["pass"] is True
