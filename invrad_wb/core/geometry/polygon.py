@@ -1,5 +1,6 @@
 """Plan polygons: signed area, edges, simplicity and segment crossings (a task area's
-outline, :mod:`invrad_wb.core.design.spec`; the room's outline, :mod:`invrad_wb.core.design.room`)."""
+outline, :mod:`invrad_wb.core.design.spec`; the room's outline,
+:mod:`invrad_wb.core.design.room`)."""
 import numpy as np
 
 
