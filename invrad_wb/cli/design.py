@@ -73,7 +73,7 @@ def _dimmed_words(r):
 
 def _no_background(r):
     """' no background area,' (or why it is not judged) where the room has none."""
-    if "background" in r.surface_reqs:
+    if any(k.startswith("background") for k in r.surface_reqs):
         return ""
     w = r.background_words or ""
     return " no background area," if w.startswith("none") else " background not judged,"

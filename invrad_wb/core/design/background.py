@@ -82,36 +82,60 @@ def background_grid(droom, height_m, margin_m, width_m=BAND_M):
     d0, d1 = lim
     p = min(en12464.grid_spacing(float(np.max(droom.size))),
             max(0.5 * (d1 - d0), MIN_SPACING_M))
-    ns = max(1, int(math.ceil(droom.size[0] / p - 1e-9)))
-    nt = max(1, int(math.ceil(droom.size[1] / p - 1e-9)))
-    ds, dt = droom.size[0] / ns, droom.size[1] / nt
-    # each cell's share of the band from SUB x SUB samples: the weights add up to the
-    # band's area (a coarse grid's cell centres alone miss or overcount a band edge)
-    k = SUB
-    u = (np.arange(k) + 0.5) / k
-    cs, ct = np.meshgrid(np.arange(ns), np.arange(nt), indexing="ij")
-    us, ut = np.meshgrid(u, u, indexing="ij")
-    st = np.stack([(cs.reshape(-1, 1) + us.reshape(1, -1)) * ds,
-                   (ct.reshape(-1, 1) + ut.reshape(1, -1)) * dt], axis=-1)   # (cells, k2, 2)
-    xy = droom.to_world(st.reshape(-1, 2))
-    d = droom.wall_distance(xy)
-    inb = droom.inside(xy) & (d >= d0 - 1e-9) & (d < d1 - 1e-9)
+
+    def in_band(xy):
+        d = droom.wall_distance(xy)
+        return (d >= d0 - 1e-9) & (d < d1 - 1e-9)
+    return band_grid(droom, height_m, p, SUB, in_band)
+
+
+def has_headroom(droom, xy, height_m):
+    """(k,) bool: the work plane at ``height_m`` has head room over plan points ``xy``
+    (:data:`~invrad_wb.core.model.targets.WORK_PLANE_HEADROOM_M` under the ceiling)."""
     zc, _ = droom.ceiling_at(xy)
-    inb &= np.nan_to_num(zc, nan=np.inf) >= droom.floor_z + height_m + WORK_PLANE_HEADROOM_M
-    inb = inb.reshape(ns * nt, k * k)
+    return np.nan_to_num(zc, nan=np.inf) >= droom.floor_z + height_m + WORK_PLANE_HEADROOM_M
+
+
+def band_grid(droom, height_m, spacing, sub, in_band, near=None):
+    """The cells of a band of the work plane (the background here, a task area's
+    surroundings and background in :mod:`.taskareas`): the room's bounding rectangle cut
+    in cells at most ``spacing`` apart, each cell's share of the band counted on ``sub`` x
+    ``sub`` samples (the weights add up to the band's area: a coarse grid's cell centres
+    alone miss or overcount a band edge) where ``in_band(xy)`` ((k,) bool of world plan
+    points (k, 2)) holds, within the room's outline and with head room. Each cell is
+    judged at its in-band sample nearest their centroid (in the band for sure).
+    ``near(centres, r)``, optional: (c,) bool of the cells worth sampling from their world
+    centres (c, 2) and half-diagonal ``r`` (a band around a few task areas in a large
+    room). Returns (points (j, 3), normals (j, 3) facing up, weights (j,) m^2), or None
+    where no cell has a part in the band."""
+    ns = max(1, int(math.ceil(droom.size[0] / spacing - 1e-9)))
+    nt = max(1, int(math.ceil(droom.size[1] / spacing - 1e-9)))
+    ds, dt = droom.size[0] / ns, droom.size[1] / nt
+    cs, ct = (c.reshape(-1) for c in np.meshgrid(np.arange(ns), np.arange(nt), indexing="ij"))
+    if near is not None:
+        sel = near(droom.to_world(np.c_[(cs + 0.5) * ds, (ct + 0.5) * dt]),
+                   0.5 * math.hypot(ds, dt))
+        cs, ct = cs[sel], ct[sel]
+    u = (np.arange(sub) + 0.5) / sub
+    us, ut = (c.reshape(1, -1) for c in np.meshgrid(u, u, indexing="ij"))
+    st = np.stack([(cs[:, None] + us) * ds, (ct[:, None] + ut) * dt], axis=-1)  # (c, k2, 2)
+    xy = droom.to_world(st.reshape(-1, 2))
+    inb = in_band(xy)
+    inb[inb] &= droom.inside(xy[inb])
+    inb[inb] &= has_headroom(droom, xy[inb], height_m)
+    inb = inb.reshape(len(cs), sub * sub)
     n_in = inb.sum(axis=1)
     cells = np.flatnonzero(n_in)
     if not len(cells):
         return None
-    xy = xy.reshape(ns * nt, k * k, 2)[cells]
+    xy = xy.reshape(len(cs), sub * sub, 2)[cells]
     inb = inb[cells]
-    # the cell's point: its in-band sample nearest their centroid (in the band for sure)
     cen = np.einsum("cs,csj->cj", inb, xy) / n_in[cells, None]
     far = np.where(inb, np.linalg.norm(xy - cen[:, None, :], axis=2), np.inf)
     pick = xy[np.arange(len(cells)), np.argmin(far, axis=1)]
     m = len(cells)
     pts = np.c_[pick, np.full(m, droom.floor_z + height_m)]
-    return pts, np.tile([0.0, 0.0, 1.0], (m, 1)), n_in[cells] / (k * k) * ds * dt
+    return pts, np.tile([0.0, 0.0, 1.0], (m, 1)), n_in[cells] / (sub * sub) * ds * dt
 
 
 def background_requirement(given, task_lux):

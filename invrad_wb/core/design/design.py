@@ -203,7 +203,7 @@ class RoomDesign:
                      **d["surfaces"].get(part_name(ta.name), {}),
                      "pass": bool(self.verdicts.get(part_name(ta.name)))}
                     for ta in self.requirement.task_areas]
-            if "background" not in self.surface_reqs:
+            if not any(k.startswith("background") for k in self.surface_reqs):
                 d["background"] = {"judged": False, "why": self.background_words}
             if self.cylindrical is not None:
                 d["cylindrical"] = {"required": dict(self.cylindrical),
@@ -403,9 +403,17 @@ def _explain(rd, search, entries):
                         f" (limit {search.rs.shade_limit_lux:g} lx)")
     if rd.deep_dimming:
         rd.notes.append(deep_dimming_note(rd, entries))
-    if c.ok and m.em > 1.5 * r.lux and c.dim >= 1.0:
+    # with task areas, the least excess over them (each against its own Em: the union's
+    # Em against the work plane's lux compares different things)
+    over = [(m.surfaces[a.part][0], rd.surface_reqs[a.part].lux)
+            for a in getattr(r, "task_areas", ())
+            if a.part in m.surfaces and a.part in rd.surface_reqs]
+    em, lux = min(over, key=lambda x: x[0] / x[1]) if over else (m.em, r.lux)
+    if c.ok and em > 1.5 * lux and c.dim >= 1.0:
         weakest = min(entries, key=lambda e: e.flux_lm)
-        rd.notes.append(f"Em {m.em:.0f} lx is {m.em / r.lux:.1f} x the {r.lux:.0f} lx"
+        what = "" if not over else (" on the task areas" if len(over) == 1 else
+                                    " on the task area least above its own")
+        rd.notes.append(f"Em {em:.0f} lx{what} is {em / lux:.1f} x the {lux:.0f} lx"
                         f" required: fewer luminaires would not be uniform enough and the"
                         f" catalogue has nothing weaker than {weakest.name}"
                         f" ({weakest.flux_lm:.0f} lm) or dimmable")

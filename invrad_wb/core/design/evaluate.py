@@ -404,7 +404,7 @@ class RoomModel:
         patch = np.where(idx >= 0, self.rad.face_patch[floor[np.maximum(idx, 0)]], -1)
         plane = np.arange(len(patch)) < self.n_wp
         for name, (sl, _) in self.layout.parts.items():   # work-plane cells too
-            if name in ("surroundings", "background") or name.startswith(TASK_PART):
+            if name.startswith(("surroundings", "background", TASK_PART)):
                 plane[sl] = True       # (cylindrical.py, background.py, taskareas.py)
         miss = np.flatnonzero((idx < 0) | ~plane)
         if len(miss):

@@ -358,7 +358,8 @@ def _fast_solve(search, *args, **kw):
     saved = search.cyl_req, search.surf_reqs
     try:
         search.cyl_req = None
-        search.surf_reqs = {k: v for k, v in saved[1].items() if k not in EXACT_ONLY}
+        search.surf_reqs = {k: v for k, v in saved[1].items()
+                            if not k.startswith(EXACT_ONLY)}
         return solve_outputs(*args, **kw)
     finally:
         search.cyl_req, search.surf_reqs = saved

@@ -12,6 +12,7 @@ import numpy as np
 from invrad_wb.errors import SceneError
 from invrad_wb.core.design import en12464
 from invrad_wb.core.geometry.outline import inside_outline
+from invrad_wb.core.geometry.polygon import edge_loops, edges_3d, polygon_edges
 from invrad_wb.core.geometry.raster import locate_points
 from invrad_wb.core.model.targets import (WORK_PLANE_HEADROOM_M, boundary_edges,
                                           distance_to_segments)
@@ -92,9 +93,7 @@ def cancel_opposite(segments, tol=1e-6):
 
 def in_polygon(polygon, xy):
     """(k,) bool: plan points ``xy`` (k, 2) inside a plan polygon (c, 2) (even-odd)."""
-    p = np.asarray(polygon, dtype=np.float64)
-    return inside_outline(np.stack([p, np.roll(p, -1, axis=0)], axis=1),
-                          np.asarray(xy, dtype=np.float64).reshape(-1, 2))
+    return inside_outline(polygon_edges(polygon), np.asarray(xy, dtype=np.float64).reshape(-1, 2))
 
 
 class DesignRoom:
@@ -179,9 +178,26 @@ class DesignRoom:
     def wall_distance(self, xy):
         """(k,) distance of plan points (world XY) to the floor's outline; negative outside."""
         xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        seg = np.concatenate([self._edges, np.zeros(self._edges.shape[:2] + (1,))], axis=2)
-        d = distance_to_segments(np.c_[xy, np.zeros(len(xy))], seg)
+        d = distance_to_segments(np.c_[xy, np.zeros(len(xy))], edges_3d(self._edges))
         return np.where(self.inside(xy), d, -d)
+
+    def outline(self):
+        """(k, 2, 2) the floor's outline as plan segments (world XY): its walls and the
+        sides of its columns' holes, unordered."""
+        return self._edges.copy()
+
+    def outer_outline(self):
+        """(k, 2, 2) the floor's outer outline (world XY): :meth:`outline` less the loops
+        that lie inside another loop (a column's hole in the floor)."""
+        loops = edge_loops(self._edges)
+        keep = []
+        for i, li in enumerate(loops):
+            mid = self._edges[li[0]].mean(axis=0)[None]
+            depth = sum(bool(inside_outline(self._edges[lj], mid)[0])
+                        for j, lj in enumerate(loops) if j != i)
+            if depth % 2 == 0:
+                keep.append(li)
+        return self._edges[np.sort(np.concatenate(keep))] if keep else self._edges.copy()
 
     def no_mount_at(self, xy, clearance_m=0.0):
         """Where plan points (world XY, (k, 2)) fall in the room's no-mount zones:
@@ -197,10 +213,8 @@ class DesignRoom:
                 void |= inside
             else:
                 if clearance_m > 0 and len(xy):
-                    p = np.asarray(z.polygon, dtype=np.float64)
-                    seg = np.stack([p, np.roll(p, -1, axis=0)], axis=1)
-                    seg = np.concatenate([seg, np.zeros(seg.shape[:2] + (1,))], axis=2)
-                    d = distance_to_segments(np.c_[xy, np.zeros(len(xy))], seg)
+                    d = distance_to_segments(np.c_[xy, np.zeros(len(xy))],
+                                             edges_3d(polygon_edges(z.polygon)))
                     inside = inside | (d < clearance_m)
                 blocked |= inside
         return blocked, void & ~blocked

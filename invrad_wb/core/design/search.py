@@ -37,7 +37,7 @@ MAX_COUNT = 400
 #: corrected per point by the last exact check, would turn away layouts that the exact
 #: check finds compliant (:mod:`.cylindrical`); the background area beyond them likewise
 #: (:mod:`.background`)
-EXACT_ONLY = ("surroundings", "background")
+EXACT_ONLY = ("surroundings", "background")   # and "surroundings (desks)": name prefixes
 #: UGR margin of the fast model's glare test (its background luminance is that of a
 #: reference layout; the exact check decides)
 UGR_FAST_MARGIN = 0.0
@@ -442,7 +442,8 @@ class RoomSearch:
         t["pair"] = t["pair"].astype(int)
         t["ok"] = complies(t["em"], t["u0"], t["shade"], self.req, self.rs.shade_limit_lux,
                            FAST_SLACK, self._surf(t),
-                           {k: v for k, v in self.surf_reqs.items() if k not in EXACT_ONLY})
+                           {k: v for k, v in self.surf_reqs.items()
+                            if not k.startswith(EXACT_ONLY)})
         if self.ugr_max is not None:
             t["ok"] &= ~(t["ugr"] > self.ugr_max + UGR_FAST_MARGIN)   # NaN: none in view
         g = t["geom"]

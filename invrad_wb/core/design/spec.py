@@ -58,7 +58,7 @@ import os
 from typing import Optional
 
 from invrad_wb.errors import SettingsError
-from invrad_wb.core.geometry.polygon import polygon_area, self_intersection
+from invrad_wb.core.geometry.polygon import drop_repeats, polygon_area, self_intersection
 
 #: Mounting kinds a catalogue entry or a room may allow.
 MOUNTINGS = ("ceiling", "pendant", "wall")
@@ -185,7 +185,6 @@ class TaskArea:
         if self.u0 is not None:
             d["u0"] = self.u0
         return d
-
 
 
 @dataclass
@@ -431,6 +430,10 @@ def _point(p, where):
     return (_number(p[0], where, "m"), _number(p[1], where, "m"))
 
 
+#: the least area of a task area (a rectangle or a polygon), m^2
+MIN_TASK_AREA_M2 = 1e-6
+
+
 def _task_areas(value, where):
     """The work plane's ``"task_areas"``: a non-empty list of
     ``{"name", "rect": [x0, y0, x1, y1]}`` or ``{"name", "polygon": [[x, y], ...]}``
@@ -446,6 +449,9 @@ def _task_areas(value, where):
         if not isinstance(name, str) or not name.strip():
             raise (where / i / "name").error(f"{name!r}: a task area's name is a text")
         name = name.strip()
+        if "." in name:
+            raise (where / i / "name").error(f"{name!r}: a task area's name may not contain"
+                                             " \".\" (it is part of the key in messages)")
         if name in names:
             raise (where / name).error("the name is used twice")
         names.add(name)
@@ -461,15 +467,20 @@ def _task_areas(value, where):
             if x1 <= x0 or y1 <= y0:
                 raise (w / "rect").error(f"{list(r)!r} has no area: x1 must be > x0 and"
                                          " y1 > y0")
+            if (x1 - x0) * (y1 - y0) < MIN_TASK_AREA_M2:
+                raise (w / "rect").error(f"{list(r)!r} has zero area (under"
+                                         f" {MIN_TASK_AREA_M2:g} m2)")
             poly, rect = ((x0, y0), (x1, y0), (x1, y1), (x0, y1)), True
         else:
             pl = d["polygon"]
             if not isinstance(pl, (list, tuple)) or len(pl) < 3:
                 raise (w / "polygon").error(f"{pl!r}: a polygon needs at least 3 points"
                                             " [[x, y], ...]")
-            poly, rect = tuple(_point(p, w / "polygon") for p in pl), False
-            if len(poly) > 3 and poly[0] == poly[-1]:
-                poly = poly[:-1]           # closed by repeating its first point
+            # a corner given twice, the first point repeated to close it
+            poly, rect = drop_repeats(_point(p, w / "polygon") for p in pl), False
+            if len(poly) < 3:
+                raise (w / "polygon").error(f"{pl!r}: a polygon needs at least 3 distinct"
+                                            " points [[x, y], ...]")
             cut = self_intersection(poly)
             if cut is not None:
                 i0, j0 = cut
@@ -477,8 +488,9 @@ def _task_areas(value, where):
                     f"edges {i0 + 1} and {j0 + 1} cross: the polygon intersects itself"
                     " (give its corners in order around it)")
             a = polygon_area(poly)
-            if abs(a) < 1e-6:
-                raise (w / "polygon").error(f"{[list(p) for p in poly]!r} has zero area")
+            if abs(a) < MIN_TASK_AREA_M2:
+                raise (w / "polygon").error(f"{[list(p) for p in poly]!r} has zero area"
+                                            f" (under {MIN_TASK_AREA_M2:g} m2)")
             if a < 0:
                 poly = poly[::-1]
         lux = _number(d.get("lux"), w / "lux", "lx", lo=0, lo_open=True, allow_none=True)

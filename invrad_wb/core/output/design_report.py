@@ -28,6 +28,8 @@ from invrad_wb.core.output import document
 from invrad_wb.core.output.groups import output_groups  # noqa: F401 (the report's groups)
 from invrad_wb.core.output.figures import figure as _fig, iso_levels, label_iso_lines
 from invrad_wb.core.output.figures import thin_values
+from invrad_wb.core.output.taskarea_report import (area_of, draw_task_outlines, iso_words,
+                                                   per_area, task_area_figures)
 from invrad_wb.core.output.figures import png as _png
 
 _TEMPLATE = "design_report.html.j2"
@@ -148,6 +150,7 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
     (:func:`output_groups`): a room dimmed apart gets each luminaire's group letter in its
     marker and the groups' key (type, output, lm, W, count) under the plan; an evenly
     dimmed one its types' output in the legend."""
+    from matplotlib import patheffects
     pts, lux = rd.grid_points, rd.metrics.lux[:len(rd.grid_points)]
     lo, hi = np.min(edges, axis=(0, 1)), np.max(edges, axis=(0, 1))
     span = np.maximum(hi - lo, 1e-6)
@@ -169,7 +172,7 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
     m = _false_colour(ax, pts, lux, lux_max, rd.requirement.lux, edges)
     _outline(ax, edges)
     _plot_luminaires(ax, rd.luminaires, types)
-    areas = _task_areas(rd)
+    areas = task_area_figures(rd)
     iso = iso_words(lux, rd.requirement.lux)
     ax.set_title(("; " if stacked else "\n").join(
                      f"{a['name']}: Em {a['em']:.0f} lx, U0 {a['u0']:.2f}"
@@ -177,10 +180,14 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
                  f"Em {rd.metrics.em:.0f} lx, U0 {rd.metrics.u0:.2f}\n{iso}",
                  fontsize=8)
     step = max(1, int(np.ceil(len(pts) / MAX_LABELS)))
+    # a white halo: a value printed over a task area's dashed outline stays readable
+    # ("328" read "528" where the dash crossed its first digit)
+    halo = [patheffects.withStroke(linewidth=1.6, foreground="white")]
     values = [ax2.text(p[0], p[1], f"{v:.0f}", fontsize=5.5, ha="center", va="center",
-                       color="black") for p, v in zip(pts[::step], lux[::step])]
+                       color="black", zorder=4, path_effects=halo)
+              for p, v in zip(pts[::step], lux[::step])]
     _outline(ax2, edges)
-    _task_outlines((ax, ax2), rd)
+    draw_task_outlines((ax, ax2), rd)
     ax2.set_title("values (lx) at the calculation points", fontsize=8)
     for a_ in (ax, ax2):
         a_.set_aspect("equal")
@@ -203,44 +210,8 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
         label_iso_lines(ax, ax.iso_lines, rd.requirement.lux,
                         avoid=[lum.position[:2] for lum in rd.luminaires],
                         field=ax.iso_field)
-    thin_values(fig, values, None if not areas else _area_of(pts[::step], rd))
+    thin_values(fig, values, None if not areas else area_of(pts[::step], rd))
     return fig
-
-
-def _area_of(pts, rd):
-    """(n,) index of the explicit task area each plan point lies in (0: none)."""
-    from matplotlib.path import Path
-    out = np.zeros(len(pts), dtype=int)
-    for i, a in enumerate(rd.requirement.task_areas):
-        out[Path(np.asarray(a.polygon, dtype=float)).contains_points(pts[:, :2])] = i + 1
-    return out
-
-
-def iso_words(lux, required):
-    """The plan's words for its iso-lux lines: 'iso-lux lines every 20 lx, 500 lx bold'
-    (or 'at 400, 500, 650 lx' where the required level breaks the step)."""
-    levels = iso_levels(lux, required)
-    if not levels:
-        return "no iso-lux lines (the light is even)"
-    d = np.diff(levels)
-    at = (f"every {d[0]:g} lx" if len(d) and np.allclose(d, d[0])
-          else "at " + ", ".join(f"{v:g}" for v in levels) + " lx")
-    bold = (f", {required:g} lx bold" if required is not None
-            and any(abs(v - required) < 1e-6 for v in levels) else "")
-    return f"iso-lux lines {at}{bold}"
-
-
-def _task_outlines(axes, rd):
-    """The explicit task areas' outlines on the plan's panels, named on the values'
-    panel (above the area, where no value is printed)."""
-    for a in getattr(rd.requirement, "task_areas", ()):
-        p = np.asarray(a.polygon, dtype=float)
-        q = np.r_[p, p[:1]]
-        axes[0].plot(q[:, 0], q[:, 1], color="0.1", lw=1.0, ls="--", zorder=3)
-        axes[1].plot(q[:, 0], q[:, 1], color="0.35", lw=0.8, ls="--", zorder=1)
-        axes[1].annotate(a.name, (float(p[:, 0].mean()), float(p[:, 1].max())),
-                         xytext=(0, 2), textcoords="offset points", ha="center",
-                         va="bottom", fontsize=6.5, color="0.25", style="italic")
 
 
 def dimming_plan_png(rd, edges, types, groups):
@@ -409,7 +380,7 @@ def floor_plan_figure(rooms, z, types, catalogue=None):
     for r in rooms:
         _outline(ax, r.outline)
         c = label_point(r.outline, [lum.position[:2] for lum in r.luminaires])
-        areas = _task_areas(r)
+        areas = task_area_figures(r)
         text = (r.name if r.metrics is None else f"{r.name}\nEm {r.metrics.em:.0f} lx"
                 if not areas else r.name + "".join(f"\n{a['name']}: Em {a['em']:.0f} lx"
                                                     for a in areas))
@@ -539,12 +510,12 @@ def summary_rows(r):
              "required": f"Em >= {q.lux:g} lx, U0 >= {q.u0:.2f}",
              "achieved": f"Em {m.em:.0f} lx, U0 {m.u0:.2f}",
              "verdict": "pass" if v["Em"] and v["U0"] else "FAIL", "source": q.source},
-            ] if not _task_areas(r) else [
+            ] if not task_area_figures(r) else [
         {"item": f"task area {a['name']} ({a['area_m2']:.2f} m2)",
          "required": f"Em >= {a['lux']:g} lx, U0 >= {a['u0_req']:.2f}",
          "achieved": f"Em {a['em']:.0f} lx, U0 {a['u0']:.2f}",
          "verdict": "pass" if a["ok"] else "FAIL", "source": a["source"]}
-        for a in _task_areas(r)]
+        for a in task_area_figures(r)]
     # the two bands around the task area: judged where the room has them, else why not
     for key, item, lux_fmt, none_words, none_source in (
             ("surroundings", "immediate surroundings", "g", "not computed",
@@ -552,14 +523,15 @@ def summary_rows(r):
             ("background", "background area", ".4g",
              getattr(r, "background_words", None) or "not computed",
              "EN 12464-1:2021 4.3.3")):
-        bq = r.surface_reqs.get(key)
-        if bq is not None and key in m.surfaces:
-            em, _, u0 = m.surfaces[key]
-            rows.append({"item": item,
+        # one row per Table-3 level where task areas ask for several ('surroundings (desks)')
+        keys = [k for k in r.surface_reqs if k.startswith(key) and k in m.surfaces]
+        for k in keys:
+            bq, (em, _, u0) = r.surface_reqs[k], m.surfaces[k]
+            rows.append({"item": item + k[len(key):],
                          "required": f"Em >= {bq.lux:{lux_fmt}} lx, U0 >= {bq.u0:.2f}",
                          "achieved": f"Em {em:.0f} lx, U0 {u0:.2f}",
-                         "verdict": "pass" if v.get(key) else "FAIL", "source": bq.source})
-        else:
+                         "verdict": "pass" if v.get(k) else "FAIL", "source": bq.source})
+        if not keys:
             rows.append({"item": item, "required": "-", "achieved": none_words,
                          "verdict": "-", "source": none_source})
     for part in ("walls", "ceiling"):
@@ -589,28 +561,6 @@ def summary_rows(r):
                  "verdict": ("-" if "UGR" not in v else "pass" if v["UGR"] else "FAIL"),
                  "source": "spec or room type" if r.ugr_limit is not None else "no limit given"})
     return rows
-
-
-def _task_areas(r):
-    """The explicit task areas of a designed room with their figures (dicts: name,
-    area_m2, lux, u0_req, em, emin, u0, ok, source), [] for a room judged on its work
-    plane less a border zone."""
-    areas = getattr(r.requirement, "task_areas", ()) if r.metrics is not None else ()
-    out = []
-    for a in areas:
-        k = a.part                  # its surface grid's name
-        if k not in r.metrics.surfaces:
-            continue
-        em, emin, u0 = r.metrics.surfaces[k]
-        q = r.surface_reqs[k]
-        out.append({"name": a.name, "area_m2": a.area_m2, "lux": q.lux, "u0_req": q.u0,
-                    "em": em, "emin": emin, "u0": u0, "ok": bool(r.verdicts.get(k)),
-                    "source": q.source.split("; task area")[0]})
-    return out
-
-
-def _per_area(areas, fmt):
-    return "; ".join(fmt(a) for a in areas)
 
 
 def room_rows(result):
@@ -661,17 +611,17 @@ def room_rows(result):
                                           else None if s.accent is None
                                           else s.accent.extra.get("type"))}
                               for s in r.spots if s.goal.kind == "spot"])
-        areas = _task_areas(r)
+        areas = task_area_figures(r)
         if areas:        # one figure per task area, in the spec's order
-            row.update(em_req=_per_area(areas, lambda a: f"{a['lux']:g}"),
-                       em=_per_area(areas, lambda a: f"{a['em']:.0f}"),
-                       emin=_per_area(areas, lambda a: f"{a['emin']:.0f}"),
+            row.update(em_req=per_area(areas, lambda a: f"{a['lux']:g}"),
+                       em=per_area(areas, lambda a: f"{a['em']:.0f}"),
+                       emin=per_area(areas, lambda a: f"{a['emin']:.0f}"),
                        emax="-",
-                       u0_req=_per_area(areas, lambda a: f"{a['u0_req']:.2f}"),
-                       u0=_per_area(areas, lambda a: f"{a['u0']:.2f}"),
+                       u0_req=per_area(areas, lambda a: f"{a['u0_req']:.2f}"),
+                       u0=per_area(areas, lambda a: f"{a['u0']:.2f}"),
                        em_ok=all(a["em"] >= a["lux"] - 1e-9 for a in areas),
                        u0_ok=all(a["u0"] >= a["u0_req"] - 1e-9 for a in areas),
-                       margin="-", task_areas=_per_area(
+                       margin="-", task_areas=per_area(
                            areas, lambda a: f"{a['name']}: Em {a['em']:.0f} lx"
                            f" (>= {a['lux']:g}), U0 {a['u0']:.2f} (>= {a['u0_req']:.2f}),"
                            f" {'pass' if a['ok'] else 'FAIL'}"),
@@ -704,11 +654,15 @@ def _deep_text(r):
 
 
 def _surface_text(r, part):
-    """'Em lx / U0' of a surface grid, or '-'."""
-    if r.metrics is None or part not in r.metrics.surfaces:
+    """'Em lx / U0' of a surface grid, or '-'; of each grid named ``part (...)`` where the
+    task areas' surroundings come at several levels: '(desks) 320 / 0.55; ...'."""
+    if r.metrics is None:
         return "-"
-    em, _, u0 = r.metrics.surfaces[part]
-    return f"{em:.0f} / {u0:.2f}"
+    if part in r.metrics.surfaces:
+        em, _, u0 = r.metrics.surfaces[part]
+        return f"{em:.0f} / {u0:.2f}"
+    parts = [k for k in r.metrics.surfaces if k.startswith(part + " (")]
+    return "; ".join(f"{k[len(part) + 1:]} {_surface_text(r, k)}" for k in parts) or "-"
 
 
 def write_design_report(result, out_dir, title="Lighting design", project=None, pdf=True,

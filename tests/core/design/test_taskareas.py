@@ -59,9 +59,21 @@ def test_spec_reads_rectangles_and_polygons_and_turns_them_counter_clockwise():
     ([{"name": "a", "rect": [0, 0, 1, 1]}], {"margin_m": 0.5},
      "work_plane.margin_m: give either margin_m"),
     ([], {}, "task_areas: []: give a non-empty list"),
+    ([{"name": "a", "rect": [0, 0, 1e-9, 1]}], {}, "task_areas.a.rect: [0, 0, 1e-09, 1] has"
+     " zero area (under 1e-06 m2)"),
+    ([{"name": "a", "polygon": [[0, 0], [1, 0], [1, 0], [1, 1], [0, 1]]}], {},
+     None),                                       # a repeated corner: a simple square
+    ([{"name": "a", "polygon": [[0, 0], [1, 0], [1, 0], [0, 0]]}], {}, "task_areas.a.polygon:"
+     " [[0, 0], [1, 0], [1, 0], [0, 0]]: a polygon needs at least 3 distinct points"),
+    ([{"name": "desk.1", "rect": [0, 0, 1, 1]}], {}, "task_areas.0.name: 'desk.1': a task"
+     " area's name may not contain \".\""),
     ([{"name": "a", "rect": [0, 0, 1, 1], "depth": 2}], {}, "unknown key 'depth'"),
 ])
 def test_spec_refuses_bad_task_areas_in_one_line_naming_key_and_value(areas, extra, words):
+    if words is None:
+        (a,) = _spec(_wp(areas, **extra)).room_spec(0).work_plane.task_areas
+        assert a.polygon == ((0, 0), (1, 0), (1, 1), (0, 1))
+        return
     with pytest.raises(SettingsError) as e:
         _spec(_wp(areas, **extra))
     msg = str(e.value)
@@ -106,6 +118,13 @@ def test_task_cells_surroundings_and_background_of_two_rectangles():
     # both 0.5 m bands (rounded corners), apart and within the room: perimeter r + pi r^2
     ring = sum(2 * (r[2] - r[0] + r[3] - r[1]) * 0.5 + math.pi * 0.25 for r in rects)
     assert w.sum() == pytest.approx(ring, rel=0.02)
+    # split by the nearest area (surroundings at each area's own Table-3 level): the two
+    # parts make up the band, each cell nearer its own area
+    parts = [band_cells(dr, 0.75, areas, 0.0, 0.5, 0.25, only=[i]) for i in (0, 1)]
+    assert sum(p[2].sum() for p in parts) == pytest.approx(w.sum(), rel=1e-9)
+    for i, (p, _, _) in enumerate(parts):
+        assert np.all(_rect_distance(p[:, :2], rects[i]) <= _rect_distance(p[:, :2],
+                                                                           rects[1 - i]))
     bg, _, wb = band_cells(dr, 0.75, areas, 0.5, 3.5, 1.5)
     assert np.all((d(bg) > 0.5) & (d(bg) <= 3.5 + 1e-9))
     # the room less the task areas less their surroundings: all within 3.5 m here
@@ -133,8 +152,42 @@ def test_task_area_outside_the_room_is_refused_before_any_work():
     with pytest.raises(SettingsError) as e:
         design(sc, spec, backend="numpy")
     msg = str(e.value)
-    assert "\n" not in msg and "rooms.0.work_plane.task_areas.counter: reaches 0.40 m outside the floor" in msg
-    assert "(5.40, " in msg and "x 0.00 to 5.00" in msg
+    assert "\n" not in msg and msg.endswith(
+        "rooms.0.work_plane.task_areas.counter: crosses the outline of room 0 at (5.00, 3.00)")
+
+
+@pytest.mark.parametrize("rect, words", [
+    ([2, 1, 4, 3], None),              # the pillar (2.8-3.2 x 1.8-2.2) inside the area
+    ([2, 1, 5, 3], None),
+    ([1, 1.9, 5, 2.1], None),          # a thin strip across the pillar
+    ([0, 0, 6, 4], None),              # the whole room, edges along the walls
+    ([5, 1, 7, 2], "crosses the outline of room 0 at (6.00, 1.00)"),
+    ([0, 0, 7, 4], "crosses the outline of room 0 at (6.00, 0.00)"),   # along a wall, out
+    ([7, 1, 8, 2], "lies outside room 0 (its corner (7.00, 1.00)"),
+])
+def test_task_area_checked_against_the_outer_outline_only_a_column_inside_is_no_fault(
+        rect, words):
+    from invrad_wb.core.design.taskareas import check_task_areas
+    spec = _spec(_wp([{"name": "a", "rect": rect}]))
+    sc = g.pillar_room(cell=1.0)
+    if words is None:
+        check_task_areas(sc, spec, {0: None})
+        return
+    with pytest.raises(SettingsError) as e:
+        check_task_areas(sc, spec, {0: None})
+    assert str(e.value).startswith("d.json: rooms.0.work_plane.task_areas.a: " + words)
+
+
+def test_task_area_crossing_an_l_rooms_notch_is_refused_where_it_crosses():
+    from invrad_wb.core.design.taskareas import check_task_areas
+    sc = g.l_room(cell=1.0)                # 6 x 5, the notch x > 3, y > 2.5
+    for poly in ([[1, 1], [5, 1], [5, 2.5], [3, 2.5], [3, 4.5], [1, 4.5]],  # along the notch
+                 [[1, 1], [5, 1], [1, 4]]):    # its long side through the notch's corner
+        check_task_areas(sc, _spec(_wp([{"name": "t", "polygon": poly}])), {0: None})
+    bad = _spec(_wp([{"name": "t", "polygon": [[4, 1], [5, 1], [4, 3.5]]}]))
+    with pytest.raises(SettingsError, match=r"task_areas.t: crosses the outline of room 0"
+                       r" at \(4.40, 2.50\)$"):
+        check_task_areas(sc, bad, {0: None})
 
 
 def test_task_area_em_against_the_inverse_square_law_of_a_point_source():
@@ -156,13 +209,17 @@ def test_task_area_em_against_the_inverse_square_law_of_a_point_source():
     rd = RoomDesign(0, "r", rs.work_plane, [])
     pts, rs2, sreq = prepare(rs, dr, rs.work_plane, surfaces, rd)
     assert sreq.lux == 300 and sreq.u0 == 0.0 and not sreq.task_areas
-    assert set(surfaces) == {"task area: desks", "task area: counter", "surroundings",
-                             "background"}
+    assert set(surfaces) == {"task area: desks", "task area: counter",
+                             "surroundings (desks)", "surroundings (counter)",
+                             "background (desks)", "background (counter)"}
     assert rs2.surfaces["task area: counter"].lux == 300
     assert rs2.surfaces["task area: counter"].u0 == 0.4
     assert rs2.surfaces["task area: desks"].u0 == 0.6
-    assert rs2.surfaces["surroundings"].lux == 300      # Table 3 of the highest (500 lx)
-    assert rs2.surfaces["background"].lux == pytest.approx(100)
+    # each area's surroundings from its own Em (Table 3), the background a third of them
+    assert rs2.surfaces["surroundings (desks)"].lux == 300           # of 500 lx
+    assert rs2.surfaces["surroundings (counter)"].lux == 200         # of 300 lx
+    assert rs2.surfaces["background (desks)"].lux == pytest.approx(100)
+    assert rs2.surfaces["background (counter)"].lux == pytest.approx(200 / 3)
     model = RoomModel(sc, dr, pts, 1.0, "numpy", surfaces=surfaces)
     src, flux = np.array([2.0, 2.0, 2.99]), 20000.0
     lux, direct = model.exact([Luminaire(src, [0, 0, -1.0], flux)])
@@ -203,12 +260,19 @@ def test_room_designed_for_and_reported_per_task_area():
                                              "task area counter (0.84 m2)"]
     assert rows[1]["required"] == "Em >= 750 lx, U0 >= 0.60" and rows[1]["verdict"] == "pass"
     assert rows[1]["achieved"] == f"Em {em_c:.0f} lx, U0 {u0_c:.2f}"
-    assert rows[2]["item"] == "immediate surroundings" and rows[2]["verdict"] == "pass"
-    assert rows[2]["required"] == "Em >= 500 lx, U0 >= 0.40"      # Table 3 of 750 lx
+    # each area's immediate surroundings from its own Em (Table 3: 750 -> 500, 500 -> 300)
+    assert [(r["item"], r["required"], r["verdict"]) for r in rows[2:4]] == [
+        ("immediate surroundings (counter)", "Em >= 500 lx, U0 >= 0.40", "pass"),
+        ("immediate surroundings (desks)", "Em >= 300 lx, U0 >= 0.40", "pass")]
+    assert "nearest to counter, of their Em 750 lx" in rows[2]["source"]
+    bg = {r["item"]: r["required"] for r in rows if r["item"].startswith("background")}
+    assert bg == {"background area (counter)": "Em >= 166.7 lx, U0 >= 0.10",
+                  "background area (desks)": "Em >= 100 lx, U0 >= 0.10"}
     result = type("R", (), {"rooms": [rd], "spec": _spec(room)})()
     row = room_rows(result)[0]
     assert row["em_req"] == "500; 750" and row["em"] == f"{em_d:.0f}; {em_c:.0f}"
     assert row["task_areas"].startswith(f"desks: Em {em_d:.0f} lx (>= 500), U0 {u0_d:.2f}")
+    assert row["surroundings"].startswith("(counter) ") and "; (desks) " in row["surroundings"]
     d = rd.to_dict()
     assert [a["name"] for a in d["task_areas"]] == ["desks", "counter"]
     assert d["task_areas"][1]["lux"] == 750 and d["task_areas"][1]["pass"] is True
@@ -225,3 +289,50 @@ def test_the_example_spec_with_task_areas_reads():
     wp = spec.room_spec(0).work_plane
     assert [a.name for a in wp.task_areas] == ["desks", "counter"]
     assert wp.lux == 500 and wp.task_areas[1].lux == 300 and wp.height_m == 0.8
+
+
+def test_task_area_without_head_room_refused_before_any_work_and_a_part_noted():
+    from types import SimpleNamespace
+    from invrad_wb.core.design.room import DesignRoom
+    from invrad_wb.core.design.taskareas import check_task_areas, prepare
+    sc = g.sloped_room(size=(6.0, 4.0), low=1.0, high=3.0, cell=1.0)   # 1 m high at x = 0
+    bad = _spec(_wp([{"name": "bench", "rect": [0.1, 0.5, 0.5, 3.5]}]))
+    with pytest.raises(SettingsError) as e:
+        check_task_areas(sc, bad, {0: None})
+    msg = str(e.value)
+    assert "\n" not in msg and msg.startswith(
+        "d.json: rooms.0.work_plane.task_areas.bench: no head room over it: the work plane"
+        " at 0.75 m needs the ceiling above")
+    assert "it is at most 1.17 m over the area" in msg          # 1 + 2 * 0.5 / 6
+    part = _spec(_wp([{"name": "bench", "rect": [0.1, 0.5, 2.1, 3.5]}]))
+    check_task_areas(sc, part, {0: None})
+    rs = part.room_spec(0)
+    rd = SimpleNamespace(notes=[], background_words=None)
+    prepare(rs, DesignRoom(sc, 0), rs.work_plane, {}, rd)
+    (note,) = [n for n in rd.notes if n.startswith("task area 'bench'")]
+    assert note.startswith("task area 'bench': judged on ") and "of 6.00 m2" in note
+
+
+def test_too_much_light_note_weighs_each_task_area_against_its_own_em():
+    from types import SimpleNamespace as NS
+    from invrad_wb.core.design.design import _explain
+    from invrad_wb.core.design.search import Metrics
+    from invrad_wb.core.design.spec import SurfaceRequirement
+    req = _spec({"work_plane": {"lux": 200, "u0": 0.4, "task_areas": [
+        {"name": "a", "rect": [0, 0, 1, 1], "lux": 500},
+        {"name": "b", "rect": [2, 0, 3, 1], "lux": 500}]}}).room_spec(0).work_plane
+    a, b = req.task_areas
+
+    def notes(em_a, em_b):
+        m = Metrics.__new__(Metrics)
+        m.em, m.u0, m.shade_max = 640.0, 0.7, 0.0
+        m.surfaces = {a.part: (em_a, 0, 0.7), b.part: (em_b, 0, 0.7)}
+        rd = NS(requirement=req, metrics=m, candidate=NS(ok=True, dim=1.0), notes=[],
+                ugr=None, ugr_limit=None, verdicts={}, deep_dimming=False,
+                luminaires=[], surface_reqs={a.part: SurfaceRequirement(500, 0.6, "s"),
+                                             b.part: SurfaceRequirement(500, 0.6, "s")})
+        _explain(rd, NS(rs=NS(shade_limit_lux=1.0)), [NS(name="DL", flux_lm=3500)])
+        return [n for n in rd.notes if " x the " in n]
+    assert notes(640.0, 650.0) == []             # 1.3 x their own 500 lx: no waste to tell
+    (n,) = notes(900.0, 800.0)
+    assert n.startswith("Em 800 lx on the task area least above its own is 1.6 x the 500 lx")

@@ -382,6 +382,16 @@ def test_plan_of_two_task_areas_fits_a_page_and_names_them():
     ax, ax2 = fig.axes[:2]
     assert ax.get_title().startswith("desks: Em 520 lx, U0 0.63; counter: Em 310 lx")
     assert {t.get_text() for t in ax2.texts} >= {"desks", "counter"}
+    # the values over the dashed outlines: on top of them, each in a white halo
+    from matplotlib import colors, patheffects
+    values = [t for t in ax2.texts if t.get_text().isdigit()]
+    dashed = [ln for ln in ax2.lines if ln.get_linestyle() == "--"]
+    assert values and len(dashed) == 2
+    for t in values:
+        (pe,) = t.get_path_effects()
+        assert isinstance(pe, patheffects.withStroke)
+        assert colors.to_rgb(pe._gc["foreground"]) == (1.0, 1.0, 1.0)
+        assert t.get_zorder() > max(ln.get_zorder() for ln in dashed)
 
 
 def _level_widths(cs):
