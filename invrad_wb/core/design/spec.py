@@ -449,13 +449,12 @@ def _task_areas(value, where):
         if not isinstance(name, str) or not name.strip():
             raise (where / i / "name").error(f"{name!r}: a task area's name is a text")
         name = name.strip()
-        if "." in name:
-            raise (where / i / "name").error(f"{name!r}: a task area's name may not contain"
-                                             " \".\" (it is part of the key in messages)")
+        # messages name the area by its key, or by its index where a "." in the name
+        # would read as a deeper key (FreeCAD labels such as "Desk 1.2" are names too)
+        w = where / (i if "." in name else name)
         if name in names:
-            raise (where / name).error("the name is used twice")
+            raise w.error(f"the name {name!r} is used twice")
         names.add(name)
-        w = where / name
         if ("rect" in d) == ("polygon" in d):
             raise w.error("give either \"rect\": [x0, y0, x1, y1] or \"polygon\":"
                           " [[x, y], ...] (metres)")

@@ -55,7 +55,7 @@ def test_spec_reads_rectangles_and_polygons_and_turns_them_counter_clockwise():
     ([{"name": "a", "rect": [0, 0, 1, 1], "polygon": [[0, 0], [1, 0], [0, 1]]}], {},
      "task_areas.a: give either \"rect\""),
     ([{"name": "a", "rect": [0, 0, 1, 1]}, {"name": "a", "rect": [2, 2, 3, 3]}], {},
-     "task_areas.a: the name is used twice"),
+     "task_areas.a: the name 'a' is used twice"),
     ([{"name": "a", "rect": [0, 0, 1, 1]}], {"margin_m": 0.5},
      "work_plane.margin_m: give either margin_m"),
     ([], {}, "task_areas: []: give a non-empty list"),
@@ -65,8 +65,9 @@ def test_spec_reads_rectangles_and_polygons_and_turns_them_counter_clockwise():
      None),                                       # a repeated corner: a simple square
     ([{"name": "a", "polygon": [[0, 0], [1, 0], [1, 0], [0, 0]]}], {}, "task_areas.a.polygon:"
      " [[0, 0], [1, 0], [1, 0], [0, 0]]: a polygon needs at least 3 distinct points"),
-    ([{"name": "desk.1", "rect": [0, 0, 1, 1]}], {}, "task_areas.0.name: 'desk.1': a task"
-     " area's name may not contain \".\""),
+    ([{"name": "desk.1", "rect": [0, 0, 1, 0]}], {}, "task_areas.0.rect: [0, 0, 1, 0] has no"
+     " area"),                                    # a dotted name: its index in the key
+    ([{"name": "Desk 1.2", "rect": [0, 0, 1, 1]}], {}, None),   # a FreeCAD label: a name
     ([{"name": "a", "rect": [0, 0, 1, 1], "depth": 2}], {}, "unknown key 'depth'"),
 ])
 def test_spec_refuses_bad_task_areas_in_one_line_naming_key_and_value(areas, extra, words):
