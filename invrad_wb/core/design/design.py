@@ -577,16 +577,59 @@ def _finish_room(scene, rd, model, droom, rs, entries, photometry, req, search, 
     _ugr_note(rd, droom)
 
 
+def _glare_parts(model, droom, general, accents):
+    """Per CIE 117 observer, the glare sums (``L^2 omega / p^2``) and the background
+    illuminances of the general lighting and of the accents apart: the general lighting
+    dimmed by f scales its sum by f^2 and its background by f (light adds up), so UGR at
+    every dimming level follows from these four arrays (:func:`_ugr_at`). None where no
+    observer stands in the room."""
+    from invrad_wb.core.output.glare import observers, ugr
+    obs = observers(droom)
+    if not obs:
+        return None
+    eyes = np.array([e for e, _ in obs])
+    views = np.array([v for _, v in obs])
+
+    def sums(lums):
+        # ugr() at a background of pi/4 lx is 8 log10 of the sum itself
+        out = [ugr(lums, e, v, 0.25 * np.pi) for e, v in obs]
+        return np.array([0.0 if u is None else 10.0 ** (u / 8.0) for u in out])
+
+    return (sums(general), model.mf * model.indirect_at(eyes, views, general),
+            sums(accents), model.mf * model.indirect_at(eyes, views, accents))
+
+
+def _ugr_at(parts, f):
+    """The worst observer's UGR with the general lighting dimmed by ``f`` and the accents
+    as they are (-inf where nothing is in view)."""
+    from invrad_wb.core.output.glare import ugr_from_sum
+    sg, bg, sa, ba = parts
+    u = ugr_from_sum(f * f * sg + sa, f * bg + ba)
+    return float(np.nanmax(u)) if np.any(np.isfinite(u)) else -np.inf
+
+
 #: re-dimming after accents tries the general lighting's output in this many steps
 REDIM_STEPS = 200
+#: re-dimming after accents confirms UGR on the whole installation at most this often
+REDIM_UGR_CHECKS = 12
 #: a spot met before re-dimming must stay within this share of its tolerance
 REDIM_SPOT_MARGIN = 0.9
 
 
-def _redim_with_accents(rd, model, search, parts, accents, req, rs):
+def _dimmed(cand, f, met=None):
+    """The layout ``cand`` with every general luminaire's output times ``f`` (its
+    figures from ``met`` where given, else kept)."""
+    em, u0, shade = ((met.em, met.u0, met.shade_max) if met is not None
+                     else (cand.em, cand.u0, cand.shade_max))
+    return Candidate(cand.geom, cand.entries, cand.dim * f, cand.watts * f, em, u0, shade,
+                     True, dims=None if cand.dims is None else cand.dims * f)
+
+
+def _redim_with_accents(rd, model, droom, search, parts, accents, req, rs):
     """Accents add light to the work plane too: dim the general lighting (within its
     entries' dimming range) as far as every requirement still holds with the accents:
-    Em, U0, shade, and each spot that was met. Light adds up (radiosity is linear), so the
+    Em, U0, shade, each spot that was met, and UGR (the accents' glare stands out as the
+    general lighting and the background luminance it gives are dimmed). Light adds up (radiosity is linear), so the
     exact solves of the two ``parts`` ((lux, direct) of the general lighting, of the
     accents) give every dimming level."""
     cand = rd.candidate
@@ -599,11 +642,34 @@ def _redim_with_accents(rd, model, search, parts, accents, req, rs):
         return
     (G, Gd), (A, Ad) = parts
     spots = [sp for sp in rd.spots if sp.goal.kind == "spot"]
+    glare = (_glare_parts(model, droom, search.luminaires(cand), accents)
+             if rs.ugr_max is not None else None)
+    exact_left = REDIM_UGR_CHECKS
+    if glare is not None:
+        # dimming may not take UGR over the limit, nor (where the accents' glare is over
+        # it at full output already) above what full output gives
+        full = _room_ugr(model, droom, search.luminaires(cand) + accents)
+        cap = rs.ugr_max if full is None else max(rs.ugr_max, full)
     for f in np.linspace(floor / lowest, 1.0, REDIM_STEPS + 1):
         met = Metrics.of(f * G + A, f * Gd + Ad, model.layout)
         if (met.em < req.lux * 1.001 or not metrics_comply(met, search)
                 or not margin_kept(met, search)):
             continue
+        # the accents' glare stands out as the general lighting (and the background
+        # luminance it gives) is dimmed: UGR of the whole at this level within the limit
+        if glare is not None:
+            if _ugr_at(glare, f) > cap + 1e-9:
+                continue
+            # the parts add up but for the patches each part's luminaires cover (a few
+            # hundredths of UGR): the whole at this level confirms, a bounded number of
+            # times
+            if exact_left <= 0:
+                return
+            exact_left -= 1
+            whole = search.luminaires(_dimmed(cand, f)) + accents
+            u = _room_ugr(model, droom, whole)
+            if u is not None and u > cap + 1e-9:
+                continue
         # met spots stay met with a margin (the exact model is not the verification)
         if all(within(f * sp.base_mean + sp.achieved_mean - sp.base_mean, sp.goal.target_mean,
                       REDIM_SPOT_MARGIN * SPOT_TOLERANCE)
@@ -613,9 +679,7 @@ def _redim_with_accents(rd, model, search, parts, accents, req, rs):
         return
     if f >= 1.0 - 1e-9:
         return
-    rd.candidate = Candidate(cand.geom, cand.entries, cand.dim * f, cand.watts * f, met.em,
-                             met.u0, met.shade_max, True,
-                             dims=None if cand.dims is None else cand.dims * f)
+    rd.candidate = _dimmed(cand, f, met)
     rd.luminaires = search.luminaires(rd.candidate) + accents
     rd.metrics = met
     for sp in rd.spots:
@@ -657,7 +721,7 @@ def _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search=N
         (G, Gd), (A, Ad) = parts
         rd.metrics = Metrics.of(G + A, Gd + Ad, model.layout)
         if search is not None:
-            _redim_with_accents(rd, model, search, parts, accents, req, rs)
+            _redim_with_accents(rd, model, droom, search, parts, accents, req, rs)
     for sp in rd.spots:
         g = sp.goal
         if hasattr(sp, "describe"):          # aimed accents say their shape too

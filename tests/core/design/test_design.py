@@ -411,3 +411,31 @@ def test_targets_everywhere_are_a_goal_not_a_spot():
     assert where[:2] == ["ceiling", "floor"], where
     assert all(w.startswith("wall ") for w in where[2:]) and len(set(where)) == 6, where
     assert all(f"on the {s.goal.surface} at" in n for s, n in zip(rd.spots, notes))
+
+
+def test_ugr_of_the_general_lighting_dimmed_beside_accents_is_their_parts_added():
+    """Re-dimming the general lighting for the accents' light is held to the UGR limit:
+    the whole's UGR at every dimming level comes from each part's glare sum (x f^2) and
+    background (x f), as UGR computed on the dimmed luminaires themselves (within a few
+    hundredths: each part's luminaires cover their own mounting patches, so the
+    interreflected parts add up only nearly; the re-dimming confirms on the whole)."""
+    import dataclasses
+    import invrad_wb.core.design.design as D
+    from invrad_wb.core.model.luminaires import Luminaire
+    sc = g.with_reflectances(g.box_room(size=(6.0, 4.0, 3.0), cell=0.3))
+    droom = DesignRoom(sc, 0)
+    pts, _ = droom.grid(0.8, 0.5)
+    model = RoomModel(sc, droom, pts, 0.8)
+    down = np.array([0.0, 0.0, -1.0])
+    general = [Luminaire(np.array([x, y, 2.99]), down, 3000.0, radius_m=0.3)
+               for x in (1.5, 3.0, 4.5) for y in (1.3, 2.7)]
+    # an accent aimed at the end wall, a small bright source
+    accent = [Luminaire(np.array([4.8, 2.0, 2.9]), np.array([0.6, 0.0, -0.8]), 2500.0,
+                        radius_m=0.05)]
+    parts = D._glare_parts(model, droom, general, accent)
+    for f in (0.2, 0.55, 1.0):
+        dimmed = [dataclasses.replace(l, flux_lm=f * l.flux_lm) for l in general]
+        assert D._ugr_at(parts, f) == pytest.approx(
+            D._room_ugr(model, droom, dimmed + accent), abs=0.08)
+    # the accent's glare stands out as the general lighting dims: UGR rises
+    assert D._ugr_at(parts, 0.2) > D._ugr_at(parts, 1.0)
