@@ -985,6 +985,53 @@ class Smoke:
                    (design_dir, os.listdir(os.path.dirname(design_dir)), kept))
         self.view_iso(hide=ceiling)
         self.shot("office_designed")
+        yield from self.set_task_areas(doc, space)
+
+    def set_task_areas(self, doc, space):
+        """The architect draws the desks' area on the plan (a Draft rectangle at the work
+        plane), makes it the room's task area with the toolbar command, and the design
+        panel's spec carries it (the design with task areas is the core's: tested there)."""
+        import Draft
+        import FreeCAD
+        import FreeCADGui
+        from invrad_wb.app import targets
+        from invrad_wb.gui import designpanel, taskpanel
+        bb = space.Shape.BoundBox
+        desks = Draft.makeRectangle(length=2500.0, height=2000.0, placement=FreeCAD.Placement(
+            FreeCAD.Vector(bb.XMin + 1000.0, bb.YMin + 1000.0, bb.ZMin + 800.0),
+            FreeCAD.Rotation()))
+        desks.Label = "Desks 1.2"          # a label with a dot, as architects name things
+        doc.recompute()
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(space)
+        FreeCADGui.Selection.addSelection(desks)
+        n0 = doc.UndoCount
+        FreeCADGui.runCommand("InvRad_TaskAreas")
+        yield None
+        wp = targets.work_plane_target(space)
+        areas = targets.task_areas_m(wp) if wp is not None else []
+        self.check("Set task areas makes the drawn rectangle the room's task area, in"
+                   " metres, in one undo step",
+                   [a["name"] for a in areas] == ["Desks 1.2"] and doc.UndoCount == n0 + 1
+                   and abs(min(p[0] for p in areas[0]["polygon"])
+                           - (bb.XMin + 1000.0) / 1000.0) < 1e-6,
+                   (areas, n0, doc.UndoCount))
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.runCommand("InvRad_Design")
+        yield None
+        panel = taskpanel.ACTIVE
+        ok = isinstance(panel, designpanel.DesignPanel)
+        spec = panel.check()[0] if ok else {}
+        self.check("the design panel's spec carries the drawn task area, accepted by the"
+                   " core's spec reader",
+                   ok and [a["name"] for a in spec["rooms"]["Office"]["work_plane"]
+                           .get("task_areas", [])] == ["Desks 1.2"],
+                   spec.get("rooms"))
+        if ok:
+            panel.reject()
+        yield None
+        doc.undo()
+        self.check("undo clears the task areas", not targets.task_areas_m(wp), wp.TaskAreas)
 
     def run_fzk(self):
         import FreeCADGui
