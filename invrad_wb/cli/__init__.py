@@ -20,32 +20,12 @@ One module per command (``add_parser`` and ``run``); what they share is in
 Errors in the input are reported in one line naming the file and value, exit status 2.
 """
 import argparse
-import os
 import sys
 
+# before anything imports numpy (cli.blas imports neither)
+from invrad_wb.cli.blas import one_blas_thread_at_start
 
-def _one_blas_thread_at_start():
-    """In a process that has not loaded numpy yet (the command line's own), BLAS on one
-    thread from the start: ``OPENBLAS_NUM_THREADS`` and ``MKL_NUM_THREADS`` set to 1 unless
-    the user set a BLAS thread count (those two, ``GOTO_NUM_THREADS``, ``OMP_NUM_THREADS``).
-
-    Rooms run BLAS on one thread anyway (:func:`~invrad_wb.core.accel.workers.
-    room_threads`), but OpenBLAS starts its other threads when numpy loads and they
-    busy-wait (``sched_yield``) for about 0.1 s before sleeping: sampled with perf in the
-    office example's locate run, numpy's second BLAS thread took 0.11 CPU s right after the
-    import and scipy's 0.03 s after the radiosity's LU, 5 % of the run. Numbers made before
-    a room (reading the scene) then do not depend on the cores either. A process that
-    imported numpy before this module (FreeCAD, tests, a user's script) is left alone."""
-    if "numpy" in sys.modules:
-        return
-    if any(os.environ.get(k) for k in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS",
-                                       "OMP_NUM_THREADS", "MKL_NUM_THREADS")):
-        return
-    os.environ["OPENBLAS_NUM_THREADS"] = "1"
-    os.environ["MKL_NUM_THREADS"] = "1"
-
-
-_one_blas_thread_at_start()
+one_blas_thread_at_start()
 
 from invrad_wb.cli import design, example, info, locate, render, verify  # noqa: E402
 from invrad_wb.cli.common import run_guarded  # noqa: E402

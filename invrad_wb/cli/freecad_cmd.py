@@ -216,7 +216,8 @@ def child_environment():
     except AttributeError:
         pass
     paths.append(root)
-    env = os.environ.copy()
+    from invrad_wb.cli.blas import child_blas_environment
+    env = child_blas_environment(os.environ.copy())
     if env.get("PYTHONPATH"):
         paths.append(env["PYTHONPATH"])
     seen, out = set(), []

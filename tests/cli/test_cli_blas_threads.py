@@ -37,8 +37,23 @@ def test_a_thread_count_the_user_set_is_kept():
 
 def test_a_process_with_numpy_loaded_is_left_alone(monkeypatch):
     import numpy  # noqa: F401
-    import invrad_wb.cli as cli
+    from invrad_wb.cli import blas
     for k in VARS:
         monkeypatch.delenv(k, raising=False)
-    cli._one_blas_thread_at_start()
+    blas.one_blas_thread_at_start()
     assert not any(k in os.environ for k in VARS)
+
+
+def test_a_child_process_gets_the_users_blas_settings_not_the_command_lines():
+    # freecadcmd launched by `python -m invrad_wb freecad` inherits the environment: the
+    # one-thread setting is the command line's own, taken out; the user's is passed on
+    code = ("import invrad_wb.cli; from invrad_wb.cli.freecad_cmd import child_environment;"
+            " e = child_environment(); print(e.get('OPENBLAS_NUM_THREADS'),"
+            " e.get('MKL_NUM_THREADS'), e.get('OMP_NUM_THREADS'))")
+    base = {k: v for k, v in os.environ.items() if k not in VARS}
+    for env, want in (({}, "None None None"), ({"OPENBLAS_NUM_THREADS": "1"}, "1 None None"),
+                      ({"OMP_NUM_THREADS": "3"}, "None None 3")):
+        p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           timeout=120, cwd=ROOT, env=dict(base, **env))
+        assert p.returncode == 0, p.stderr
+        assert p.stdout.split() == want.split(), (env, p.stdout)

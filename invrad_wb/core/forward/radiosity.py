@@ -167,7 +167,7 @@ def _near_field_correction(ps, p, n, lums, bvh, occlusion):
 
 # ---------------------------------------------------------------------------- the model
 
-_LAPACK = []
+_LAPACK = None
 
 
 def _lapack():
@@ -176,10 +176,13 @@ def _lapack():
     runs, made once scipy's BLAS is loaded (:func:`~invrad_wb.core.accel.workers.
     blas_one_thread_limiter`): the factors, and so every result after them, do not depend
     on the machine's cores nor on where the room runs."""
-    if not _LAPACK:
+    global _LAPACK
+    if _LAPACK is None:
+        # built whole, then bound in one step: two threads' first solves at once (the
+        # GUI runs a design in a worker thread) each see None or the whole tuple
         from scipy.linalg import lu_factor, lu_solve
         from invrad_wb.core.accel.workers import blas_one_thread_limiter
-        _LAPACK.extend((lu_factor, lu_solve, blas_one_thread_limiter()))
+        _LAPACK = (lu_factor, lu_solve, blas_one_thread_limiter())
     return _LAPACK
 
 
