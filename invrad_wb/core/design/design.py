@@ -16,9 +16,11 @@ from invrad_wb.constants import DEEP_DIMMING
 from invrad_wb.errors import Cancelled, SettingsError
 from invrad_wb.core.accel.workers import map_rooms
 from invrad_wb.core.design.background import with_background
+from invrad_wb.core.design.dimnotes import deep_dimming_note
 from invrad_wb.core.design.evaluate import RoomModel, surface_grids
 from invrad_wb.core.design.refine import refine
 from invrad_wb.core.design.room import DesignRoom
+from invrad_wb.core.design.roomglare import glare_parts, room_ugr, ugr_at, ugr_note
 from invrad_wb.core.design.accent import SPOT_TOLERANCE, find_goals, light_spots, within
 from invrad_wb.core.design.accents import light_spots_aimed
 from invrad_wb.core.design.taskareas import check_task_areas
@@ -335,38 +337,6 @@ def _shade_points(scene, room):
     return scene.vertices[idx], scene.vertex_normals[idx]
 
 
-def _room_ugr(model, droom, luminaires):
-    """Worst UGR over the CIE 117 standard observers (None: nothing in view); luminaires
-    without a luminous area are rated as CIE 147 small sources."""
-    from invrad_wb.core.output.glare import observers, ugr
-    if not luminaires:
-        return None
-    obs = observers(droom)
-    if not obs:
-        return None
-    eyes = np.array([e for e, _ in obs])
-    views = np.array([v for _, v in obs])
-    lb = model.mf * model.indirect_at(eyes, views, luminaires)
-    values = [ugr(luminaires, e, v, b) for (e, v), b in zip(obs, lb)]
-    values = [u for u in values if u is not None]
-    return max(values) if values else None
-
-
-def _ugr_note(rd, droom):
-    """Why a room's UGR is what it is, where the reader needs telling."""
-    from invrad_wb.core.output.glare import SMALL_SOURCE_M2, is_small_source, observers
-    small = sorted({lum.extra.get("type") for lum in rd.luminaires if is_small_source(lum)})
-    if rd.ugr is None and rd.luminaires:
-        why = ("no CIE 117 observer position lies inside the room's outline"
-               if not observers(droom) else "no luminaire is in any observer's view")
-        rd.notes.append(f"UGR not computable: {why}")
-    elif small:
-        rd.notes.append(f"UGR: {', '.join(small)} give no luminous area (or one under"
-                        f" {SMALL_SOURCE_M2} m2): rated as CIE 147 small sources (UGR from"
-                        " the intensity towards the eye), an upper bound for a larger"
-                        " opening")
-
-
 def _explain(rd, search, entries):
     """Plain-language notes on a non-compliant or wasteful design."""
     r, m, c = rd.requirement, rd.metrics, rd.candidate
@@ -417,58 +387,6 @@ def _explain(rd, search, entries):
                         f" required: fewer luminaires would not be uniform enough and the"
                         f" catalogue has nothing weaker than {weakest.name}"
                         f" ({weakest.flux_lm:.0f} lm) or dimmable")
-
-
-def deep_dimming_note(rd, entries=None):
-    """The deep-dimming note of a room: how many general luminaires of each type run below
-    ``DEEP_DIMMING`` (each luminaire's own output), e.g. '9 of 15 DL-3500 run below 50 %
-    (10 to 46 %)', the installed against the drawn power, and, given the room's catalogue
-    ``entries``, what a smaller type would trade: the catalogue's types with fewer rated
-    watts, and whether they are as efficient (lm/W) as the dimmed type (the design minimises
-    the power drawn, so a less efficient smaller type cuts the installed power and draws
-    more)."""
-    x = rd.general_outputs()
-    types = [lum.extra.get("type") for lum in rd.luminaires[:len(x)]]
-    parts, trades = [], []
-    for t, (low, n) in sorted(rd.deep_dimmed().items()):
-        lows = [v for v, u in zip(x, types) if u == t and v < DEEP_DIMMING - 1e-9]
-        lo, hi = 100 * min(lows), 100 * max(lows)
-        at = f"at {lo:.0f} %" if round(lo) == round(hi) else f"at {lo:.0f} to {hi:.0f} %"
-        parts.append(f"the {t} {at}" if n == 1 else f"all {n} {t} {at}" if low == n
-                     else f"{low} of {n} {t} {at}")
-        if entries is not None:
-            trades.append(_smaller_types_text(t, entries))
-    head = (f"deep dimming: {'; '.join(parts)} of the rated output (below"
-            f" {100 * DEEP_DIMMING:.0f} %); installed {rd.rated_watts:.0f} W for"
-            f" {rd.watts:.0f} W drawn")
-    if entries is None:
-        return head + (": a smaller type (fewer rated watts) would be the better choice"
-                       " where the catalogue has one")
-    return head + ": " + "; ".join(trades)
-
-
-def _smaller_types_text(name, entries):
-    """What the catalogue offers instead of the deeply dimmed type ``name``."""
-    own = next((e for e in entries if e.name == name), None)
-    if own is None:
-        return f"{name} is not in the room's catalogue"
-    smaller = sorted({e.name: e for e in entries
-                      if e.watts < own.watts - 1e-9 and not e.aimable}.values(),
-                     key=lambda e: e.watts)
-    if not smaller:
-        return (f"the room's catalogue has no type with fewer rated watts than {name}"
-                f" ({own.watts:g} W): a smaller one would cut the installed power")
-    listed = ", ".join(f"{e.name} ({e.watts:g} W, {e.efficacy:.0f} lm/W)" for e in smaller)
-    as_good = [e for e in smaller if e.efficacy >= own.efficacy - 1e-9]
-    if not as_good:
-        return (f"the catalogue's smaller types, {listed}, are less efficient than {name}"
-                f" ({own.efficacy:.0f} lm/W): they would cut the installed power and draw"
-                " more (the design minimises the power drawn)")
-    return (f"of the catalogue's smaller types, {listed}, "
-            f"{', '.join(e.name for e in as_good)} {'is' if len(as_good) == 1 else 'are'}"
-            f" as efficient as {name} ({own.efficacy:.0f} lm/W) with fewer rated watts:"
-            " the design kept the type that met every requirement for the least power"
-            " drawn")
 
 
 def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimming=True,
@@ -573,39 +491,8 @@ def _finish_room(scene, rd, model, droom, rs, entries, photometry, req, search, 
         if note:
             rd.notes.append(note)
     rd.ugr_limit = rs.ugr_max
-    rd.ugr = _room_ugr(model, droom, rd.luminaires)
-    _ugr_note(rd, droom)
-
-
-def _glare_parts(model, droom, general, accents):
-    """Per CIE 117 observer, the glare sums (``L^2 omega / p^2``) and the background
-    illuminances of the general lighting and of the accents apart: the general lighting
-    dimmed by f scales its sum by f^2 and its background by f (light adds up), so UGR at
-    every dimming level follows from these four arrays (:func:`_ugr_at`). None where no
-    observer stands in the room."""
-    from invrad_wb.core.output.glare import observers, ugr
-    obs = observers(droom)
-    if not obs:
-        return None
-    eyes = np.array([e for e, _ in obs])
-    views = np.array([v for _, v in obs])
-
-    def sums(lums):
-        # ugr() at a background of pi/4 lx is 8 log10 of the sum itself
-        out = [ugr(lums, e, v, 0.25 * np.pi) for e, v in obs]
-        return np.array([0.0 if u is None else 10.0 ** (u / 8.0) for u in out])
-
-    return (sums(general), model.mf * model.indirect_at(eyes, views, general),
-            sums(accents), model.mf * model.indirect_at(eyes, views, accents))
-
-
-def _ugr_at(parts, f):
-    """The worst observer's UGR with the general lighting dimmed by ``f`` and the accents
-    as they are (-inf where nothing is in view)."""
-    from invrad_wb.core.output.glare import ugr_from_sum
-    sg, bg, sa, ba = parts
-    u = ugr_from_sum(f * f * sg + sa, f * bg + ba)
-    return float(np.nanmax(u)) if np.any(np.isfinite(u)) else -np.inf
+    rd.ugr = room_ugr(model, droom, rd.luminaires)
+    ugr_note(rd, droom)
 
 
 #: re-dimming after accents tries the general lighting's output in this many steps
@@ -642,13 +529,13 @@ def _redim_with_accents(rd, model, droom, search, parts, accents, req, rs):
         return
     (G, Gd), (A, Ad) = parts
     spots = [sp for sp in rd.spots if sp.goal.kind == "spot"]
-    glare = (_glare_parts(model, droom, search.luminaires(cand), accents)
+    glare = (glare_parts(model, droom, search.luminaires(cand), accents)
              if rs.ugr_max is not None else None)
     exact_left = REDIM_UGR_CHECKS
     if glare is not None:
         # dimming may not take UGR over the limit, nor (where the accents' glare is over
         # it at full output already) above what full output gives
-        full = _room_ugr(model, droom, search.luminaires(cand) + accents)
+        full = room_ugr(model, droom, search.luminaires(cand) + accents)
         cap = rs.ugr_max if full is None else max(rs.ugr_max, full)
     for f in np.linspace(floor / lowest, 1.0, REDIM_STEPS + 1):
         met = Metrics.of(f * G + A, f * Gd + Ad, model.layout)
@@ -658,7 +545,7 @@ def _redim_with_accents(rd, model, droom, search, parts, accents, req, rs):
         # the accents' glare stands out as the general lighting (and the background
         # luminance it gives) is dimmed: UGR of the whole at this level within the limit
         if glare is not None:
-            if _ugr_at(glare, f) > cap + 1e-9:
+            if ugr_at(glare, f) > cap + 1e-9:
                 continue
             # the parts add up but for the patches each part's luminaires cover (a few
             # hundredths of UGR): the whole at this level confirms, a bounded number of
@@ -667,7 +554,7 @@ def _redim_with_accents(rd, model, droom, search, parts, accents, req, rs):
                 return
             exact_left -= 1
             whole = search.luminaires(_dimmed(cand, f)) + accents
-            u = _room_ugr(model, droom, whole)
+            u = room_ugr(model, droom, whole)
             if u is not None and u > cap + 1e-9:
                 continue
         # met spots stay met with a margin (the exact model is not the verification)

@@ -420,7 +420,7 @@ def test_ugr_of_the_general_lighting_dimmed_beside_accents_is_their_parts_added(
     hundredths: each part's luminaires cover their own mounting patches, so the
     interreflected parts add up only nearly; the re-dimming confirms on the whole)."""
     import dataclasses
-    import invrad_wb.core.design.design as D
+    import invrad_wb.core.design.roomglare as D
     from invrad_wb.core.model.luminaires import Luminaire
     sc = g.with_reflectances(g.box_room(size=(6.0, 4.0, 3.0), cell=0.3))
     droom = DesignRoom(sc, 0)
@@ -432,10 +432,10 @@ def test_ugr_of_the_general_lighting_dimmed_beside_accents_is_their_parts_added(
     # an accent aimed at the end wall, a small bright source
     accent = [Luminaire(np.array([4.8, 2.0, 2.9]), np.array([0.6, 0.0, -0.8]), 2500.0,
                         radius_m=0.05)]
-    parts = D._glare_parts(model, droom, general, accent)
+    parts = D.glare_parts(model, droom, general, accent)
     for f in (0.2, 0.55, 1.0):
         dimmed = [dataclasses.replace(l, flux_lm=f * l.flux_lm) for l in general]
-        assert D._ugr_at(parts, f) == pytest.approx(
-            D._room_ugr(model, droom, dimmed + accent), abs=0.08)
+        assert D.ugr_at(parts, f) == pytest.approx(
+            D.room_ugr(model, droom, dimmed + accent), abs=0.08)
     # the accent's glare stands out as the general lighting dims: UGR rises
-    assert D._ugr_at(parts, 0.2) > D._ugr_at(parts, 1.0)
+    assert D.ugr_at(parts, 0.2) > D.ugr_at(parts, 1.0)

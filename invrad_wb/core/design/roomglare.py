@@ -1,0 +1,66 @@
+"""UGR of a designed room's whole installation (CIE 117 at the standard observers),
+and of its general lighting dimmed beside accents (:func:`glare_parts`, :func:`ugr_at`)."""
+import numpy as np
+
+
+def room_ugr(model, droom, luminaires):
+    """Worst UGR over the CIE 117 standard observers (None: nothing in view); luminaires
+    without a luminous area are rated as CIE 147 small sources."""
+    from invrad_wb.core.output.glare import observers, ugr
+    if not luminaires:
+        return None
+    obs = observers(droom)
+    if not obs:
+        return None
+    eyes = np.array([e for e, _ in obs])
+    views = np.array([v for _, v in obs])
+    lb = model.mf * model.indirect_at(eyes, views, luminaires)
+    values = [ugr(luminaires, e, v, b) for (e, v), b in zip(obs, lb)]
+    values = [u for u in values if u is not None]
+    return max(values) if values else None
+
+
+def ugr_note(rd, droom):
+    """Why a room's UGR is what it is, where the reader needs telling."""
+    from invrad_wb.core.output.glare import SMALL_SOURCE_M2, is_small_source, observers
+    small = sorted({lum.extra.get("type") for lum in rd.luminaires if is_small_source(lum)})
+    if rd.ugr is None and rd.luminaires:
+        why = ("no CIE 117 observer position lies inside the room's outline"
+               if not observers(droom) else "no luminaire is in any observer's view")
+        rd.notes.append(f"UGR not computable: {why}")
+    elif small:
+        rd.notes.append(f"UGR: {', '.join(small)} give no luminous area (or one under"
+                        f" {SMALL_SOURCE_M2} m2): rated as CIE 147 small sources (UGR from"
+                        " the intensity towards the eye), an upper bound for a larger"
+                        " opening")
+
+
+def glare_parts(model, droom, general, accents):
+    """Per CIE 117 observer, the glare sums (``L^2 omega / p^2``) and the background
+    illuminances of the general lighting and of the accents apart: the general lighting
+    dimmed by f scales its sum by f^2 and its background by f (light adds up), so UGR at
+    every dimming level follows from these four arrays (:func:`ugr_at`). None where no
+    observer stands in the room."""
+    from invrad_wb.core.output.glare import observers, ugr
+    obs = observers(droom)
+    if not obs:
+        return None
+    eyes = np.array([e for e, _ in obs])
+    views = np.array([v for _, v in obs])
+
+    def sums(lums):
+        # ugr() at a background of pi/4 lx is 8 log10 of the sum itself
+        out = [ugr(lums, e, v, 0.25 * np.pi) for e, v in obs]
+        return np.array([0.0 if u is None else 10.0 ** (u / 8.0) for u in out])
+
+    return (sums(general), model.mf * model.indirect_at(eyes, views, general),
+            sums(accents), model.mf * model.indirect_at(eyes, views, accents))
+
+
+def ugr_at(parts, f):
+    """The worst observer's UGR with the general lighting dimmed by ``f`` and the accents
+    as they are (-inf where nothing is in view)."""
+    from invrad_wb.core.output.glare import ugr_from_sum
+    sg, bg, sa, ba = parts
+    u = ugr_from_sum(f * f * sg + sa, f * bg + ba)
+    return float(np.nanmax(u)) if np.any(np.isfinite(u)) else -np.inf
