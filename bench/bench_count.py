@@ -338,6 +338,9 @@ def _vertex_problem(scene, true, free):
     base, ind = _refine_problem(scene, pts, canvas, _occluders(scene, s), s,
                                 flux, BACKEND, True, {"radiosity": 0.0})
     base.free_flux = free
+    # each luminaire's interreflection follows its position in the model and the Fisher
+    # information (as in locate's last refit)
+    base.indirect_gradient = True
     every = vertex_points(scene, most=lv.VERTICES_MAX)
     prob = base
     if len(every) > len(pts):

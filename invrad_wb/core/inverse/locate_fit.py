@@ -433,6 +433,9 @@ class _RoomFit:
                                             run.flux, backend, has_rho, {"radiosity": 0.0},
                                             photometry)
         big.free_flux = prob.free_flux
+        # the interreflection's dependence on the positions in the last refit's model
+        # (RefineProblem.indirect_gradient): its minimum is then the likelihood's
+        big.indirect_gradient = True
         # free fluxes of close luminaires lie in a long flat valley: the count search's steps
         opt = ((lambda L: big.levenberg_marquardt(L, iterations=100)) if s.optimiser == "lm"
                else big.evolution_strategy)
@@ -564,7 +567,7 @@ def _rebase(prob, lights):
     out = []
     for L in lights:
         L = L.copy()
-        L.indirect = L.indirect_at = None
+        L.indirect = L.indirect_at = L.indirect_grad = None
         out.append(L)
     if prob.indirect_exact is not None:
         return prob.refresh_indirect(out, moved=0.0)[0]

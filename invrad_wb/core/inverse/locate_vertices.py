@@ -126,9 +126,13 @@ class IndirectInterpolator:
         return lin
 
     def apply(self, values, rows=slice(None)):
+        """``values`` (coarse,) or (coarse, c) -> the fine points' (m,) or (m, c)."""
         values = np.asarray(values, dtype=np.float64)
         if self.identity:
             return values[rows]
+        if values.ndim == 2:
+            return np.einsum("mk,mkc->mc", self.w[rows].astype(np.float64),
+                             values[self.idx[rows]])
         return np.einsum("mk,mk->m", self.w[rows].astype(np.float64),
                          values[self.idx[rows]])
 
@@ -167,6 +171,10 @@ class VertexProblem:
         self.robust_scale = base.robust_scale
         self.indirect_exact = base.indirect_exact
         self.indirect_estimate = base.indirect_estimate
+        # a luminaire's interreflection gradient at base's points, interpolated here as
+        # its value is (:meth:`_at`)
+        self.indirect_gradient = getattr(base, "indirect_gradient", False)
+        self.indirect_gradient_of = base.indirect_gradient_of
         self.stats = base.stats                # the interreflection calibration is shared
         self.separation_m = base.separation_m
         self.target = pts.lux
@@ -251,6 +259,8 @@ class VertexProblem:
                 else:
                     c0, f0 = exact[i]
                     q.indirect = f0[sl] + self.interp.apply(L.indirect - c0, sl)
+                if L.indirect_grad is not None:
+                    q.indirect_grad = self.interp.apply(L.indirect_grad, sl)
             out.append(q)
         return out
 
