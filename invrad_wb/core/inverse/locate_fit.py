@@ -411,7 +411,11 @@ class _RoomFit:
         (:func:`~invrad_wb.core.inverse.locate_count.regroup`). The points are at most
         :data:`~invrad_wb.core.inverse.locate_problem.VERTEX_POINTS_MAX` vertices (an
         even subset); a room with more is refitted once more on every one of them
-        (:meth:`polish_every_vertex`, streamed in chunks).
+        (:meth:`polish_every_vertex`, streamed in chunks). Each luminaire's
+        interreflection follows its position to first order in these refits
+        (:attr:`~invrad_wb.core.inverse.refine.RefineProblem.indirect_gradient`): held
+        between refreshes, the refit stopped off the likelihood's minimum (bench/
+        bench_count.py, 2026-11-26 (h11): cluster4 at 0.019 m 11.3 -> 2.2 cm).
 
         Measured (bench/bench_count.py scenes, 5 % noise per vertex, refitted from the
         true arrangement over 6 noise draws, voting points at their corners -> every

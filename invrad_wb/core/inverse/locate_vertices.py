@@ -17,7 +17,10 @@ then refits their answer on every vertex:
   (exact at the subset's vertices) interpolated to every vertex
   (:class:`IndirectInterpolator`, locally linear on each plane): indirect light is smooth,
   and gathering the radiosity solution at a million vertices costs a form factor per
-  vertex and patch at every refresh.
+  vertex and patch at every refresh; so is its position gradient where the subset problem
+  has one (:attr:`~invrad_wb.core.inverse.refine.RefineProblem.indirect_gradient`, as in
+  locate's last refit: the interreflection then follows each luminaire's moves, and the
+  refit's minimum is the likelihood's).
 
 The same steps, cost and stopping rules as :meth:`RefineProblem.levenberg_marquardt`
 (:func:`~invrad_wb.core.inverse.optim.levenberg_marquardt` with Marquardt damping of the
