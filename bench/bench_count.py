@@ -240,6 +240,8 @@ old one in brackets), load 4-6:
                  (before 11.32 cm 29.04 %, 132 s; old bound 0.82 cm 0.95 %)
   cluster3_mixed 0.023 m 241740 v  3/3   1.51 4.08 112  59 1518 | 2.30 5.89 0.60  1.1
                  (before 20.79 cm 64.47 %, 96 s; old bound 0.80 cm 0.68 %)
+  array20_1.2h   0.04 m  313008 v 20/20  1.65 0.61 217 166  982 | 0.93 0.44 1.17
+                 (before 2.60 cm 0.61 %, 253 s; old bound 0.78 cm)
   flux given: cluster4 0.019 m 1.16 cm (sd 0.76), 92 s
   array12_issue 0.06 m (--diagnose): 5.22 cm 2.05 % (before 9.5 cm), the inner pair 5.22
   and 4.38 cm with sd 3.43 / 3.47 cm, the truth's own refit 5.14 / 4.36 cm, gap 0.1
