@@ -242,7 +242,8 @@ old one in brackets), load 4-6:
                  (before 20.79 cm 64.47 %, 96 s; old bound 0.80 cm 0.68 %)
   array20_1.2h   0.04 m  313008 v 20/20  1.65 0.61 217 166  982 | 0.93 0.44 1.17
                  (before 2.60 cm 0.61 %, 253 s; old bound 0.78 cm)
-  flux given: cluster4 0.019 m 1.16 cm (sd 0.76), 92 s
+  flux given: cluster4 0.019 m 1.16 cm (sd 0.76), 92 s; array12_issue 0.027 m 0.52 cm
+  (sd 0.54), 133 s / 97 CPU s
   array12_issue 0.06 m (--diagnose): 5.22 cm 2.05 % (before 9.5 cm), the inner pair 5.22
   and 4.38 cm with sd 3.43 / 3.47 cm, the truth's own refit 5.14 / 4.36 cm, gap 0.1
 Every scene within 2.5 cm and 5 % of flux; each at most 1.5 sd of the full bound (the gap
