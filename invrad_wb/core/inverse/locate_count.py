@@ -247,6 +247,7 @@ class CountSearch:
             # the merged luminaire's interreflection: the pair's, per unit flux
             if a.indirect is not None and b.indirect is not None:
                 one.indirect = (a.flux_scale * a.indirect + b.flux_scale * b.indirect) / s
+                one.indirect_grad = None
             rest = [L for k, L in enumerate(lights) if k not in (i, j)]
             got, c, sc = self._refit(rest + [one])
             if sc < best:
@@ -315,6 +316,7 @@ class CountSearch:
         one = big.copy()
         if all(p.indirect is not None for p in pieces):
             one.indirect = sum(p.flux_scale * p.indirect for p in pieces) / s
+            one.indirect_grad = None
         p_one = _params(rest) + _params([one]) + 1
         for f in EXTENDED_RADII:
             disk = _disk(one, centre, s, min(f * r0, rmax))

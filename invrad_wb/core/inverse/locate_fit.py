@@ -411,7 +411,11 @@ class _RoomFit:
         (:func:`~invrad_wb.core.inverse.locate_count.regroup`). The points are at most
         :data:`~invrad_wb.core.inverse.locate_problem.VERTEX_POINTS_MAX` vertices (an
         even subset); a room with more is refitted once more on every one of them
-        (:meth:`polish_every_vertex`, streamed in chunks).
+        (:meth:`polish_every_vertex`, streamed in chunks). Each luminaire's
+        interreflection follows its position to first order in these refits
+        (:attr:`~invrad_wb.core.inverse.refine.RefineProblem.indirect_gradient`): held
+        between refreshes, the refit stopped off the likelihood's minimum (bench/
+        bench_count.py, 2026-11-26 (h11): cluster4 at 0.019 m 11.3 -> 2.2 cm).
 
         Measured (bench/bench_count.py scenes, 5 % noise per vertex, refitted from the
         true arrangement over 6 noise draws, voting points at their corners -> every
@@ -433,6 +437,9 @@ class _RoomFit:
                                             run.flux, backend, has_rho, {"radiosity": 0.0},
                                             photometry)
         big.free_flux = prob.free_flux
+        # the interreflection's dependence on the positions in the last refit's model
+        # (RefineProblem.indirect_gradient): its minimum is then the likelihood's
+        big.indirect_gradient = True
         # free fluxes of close luminaires lie in a long flat valley: the count search's steps
         opt = ((lambda L: big.levenberg_marquardt(L, iterations=100)) if s.optimiser == "lm"
                else big.evolution_strategy)
@@ -564,7 +571,7 @@ def _rebase(prob, lights):
     out = []
     for L in lights:
         L = L.copy()
-        L.indirect = L.indirect_at = None
+        L.indirect = L.indirect_at = L.indirect_grad = None
         out.append(L)
     if prob.indirect_exact is not None:
         return prob.refresh_indirect(out, moved=0.0)[0]

@@ -17,7 +17,10 @@ then refits their answer on every vertex:
   (exact at the subset's vertices) interpolated to every vertex
   (:class:`IndirectInterpolator`, locally linear on each plane): indirect light is smooth,
   and gathering the radiosity solution at a million vertices costs a form factor per
-  vertex and patch at every refresh.
+  vertex and patch at every refresh; so is its position gradient where the subset problem
+  has one (:attr:`~invrad_wb.core.inverse.refine.RefineProblem.indirect_gradient`, as in
+  locate's last refit: the interreflection then follows each luminaire's moves, and the
+  refit's minimum is the likelihood's).
 
 The same steps, cost and stopping rules as :meth:`RefineProblem.levenberg_marquardt`
 (:func:`~invrad_wb.core.inverse.optim.levenberg_marquardt` with Marquardt damping of the
@@ -126,9 +129,13 @@ class IndirectInterpolator:
         return lin
 
     def apply(self, values, rows=slice(None)):
+        """``values`` (coarse,) or (coarse, c) -> the fine points' (m,) or (m, c)."""
         values = np.asarray(values, dtype=np.float64)
         if self.identity:
             return values[rows]
+        if values.ndim == 2:
+            return np.einsum("mk,mkc->mc", self.w[rows].astype(np.float64),
+                             values[self.idx[rows]])
         return np.einsum("mk,mk->m", self.w[rows].astype(np.float64),
                          values[self.idx[rows]])
 
@@ -167,6 +174,10 @@ class VertexProblem:
         self.robust_scale = base.robust_scale
         self.indirect_exact = base.indirect_exact
         self.indirect_estimate = base.indirect_estimate
+        # a luminaire's interreflection gradient at base's points, interpolated here as
+        # its value is (:meth:`_at`)
+        self.indirect_gradient = getattr(base, "indirect_gradient", False)
+        self.indirect_gradient_of = base.indirect_gradient_of
         self.stats = base.stats                # the interreflection calibration is shared
         self.separation_m = base.separation_m
         self.target = pts.lux
@@ -251,6 +262,8 @@ class VertexProblem:
                 else:
                     c0, f0 = exact[i]
                     q.indirect = f0[sl] + self.interp.apply(L.indirect - c0, sl)
+                if L.indirect_grad is not None:
+                    q.indirect_grad = self.interp.apply(L.indirect_grad, sl)
             out.append(q)
         return out
 
