@@ -411,8 +411,8 @@ class _RoomFit:
         (:func:`~invrad_wb.core.inverse.locate_count.regroup`). The points are at most
         :data:`~invrad_wb.core.inverse.locate_problem.VERTEX_POINTS_MAX` vertices (an
         even subset); a room with more is refitted once more on every one of them
-        (:meth:`polish_every_vertex`, streamed in chunks). Each luminaire's
-        interreflection follows its position to first order in these refits
+        (:meth:`polish_every_vertex`, streamed in chunks). In such a room each
+        luminaire's interreflection follows its position to first order in these refits
         (:attr:`~invrad_wb.core.inverse.refine.RefineProblem.indirect_gradient`): held
         between refreshes, the refit stopped off the likelihood's minimum (bench/
         bench_count.py, 2026-11-26 (h11): cluster4 at 0.019 m 11.3 -> 2.2 cm).
@@ -438,8 +438,14 @@ class _RoomFit:
                                             photometry)
         big.free_flux = prob.free_flux
         # the interreflection's dependence on the positions in the last refit's model
-        # (RefineProblem.indirect_gradient): its minimum is then the likelihood's
-        big.indirect_gradient = True
+        # (RefineProblem.indirect_gradient): its minimum is then the likelihood's. Only
+        # where the room is refitted on every vertex afterwards (finely meshed targets,
+        # more than the subset): there the bias of holding it dominates the noise
+        # (cluster4 at 0.019 m 11.3 -> 2.2 cm); on rooms of at most the subset it gave
+        # mixed results at 0.2 m (array9 8.9 -> 3.0 cm, array12_issue 15.6 -> 22.3,
+        # array20 7.7 -> 9.6) and took the office example's fit from 0.14 to 0.45 cm
+        # and its refinement 0.16 CPU s longer (bench_cli, 2026-11-26)
+        big.indirect_gradient = lp.target_vertex_count(run.scene) > len(pts)
         # free fluxes of close luminaires lie in a long flat valley: the count search's steps
         opt = ((lambda L: big.levenberg_marquardt(L, iterations=100)) if s.optimiser == "lm"
                else big.evolution_strategy)

@@ -144,6 +144,15 @@ def _at_vertices(scene, pts):
 VERTEX_POINTS_MAX = 20000
 
 
+def target_vertex_count(scene):
+    """How many vertices of ``scene``'s faces carry a target (0 where the targets are not
+    per vertex): :func:`vertex_points`' count before it takes a subset."""
+    if getattr(scene, "vertex_lux", None) is None or len(scene.faces) == 0:
+        return 0
+    used = np.unique(scene.faces.reshape(-1))
+    return int(np.count_nonzero(np.isfinite(scene.vertex_lux[used])))
+
+
 def vertex_points(scene, most=VERTEX_POINTS_MAX, seed=0):
     """Every vertex of ``scene`` that carries a target, once, as refinement points (its
     plane's normal; the area it stands for: a third of each face around it), or None
