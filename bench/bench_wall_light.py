@@ -1,0 +1,119 @@
+"""One downlight near a wall of a box: the exact design model (walls, ceiling, work plane)
+at several patch sizes against Radiance (figures only).
+
+A 4 x 3 x 2.6 m box (reflectances 0.7 / 0.5 / 0.2, the bench rooms'), one DL-1200N of
+``bench_design_radiance``'s catalogue on the ceiling at ``d`` m from the long wall (middle
+of it along the wall), its design grids (``bench_design_radiance.full_room_model``); the
+model's radiosity patches at the room's default size and at fixed sizes (``--patch``),
+against Radiance's ``rtrace -I`` on the same grids (``judge_prepare``; folder
+``out/walljobs/d<d>``, traced once and kept).
+
+Run: ``.venv/bin/python bench/bench_wall_light.py [--type NAME] [--patch 0.3,0.15] [d ...]``
+"""
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(HERE))
+sys.path.insert(0, HERE)
+
+import bench_design_radiance as B  # noqa: E402
+from invrad_wb import constants as C  # noqa: E402
+from invrad_wb.core.design.evaluate import luminaires_of  # noqa: E402
+from invrad_wb.core.forward import radiosity as R  # noqa: E402
+from invrad_wb.core.model.photometry import read_photometry  # noqa: E402
+from invrad_wb.core.synthetic import generate as g  # noqa: E402
+
+SIZE = (4.0, 3.0, 2.6)
+JOBS = os.path.join(os.path.dirname(HERE), "out", "walljobs")
+
+
+def setup(cell=0.3):
+    cat = B.catalogue(B.JOBS)
+    phot = {e["name"]: read_photometry(e["photometry"]) for e in cat}
+    paths = {e["name"]: e["photometry"] for e in cat}
+    scene = B._rho(g.box_room(size=SIZE, cell=cell))
+    spec = B.room_spec(cat, {"work_plane": {"lux": 100, "u0": 0.4}, "walls": {"lux": 50},
+                             "ceiling": {"lux": 30}})
+    return cat, phot, paths, scene, spec
+
+
+#: the catalogue entry lit (``--type``)
+TYPE = "DL-1200N"
+
+
+def lums_at(d, spec, phot, room=0):
+    k = [e.name for e in spec.catalogue].index(TYPE)
+    e = spec.catalogue[k]
+    p = np.array([[d, 0.5 * SIZE[1], SIZE[2]]])
+    return luminaires_of(p, np.array([[0, 0, -1.0]]), np.array([e.flux_lm]), spec.catalogue,
+                         np.array([k]), room, phot)
+
+
+def figures(model, lux):
+    out = {"work plane": float(lux[:model.n_wp].mean())}
+    for name, (sl, w) in model.layout.parts.items():
+        out[name] = float(np.sum(lux[sl] * w) / w.sum())
+    return out
+
+
+def model_figures(d, patch, cell=0.3):
+    cat, phot, paths, scene, spec = setup(cell)
+    orig = R.default_patch_size
+    if patch:
+        R.default_patch_size = lambda sc, faces: patch
+    try:
+        t = time.perf_counter()
+        rs, droom, model, _, _ = B.full_room_model(scene, spec)
+        lux, _ = model.exact(lums_at(d, spec, phot))
+        dt = time.perf_counter() - t
+    finally:
+        R.default_patch_size = orig
+    return figures(model, lux), model.rad.n_patches, dt
+
+
+def radiance_figures(d):
+    cat, phot, paths, scene, spec = setup()
+    lums = lums_at(d, spec, phot)
+    job = os.path.join(JOBS, f"{TYPE}_d{d:g}")
+    plan = B.judge_prepare(scene, spec, lums, job, paths)
+    if not os.path.exists(os.path.join(job, "rays.out")):
+        b, env = B._radiance()
+        subprocess.run(["nice", "sh", os.path.join(job, "run.sh")], env=dict(env, RADBIN=b),
+                       check=True)
+    rad = B.judge_finish(job, plan, spec, lums)
+    out = {"work plane": rad["em"]}
+    for k in ("walls", "ceiling", "surroundings"):
+        if k in rad:
+            out[k] = rad[k][0]
+    return out
+
+
+def main(argv):
+    global TYPE
+    patches = [0.0]
+    if "--type" in argv:
+        i = argv.index("--type")
+        TYPE = argv[i + 1]
+        del argv[i:i + 2]
+    if "--patch" in argv:
+        i = argv.index("--patch")
+        patches += [float(x) for x in argv[i + 1].split(",")]
+        del argv[i:i + 2]
+    ds = [float(x) for x in argv] or [0.22, 0.45, 1.0]
+    for d in ds:
+        rad = radiance_figures(d)
+        print(f"d = {d:g} m: Radiance " + ", ".join(f"{k} {v:.2f}" for k, v in rad.items()))
+        for p in patches:
+            f, n, dt = model_figures(d, p)
+            print(f"  patches {'default' if not p else f'{p:g} m'} ({n}, {dt:.0f} s): "
+                  + ", ".join(f"{k} {v:.2f} ({100 * (v / rad[k] - 1):+.1f} %)"
+                              for k, v in f.items() if k in rad), flush=True)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
