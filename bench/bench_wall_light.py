@@ -8,7 +8,14 @@ model's radiosity patches at the room's default size and at fixed sizes (``--pat
 against Radiance's ``rtrace -I`` on the same grids (``judge_prepare``; folder
 ``out/walljobs/d<d>``, traced once and kept).
 
+``--designs [room ...]``: the bench rooms' current designs (``out/radjobs/<room>/
+{invrad,grid}.pkl`` of ``bench_design_radiance``): how close their luminaires hang to a
+wall (against the room's mesh cell and radiosity patch), and the exact model's figures on
+the room's mesh, on cells half as long (patches as before) and on cells and patches half
+as long, with Radiance's (the traced judgement of the design) beside them.
+
 Run: ``.venv/bin/python bench/bench_wall_light.py [--type NAME] [--patch 0.3,0.15] [d ...]``
+or ``... --designs [room ...]``
 """
 import os
 import subprocess
@@ -93,7 +100,90 @@ def radiance_figures(d):
     return out
 
 
+#: mesh cell (m) of each bench room (``bench_design_radiance.ROOMS``)
+CELLS = {"L_office": 0.35, "classroom": 0.3, "L_corridor": 0.3, "meeting": 0.3, "lab": 0.3,
+         "hall": 0.6}
+
+
+def _room_model(name, spec, scale=1.0, patch_scale=None):
+    """The bench room ``name`` meshed with cells ``scale`` x its own, its exact model with
+    patches ``patch_scale`` x their default size (None: the default)."""
+    build, _ = B.ROOMS[name]
+    orig_mb, orig_ps = g.MeshBuilder, R.default_patch_size
+    if scale != 1.0:
+        g.MeshBuilder = lambda cell, *a, **kw: orig_mb(cell * scale, *a, **kw)
+    try:
+        scene = build()
+        if patch_scale:
+            base = orig_ps(scene, np.flatnonzero(scene.face_room == 0))
+            R.default_patch_size = lambda sc, faces: base * patch_scale
+        return B.full_room_model(scene, spec)
+    finally:
+        g.MeshBuilder, R.default_patch_size = orig_mb, orig_ps
+
+
+def _items(model, lux):
+    out = {"work plane": (float(lux[:model.n_wp].mean()),
+                          float(lux[:model.n_wp].min() / lux[:model.n_wp].mean()))}
+    for k, (sl, w) in model.layout.parts.items():
+        m = float(np.sum(lux[sl] * w) / w.sum())
+        out[k] = (m, float(lux[sl].min()) / m)
+    return out
+
+
+def designs(names):
+    import pickle
+    cat = B.catalogue(B.JOBS)
+    for name in names or list(B.ROOMS):
+        build, room = B.ROOMS[name]
+        spec = B.room_spec(cat, room)
+        for label in ("invrad", "grid"):
+            path = os.path.join(B.JOBS, name, f"{label}.pkl")
+            if not os.path.exists(path):
+                continue
+            with open(path, "rb") as fh:
+                d = pickle.load(fh)
+            lums = d["lums"]
+            if not lums:                   # no compliant grid (the L office's reference)
+                continue
+            t = time.perf_counter()
+            rs, droom, model, _, _ = _room_model(name, spec)
+            wd = droom.wall_distance(np.array([L.position[:2] for L in lums]))
+            patch = model.rad.room_patch_size[0]
+            print(f"{name} {label}: {len(lums)} luminaires, {d['watts']:.2f} W; nearest to a"
+                  f" wall {wd.min():.3f} m; within a cell ({CELLS[name]:g} m) of a wall"
+                  f" {int(np.sum(wd < CELLS[name]))}, within a patch ({patch:.3f} m)"
+                  f" {int(np.sum(wd < patch))}", flush=True)
+            rows = []
+            lux, _ = model.exact(lums)
+            hidden = model._behind
+            model._behind = lambda openings: None
+            raw, _ = model.exact(lums)
+            model._behind = hidden
+            rows.append(("room's mesh, hidden spots counted", _items(model, raw)))
+            rows.append((f"room's mesh ({model.rad.n_patches} patches,"
+                         f" {time.perf_counter() - t:.0f} s)", _items(model, lux)))
+            for sc, ps in ((0.5, None), (0.5, 0.5)):
+                t = time.perf_counter()
+                _, _, m2, _, _ = _room_model(name, spec, sc, ps)
+                rows.append((f"cells x {sc:g}, patches x {ps or 1:g} ({m2.rad.n_patches}"
+                             f" patches, {time.perf_counter() - t:.0f} s)",
+                             _items(m2, m2.exact(lums)[0])))
+            job = os.path.join(B.JOBS, name, label)
+            rad = B.judge_finish(job, d["plan"], spec, lums) if "plan" in d else None
+            if rad is not None:
+                r = {"work plane": (rad["em"], rad["u0"])}
+                r.update({k: rad[k] for k in ("walls", "ceiling", "surroundings") if k in rad})
+                scale = d.get("s")
+                rows.append(("Radiance (traced design)", r))
+            for what, f in rows:
+                print(f"  {what}: " + ", ".join(f"{k} {v[0]:.2f}/{v[1]:.3f}"
+                                                for k, v in f.items()), flush=True)
+
+
 def main(argv):
+    if argv[:1] == ["--designs"]:
+        return designs(argv[1:])
     global TYPE
     patches = [0.0]
     if "--type" in argv:
