@@ -603,8 +603,11 @@ def _light_goals(scene, rd, model, droom, rs, entries, photometry, req, search=N
         general = rd.luminaires
         rd.luminaires = rd.luminaires + accents
         rd.accent_watts = sum(s.accent_watts for s in rd.spots)
-        # one exact solve per part (light adds up): the whole and every dimming level
-        parts = model.exact(general), model.exact(accents)
+        # one exact solve per part (light adds up): the whole and every dimming level;
+        # each with the whole installation's openings in place (what they cover reflects
+        # and is left out of the surface grids as in the whole's solve)
+        parts = (model.exact(general, covering=rd.luminaires),
+                 model.exact(accents, covering=rd.luminaires))
         (G, Gd), (A, Ad) = parts
         rd.metrics = Metrics.of(G + A, Gd + Ad, model.layout)
         if search is not None:

@@ -153,13 +153,85 @@ def _near_field_correction(ps, p, n, lums, bvh, occlusion):
             real = direct_illuminance(p[pj[sel]], n[pj[sel]], [block[k]], bvh=bvh,
                                       occlusion=occlusion, backend="numpy")
             ratio[sel] = real / lam[sel]
+        # the sample's own light (already in the patch's value) is the point's ratio x
+        # the Lambertian point's; the patch's mean is the (patch-averaged) ratio x the
+        # Lambertian patch mean
+        sample = ratio * lam
+        if ph.any():
+            ratio[idx] = _patch_ratio(ps, n, c, m, flux, block, li[idx], pj[idx],
+                                      ratio[idx], bvh, occlusion)
         # the luminaires as receivers of the gather (reciprocity): exact near, blended
         f = _pair_form_factors_numpy(c[li], m[li], ps, pj)
-        out += np.bincount(pj, weights=ratio * (flux[li] * f / ps.area[pj] - lam),
+        out += np.bincount(pj, weights=ratio * flux[li] * f / ps.area[pj] - sample,
                            minlength=ps.n)
     return out
 
 
+
+
+#: a luminaire with an intensity distribution closer to a patch's centroid than this many
+#: patch radii gets its distribution's ratio to a Lambertian emitter averaged over the
+#: patch (:func:`_patch_ratio`); beyond ``+ NEAR_RATIO_BLEND`` radii the ratio at the
+#: representative point, blended linearly in between (the near field's own radii: the
+#: whole of the exact Lambertian mean's zone)
+NEAR_RATIO_RADII = C.RADIOSITY_NEAR_FACTOR
+NEAR_RATIO_BLEND = C.RADIOSITY_NEAR_BLEND
+#: sub-triangles per mesh triangle edge for that average (``k^2`` points per triangle)
+NEAR_RATIO_SUBDIV = 2
+
+
+def _subdivision_points(k):
+    """(k^2, 3) barycentric centroids of a triangle's ``k x k`` equal sub-triangles."""
+    pts = []
+    for i in range(k):
+        for j in range(k - i):
+            pts.append([(i + 1 / 3), (j + 1 / 3), (k - i - j - 2 / 3)])    # upright
+            if i + j < k - 1:
+                pts.append([(i + 2 / 3), (j + 2 / 3), (k - i - j - 4 / 3)])  # inverted
+    return np.array(pts) / k
+
+
+def _patch_ratio(ps, n, c, m, flux, block, li, pj, ratio, bvh, occlusion):
+    """(k,) the pairs' ratio of a distribution's direct light to a Lambertian point
+    emitter's over each patch: ``sum_s a_s E(s) / sum_s a_s E_lam(s)`` over points ``s``
+    of the patch's triangles (:data:`NEAR_RATIO_SUBDIV`), for pairs within
+    :data:`NEAR_RATIO_RADII` patch radii (blended into the representative point's
+    ``ratio`` beyond). A downlight 0.22 m from a wall lights the wall's top patch far from
+    evenly (grazing at the top, steeply below): its ratio at one point put 15 % too little
+    light on a 0.3 m patched wall (429 lm for 506 lm; 492 on 0.15 m patches)."""
+    from invrad_wb.core.forward.direct import photometric_pairs
+    dist = np.linalg.norm(ps.centroid[pj] - c[li], axis=1)
+    r0 = NEAR_RATIO_RADII * ps.radius[pj]
+    t = np.clip((dist - r0) / (NEAR_RATIO_BLEND * ps.radius[pj]), 0.0, 1.0)
+    near = np.flatnonzero(t < 1.0)
+    if not len(near):
+        return ratio
+    bary = _subdivision_points(NEAR_RATIO_SUBDIV)
+    lo, hi = ps.tri_start[pj[near]], ps.tri_start[pj[near] + 1]
+    cnt = hi - lo
+    pair = np.repeat(np.arange(len(near)), cnt)
+    tri = np.concatenate([np.arange(a, b) for a, b in zip(lo, hi)])
+    T = ps.triangles[tri]                                          # (t, 3, 3)
+    e1, e2 = T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]
+    area = 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
+    sp = np.einsum("sj,tjk->tsk", bary, T).reshape(-1, 3)
+    sw = np.repeat(area / len(bary), len(bary))
+    spair = np.repeat(pair, len(bary))
+    k = li[near][spair]
+    nrm = n[pj[near]][spair]
+    sp = sp + 1e-4 * nrm
+    d = sp - c[k]
+    r2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-24)
+    lam = flux[k] * np.maximum(np.einsum("ij,ij->i", d, m[k]), 0.0) * np.maximum(
+        -np.einsum("ij,ij->i", d, nrm), 0.0) / (np.pi * r2 * r2)
+    real = photometric_pairs(sp, nrm, block, k, bvh, occlusion)
+    num = np.bincount(spair, weights=sw * real, minlength=len(near))
+    den = np.bincount(spair, weights=sw * lam, minlength=len(near))
+    out = ratio.copy()
+    ok = den > 0
+    avg = np.where(ok, num / np.where(ok, den, 1.0), ratio[near])
+    out[near] = (1.0 - t[near]) * avg + t[near] * ratio[near]
+    return out
 
 
 # ---------------------------------------------------------------------------- visibility
