@@ -26,7 +26,7 @@ read 3.5-5 % above Radiance). Two causes, both fixed:
 * a patch's direct light near a luminaire with an intensity distribution took the
   distribution's ratio to a Lambertian emitter at one point of the patch: a cos^4
   downlight 0.22 m from a wall put 15 % too few lumens on it (0.3 m patches: 428.8 lm
-  for 505.5). Averaged over the patch: 497.3 lm. (:func:`radiosity._patch_ratio`.)
+  for 505.5). Averaged over the patch: 497.3 lm. (:func:`nearfield._patch_ratio`.)
 
 The L corridor's bound layout (``bench_design_bound.py --min-wall 0.45 --polish``, six
 luminaires, job ``out/radjobs/L_corridor/bound``), the exact model on the room's mesh

@@ -61,9 +61,10 @@ def test_blocks_equal_one_luminaire_at_a_time(monkeypatch, occlusion):
     p, n = pts[room.sl] + nrm[room.sl] * 1e-4, nrm[room.sl]
     want = _reference(room.patches, p, n, lums, bvh, occlusion)
     assert np.abs(want).max() > 1.0           # the correction matters in this room
-    monkeypatch.setattr(R, "NEAR_FIELD_BLOCK", 5)                     # several blocks
+    from invrad_wb.core.forward import nearfield as NF
+    monkeypatch.setattr(NF, "NEAR_FIELD_BLOCK", 5)                    # several blocks
     # the distributions' ratio at the representative point, as the reference takes it
     # (its average over the patch: test_near_wall_light.py)
-    monkeypatch.setattr(R, "NEAR_RATIO_RADII", -1e9)
-    got = R._near_field_correction(room.patches, p, n, lums, bvh, occlusion)
+    monkeypatch.setattr(NF, "NEAR_RATIO_RADII", -1e9)
+    got = NF._near_field_correction(room.patches, p, n, lums, bvh, occlusion)
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9 * np.abs(want).max())
