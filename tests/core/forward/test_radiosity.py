@@ -440,8 +440,11 @@ def test_lu_factors_and_solves_run_blas_on_one_thread(monkeypatch):
     model = R.RadiosityModel(scene, backend=FAST, patch_size=0.5)
     with threadpoolctl.threadpool_limits(limits=2, user_api="blas"):
         outside = threads()
-        if outside == [1]:
-            pytest.skip("no BLAS here runs more than one thread")
+        if outside in ([], [1]):
+            # [] where threadpoolctl finds no BLAS it knows (FreeCAD 1.0's Debian root:
+            # numpy on Debian's generic libblas), so neither the limit nor its effect can
+            # be seen
+            pytest.skip("no BLAS here that threadpoolctl sees runs more than one thread")
         b = model.solve(np.full(model.n_patches, 100.0))
         assert threads() == outside
     assert [name for name, _ in seen] == ["lu_factor", "lu_solve"]
