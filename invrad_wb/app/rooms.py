@@ -538,18 +538,8 @@ def open_borders(spaces, doc=None, tol_m=OPEN_BORDER_TOL_M, min_area_m2=OPEN_BOR
 def lighting_zones(n_rooms, borders):
     """Rooms joined by open borders: ``(n_rooms,)`` int, the zone of each room (the
     lowest position of its rooms, so that a room without open borders is its own zone)."""
-    parent = list(range(n_rooms))
-
-    def find(k):
-        while parent[k] != k:
-            parent[k] = parent[parent[k]]
-            k = parent[k]
-        return k
-    for b in borders:
-        ra, rb = find(b.a), find(b.b)
-        if ra != rb:
-            parent[max(ra, rb)] = min(ra, rb)
-    return np.array([find(k) for k in range(n_rooms)], dtype=np.int64)
+    from invrad_wb.core.geometry.components import component_labels
+    return component_labels(n_rooms, ((b.a, b.b) for b in borders))
 
 
 def containing_room(point_m, shapes, candidates=None):

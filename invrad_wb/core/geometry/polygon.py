@@ -3,6 +3,8 @@ outline, :mod:`invrad_wb.core.design.spec`; the room's outline,
 :mod:`invrad_wb.core.design.room`)."""
 import numpy as np
 
+from invrad_wb.core.geometry.components import component_labels
+
 
 def polygon_area(poly):
     """Signed area (m^2, positive counter-clockwise) of a plan polygon."""
@@ -96,19 +98,7 @@ def edge_loops(segments, tol=1e-6):
     key = np.round(seg.reshape(-1, 2) / tol).astype(np.int64)
     _, node = np.unique(key, axis=0, return_inverse=True)
     node = node.reshape(k, 2)
-    parent = list(range(k))
-
-    def find(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
     first = {}
-    for i in range(k):
-        for v in node[i]:
-            j = first.setdefault(int(v), i)
-            ri, rj = find(i), find(j)
-            if ri != rj:
-                parent[ri] = rj
-    roots = np.array([find(i) for i in range(k)])
+    roots = component_labels(k, ((i, first.setdefault(int(v), i))
+                                 for i in range(k) for v in node[i]))
     return [np.flatnonzero(roots == r) for r in np.unique(roots)]

@@ -357,27 +357,22 @@ def close_groups(prob, lights, fraction=GROUP_FRACTION):
     ``fraction`` of the smaller of their mounting distances (:func:`_mount_distance`), or
     both poorly pinned (:data:`POORLY_PINNED`) and closer than :data:`PINNED_FRACTION` of
     it; only groups of two or more."""
+    from invrad_wb.core.geometry.components import component_labels
     from invrad_wb.core.inverse.fitcheck import position_sd
     n = len(lights)
-    root = list(range(n))
-
-    def find(i):
-        while root[i] != i:
-            root[i] = root[root[i]]
-            i = root[i]
-        return i
     h = [_mount_distance(prob, L) for L in lights]
     sd = position_sd(prob, lights)[0] if n > 2 else np.zeros(n)
     loose = sd > POORLY_PINNED * np.median(sd)
+    pairs = []
     for i in range(n):
         for j in range(i + 1, n):
             a, b = lights[i], lights[j]
             reach = (PINNED_FRACTION if loose[i] and loose[j] else fraction) * min(h[i], h[j])
             if a.facing() @ b.facing() > 0.9 and np.linalg.norm(a.position - b.position) < reach:
-                root[find(i)] = find(j)
+                pairs.append((i, j))
     out = {}
-    for i in range(n):
-        out.setdefault(find(i), []).append(i)
+    for i, r in enumerate(component_labels(n, pairs)):
+        out.setdefault(int(r), []).append(i)
     return [g for g in out.values() if len(g) > 1]
 
 
