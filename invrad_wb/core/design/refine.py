@@ -212,7 +212,8 @@ def solve_outputs(parts, watts, lo, hi, search, glare=None, may_drop=False,
         T, Bg = glare
         K = 10.0 ** ((ugr_max - UGR_MARGIN) / 8.0)
         S0 = G + nz
-        r, u = ugr_rows(T, Bg, K, lo, hi, G, n, S0)
+        T0, B0 = _fixed_glare(search, T.shape[1])
+        r, u = ugr_rows(T, Bg, K, lo, hi, G, n, S0, fixed=(T0, B0))
         rows.append(r)
         ub.append(u)
     opts = {"mip_rel_gap": MIP_GAP}
@@ -238,11 +239,12 @@ def solve_outputs(parts, watts, lo, hi, search, glare=None, may_drop=False,
             x = np.clip(x, lo, hi)
         if ugr_max is None:
             return x
-        # g(x) = 0.25 pi sum x^2 T - K sum x B <= 0 at every observer (convex)
-        gx = 0.25 * math.pi * (x ** 2) @ T - K * (x @ Bg)
-        tol = UGR_CUT_TOL * np.maximum(K * (x @ Bg), 1e-12)
+        # g(x) = 0.25 pi (sum x^2 T + T0) - K (sum x B + B0) <= 0 at every observer
+        # (convex; T0, B0 the fixed luminaires')
+        gx = 0.25 * math.pi * ((x ** 2) @ T + T0) - K * (x @ Bg + B0)
+        tol = UGR_CUT_TOL * np.maximum(K * (x @ Bg + B0), 1e-12)
         if log is not None:
-            u = ugr_from_sum((x ** 2) @ T, x @ Bg)
+            u = ugr_from_sum((x ** 2) @ T + T0, x @ Bg + B0)
             log(f"programme {_ + 1}: {float(x @ watts):.1f} W (lower bound"
                 f" {solve_outputs.dual_bound}), UGR {np.nanmax(u):.2f},"
                 f" {len(rows)} blocks of rows, {res.message}")
@@ -265,11 +267,24 @@ def solve_outputs(parts, watts, lo, hi, search, glare=None, may_drop=False,
 UGR_TANGENTS = 8
 
 
-def ugr_rows(T, B, K, lo, hi, G, n, S0):
+def _fixed_glare(search, O):
+    """(T0 (O,), B0 (O,)): the glare sums and background lux at the observers of the
+    luminaires that stay as they are (``search.fixed_glare``, a room's accents), zeros
+    where there are none."""
+    fixed = getattr(search, "fixed_glare", None)
+    if fixed is None:
+        return np.zeros(O), np.zeros(O)
+    return np.asarray(fixed[0], dtype=float), np.asarray(fixed[1], dtype=float)
+
+
+def ugr_rows(T, B, K, lo, hi, G, n, S0, fixed=None):
     """(rows, ub) of the UGR constraints on the variables ``(x, ..., s)`` (``n`` in all,
     the squares ``s`` from ``S0``): per observer ``o``, ``UGR <= limit`` is ``0.25 pi
-    sum_g s_g T_go <= K sum_g x_g B_go`` (``K = 10^(limit / 8)``, the background lux
-    ``B`` linear in ``x``, the glare sums ``T`` in ``x^2``), and ``s_g >= x_g^2``
+    (sum_g s_g T_go + T0_o) <= K (sum_g x_g B_go + B0_o)`` (``K = 10^(limit / 8)``, the
+    background lux ``B`` linear in ``x``, the glare sums ``T`` in ``x^2``; ``fixed``:
+    ``(T0 (O,), B0 (O,))`` of luminaires that stay as they are, e.g. accents, whose glare
+    the general lighting's background must dilute: the rows' bound ``K B0 - 0.25 pi T0``;
+    None: 0), and ``s_g >= x_g^2``
     described from below: the secant ``s_g >= lo_g x_g`` (exact where ``x_g`` is 0 or
     ``lo_g``: a type that does not dim, off or on, is described exactly) and tangents at
     :data:`UGR_TANGENTS` outputs of its range. Every answer of the true constraints is
@@ -280,7 +295,9 @@ def ugr_rows(T, B, K, lo, hi, G, n, S0):
     rows = np.zeros((O, n))
     rows[:, S0:S0 + G] = 0.25 * math.pi * T.T
     rows[:, :G] = -K * B.T
-    ub = [np.zeros(O)]
+    ub = [np.zeros(O) if fixed is None else
+          K * np.asarray(fixed[1], dtype=float) - 0.25 * math.pi * np.asarray(fixed[0],
+                                                                             dtype=float)]
     out = [rows]
     sec = np.zeros((G, n))
     sec[np.arange(G), np.arange(G)] = lo
@@ -500,7 +517,10 @@ def _refined(search, cand, groups, parts, T, ez, eh, w, x):
     m, g = search.model, cand.geom
     met = Metrics.of(x @ parts["lux"], x @ parts["direct"], m.layout)
     if T:
-        met.glare = ((x ** 2) @ np.array(T), x @ np.array(parts["B"]))
+        # the whole installation's: the fixed luminaires' (accents') glare and background
+        # added (light adds up)
+        T0, B0 = _fixed_glare(search, np.array(T).shape[1])
+        met.glare = ((x ** 2) @ np.array(T) + T0, x @ np.array(parts["B"]) + B0)
         u = ugr_from_sum(*met.glare)
         met.ugr = None if np.isnan(u).all() else float(np.nanmax(u))
     if ez:

@@ -35,26 +35,34 @@ def ugr_note(rd, droom):
                         " opening")
 
 
-def glare_parts(model, droom, general, accents):
-    """Per CIE 117 observer, the glare sums (``L^2 omega / p^2``) and the background
-    illuminances of the general lighting and of the accents apart: the general lighting
-    dimmed by f scales its sum by f^2 and its background by f (light adds up), so UGR at
-    every dimming level follows from these four arrays (:func:`ugr_at`). None where no
-    observer stands in the room."""
+def glare_terms(model, droom, luminaires, covering=None):
+    """(glare sums ``L^2 omega / p^2`` (O,), maintained background lux (O,)) of
+    ``luminaires`` at the CIE 117 observers, as :func:`room_ugr` counts them: the
+    background is the interreflected light at the eye (the direct light left out), and
+    light adds up, so a part's terms add to another's (``covering``:
+    :meth:`.evaluate.RoomModel.solve`). None where no observer stands in the room."""
     from invrad_wb.core.output.glare import observers, ugr
     obs = observers(droom)
     if not obs:
         return None
     eyes = np.array([e for e, _ in obs])
     views = np.array([v for _, v in obs])
+    # ugr() at a background of pi/4 lx is 8 log10 of the sum itself
+    out = [ugr(luminaires, e, v, 0.25 * np.pi) for e, v in obs]
+    sums = np.array([0.0 if u is None else 10.0 ** (u / 8.0) for u in out])
+    return sums, model.mf * model.indirect_at(eyes, views, luminaires, covering)
 
-    def sums(lums):
-        # ugr() at a background of pi/4 lx is 8 log10 of the sum itself
-        out = [ugr(lums, e, v, 0.25 * np.pi) for e, v in obs]
-        return np.array([0.0 if u is None else 10.0 ** (u / 8.0) for u in out])
 
-    return (sums(general), model.mf * model.indirect_at(eyes, views, general),
-            sums(accents), model.mf * model.indirect_at(eyes, views, accents))
+def glare_parts(model, droom, general, accents):
+    """Per CIE 117 observer, the glare sums (``L^2 omega / p^2``) and the background
+    illuminances of the general lighting and of the accents apart
+    (:func:`glare_terms`): the general lighting dimmed by f scales its sum by f^2 and its
+    background by f (light adds up), so UGR at every dimming level follows from these
+    four arrays (:func:`ugr_at`). None where no observer stands in the room."""
+    g = glare_terms(model, droom, general)
+    if g is None:
+        return None
+    return g + glare_terms(model, droom, accents)
 
 
 def ugr_at(parts, f):

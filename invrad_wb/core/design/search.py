@@ -229,6 +229,10 @@ class RoomSearch:
         self._glare()
         self.eye_ind = {}          # entry name -> (O,) indirect lux per lm at the eyes
         self.checked = {}
+        #: (glare sums (O,), background lux (O,)) at the observers of luminaires that
+        #: stay as they are beside the layouts searched (a room's accents), or None: the
+        #: per-group programme holds the whole installation's UGR (:mod:`.refine`)
+        self.fixed_glare = None
 
     def _least_output(self, e):
         """The output fraction the count range allows for: 1, or 0.5 for an entry the
