@@ -213,7 +213,8 @@ def solve_outputs(parts, watts, lo, hi, search, glare=None, may_drop=False,
         K = 10.0 ** ((ugr_max - UGR_MARGIN) / 8.0)
         S0 = G + nz
         T0, B0 = _fixed_glare(search, T.shape[1])
-        r, u = ugr_rows(T, Bg, K, lo, hi, G, n, S0, fixed=(T0, B0))
+        r, u = ugr_rows(T, Bg, K, lo, hi, G, n, S0,
+                        fixed=getattr(search, "fixed_glare", None))
         rows.append(r)
         ub.append(u)
     opts = {"mip_rel_gap": MIP_GAP}

@@ -1,5 +1,7 @@
-"""UGR of a designed room's whole installation (CIE 117 at the standard observers),
-and of its general lighting dimmed beside accents (:func:`glare_parts`, :func:`ugr_at`)."""
+"""UGR of a designed room's whole installation (CIE 117 at the standard observers), the
+glare and background terms of a part of it (:func:`glare_terms`: the accents' are
+constants of the general lighting's programme, :mod:`.accentglare`), and of its general
+lighting dimmed beside accents (:func:`glare_parts`, :func:`ugr_at`)."""
 import numpy as np
 
 
