@@ -22,6 +22,7 @@ from invrad_wb.core.design.refine import refine
 from invrad_wb.core.design.room import DesignRoom
 from invrad_wb.core.design.roomglare import glare_parts, room_ugr, ugr_at, ugr_note
 from invrad_wb.core.design.accent import SPOT_TOLERANCE, find_goals, light_spots, within
+from invrad_wb.core.design.accentglare import beside_accents
 from invrad_wb.core.design.accents import light_spots_aimed
 from invrad_wb.core.design.taskareas import check_task_areas
 from invrad_wb.core.design.taskareas import prepare as prepare_task_areas
@@ -454,19 +455,27 @@ def design_room(scene, spec, room, name=None, backend="auto", mixed=True, dimmin
         if refined is not cand:
             tries.insert(0, (refined, rmet))
     notes = list(rd.notes)
-    for k, (c, m) in enumerate(tries):
+    # the room with its general lighting designed again for the accents' glare (once:
+    # its programme searches beyond the layout it starts from)
+    again, tried = None, False
+
+    def finish(c, m, n):
+        _finish_room(scene, rd, model, droom, rs, entries, photometry, req, search,
+                     general, points, cyl, c, m, n)
+    for c, m in tries:
         # the programme knows the general lighting only: accents (painted spots) add
         # light and glare, which may take a design dimmed apart, made to the limits,
         # below U0 or over the UGR limit; then the search's evenly dimmed design stands
         rd.notes, rd.spots, rd.accent_watts = list(notes), [], 0.0
-
-        def finish(c, m, n):
-            _finish_room(scene, rd, model, droom, rs, entries, photometry, req, search,
-                         general, points, cyl, c, m, n)
         finish(c, m, n_exact)
-        _beside_accents(rd, search, c, m, finish, notes)
-        if rd.compliant or k == len(tries) - 1:
+        if rd.compliant:
             break
+        if not tried and rd.verdicts.get("UGR") is False:
+            tried = True
+            again = beside_accents(rd, search, c, m, finish, notes)
+    if again is not None and (not rd.compliant or again["candidate"].watts
+                              + again["accent_watts"] < rd.watts - 1e-9):
+        vars(rd).update(again)
     rd.rated_watts = sum(_entry_watts(entries, lum) for lum in rd.luminaires)
     rd.operating_hours = rs.operating_hours
     _explain(rd, search, general)
@@ -497,43 +506,6 @@ def _finish_room(scene, rd, model, droom, rs, entries, photometry, req, search, 
     rd.ugr_limit = rs.ugr_max
     rd.ugr = room_ugr(model, droom, rd.luminaires)
     ugr_note(rd, droom)
-
-
-#: the general lighting is designed again for the accents' glare at most this often
-#: (the accents, lit again beside it, may differ from those it was designed for)
-ACCENT_REFITS = 2
-
-
-def _beside_accents(rd, search, cand, met, finish, notes):
-    """Where the accents' glare takes the whole installation over the UGR limit: the
-    general lighting designed again with the accents' glare and background as constants
-    (:func:`.accentglare.general_beside_accents`, from the layout ``cand``, ``met``), the
-    room finished again with it (``finish(cand, met, exact_solves)``: accents lit again
-    beside it, judged on the whole installation); kept where it complies, else the
-    design stands as it was. ``notes``: the room's notes before it was finished."""
-    from invrad_wb.core.design.accentglare import accents_of, general_beside_accents
-    if rd.compliant or rd.verdicts.get("UGR") is not False:
-        return
-    first = dict(vars(rd))
-    for _ in range(ACCENT_REFITS):
-        accents = accents_of(rd.luminaires)
-        if not accents:
-            break
-        got = general_beside_accents(search, cand, met, accents, covering=rd.luminaires)
-        if got is None:
-            break
-        rd.notes, rd.spots, rd.accent_watts = list(notes), [], 0.0
-        finish(got[0], got[1], first["exact_solves"] + got[2])
-        if rd.compliant:
-            w0 = first["candidate"].watts + first["accent_watts"]
-            rd.notes.append(f"general lighting designed again for the accents' glare"
-                            f" (UGR {first['ugr']:.1f} with the accents beside the general"
-                            f" lighting designed alone, {w0:.1f} W): UGR {rd.ugr:.1f},"
-                            f" {rd.watts:.1f} W")
-            return
-        if rd.verdicts.get("UGR") is not False:
-            break                        # something else fails now
-    vars(rd).update(first)               # the design stands as it was
 
 
 #: re-dimming after accents tries the general lighting's output in this many steps
