@@ -101,6 +101,30 @@ kernel returning early for a point that lights none of a block's 16 pixels (othe
 bits: the compiler contracts the accumulation differently; and no faster, 0.28 -> 0.33 s
 a cast), work-groups of 8, 32, 128 (0.27-0.30 s a cast each, the same votes).
 
+Round 12 (2026-11-26, load average 4-5, ``--before 2f69707``; CPU s before -> after):
+scipy's LU without ``scipy.linalg`` (its LAPACK module loaded alone,
+``core/accel/lapack.py``: the same routines, the same numbers; the import brought
+scipy.sparse and cost 0.034-0.038 CPU s, the module alone 0.004-0.005), and the exact-vote
+kernel skipping, 16 points at a time, the points that certainly give none of a block's 16
+pixels a vote (``no_vote_in_row``: every vote bit for bit as without it; one office cast
+0.143 -> 0.110, l_room 0.326 -> 0.256, two_ceiling 0.173 -> 0.151). Office, ``--quick``,
+5 rounds, twice: imports 0.225 -> 0.174 and 0.211 -> 0.166, votes 0.156 -> 0.126 and
+0.157 -> 0.125, indirect solves 0.165 -> 0.111 and 0.179 -> 0.119, whole CLI 1.376 ->
+1.184 and 1.274 -> 1.198 (ratio to the numpy run 0.106 -> 0.091 and 0.107 -> 0.100,
+numpy 12.98 and 11.95 CPU s); all three rooms, 3 rounds: office 1.225 -> 1.134 (0.107 ->
+0.099), l_room rho 0.6 1.954 -> 1.780 (0.093 -> 0.084; votes 0.337 -> 0.274), two_ceiling
+direct 0.624 -> 0.574 (0.048 -> 0.044). Every RESULT.json identical to 2f69707's. The
+optimiser's medians (0.31-0.36, code unchanged) and the numpy run's (11.5-13.0 s) move
+as much between runs as the gain: the office ratio is now 0.09-0.10 at this load, not
+robustly below 0.10. Tried and dropped (votes the same bit for bit, no faster): the row
+test in log space without its x < 1/2 limit (0.113), the points that may vote listed
+first and then cast in one loop (0.113-0.117), whole groups of 16 points skipped only
+where none may vote (0.17: slower than no test; the kernel's cost per cast pair rises
+whenever its point loop is restructured, which is why skipping seven pairs in ten saves a
+quarter), work-groups of 8, 64, 128 (0.110-0.111). Left: the optimiser (0.31-0.34 of
+1.13-1.20 s, ``refine.py``), numpy's (0.055 CPU s) and pyopencl's (0.048: pytools,
+importlib.metadata, attrs) imports, the LU (0.037), the form-factor kernels.
+
 Usage: python bench/bench_cli.py [--before REV] [--rounds N] [--quick] [--no-numpy]
 """
 import argparse

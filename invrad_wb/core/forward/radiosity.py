@@ -103,17 +103,20 @@ _LAPACK = None
 
 
 def _lapack():
-    """``(lu_factor, lu_solve, one_thread)``: scipy.linalg's LU (imported on the first
-    direct solve, not with this module) and a context keeping BLAS on one thread while it
-    runs, made once scipy's BLAS is loaded (:func:`~invrad_wb.core.accel.workers.
-    blas_one_thread_limiter`): the factors, and so every result after them, do not depend
-    on the machine's cores nor on where the room runs."""
+    """``(lu_factor, lu_solve, one_thread)``: scipy's LU (loaded on the first direct
+    solve, not with this module; its LAPACK module alone where scipy.linalg is not imported
+    yet, :func:`~invrad_wb.core.accel.lapack.lu_functions`: the same numbers) and a context
+    keeping BLAS on one thread while it runs, made once scipy's BLAS is loaded
+    (:func:`~invrad_wb.core.accel.workers.blas_one_thread_limiter`): the factors, and so
+    every result after them, do not depend on the machine's cores nor on where the room
+    runs."""
     global _LAPACK
     if _LAPACK is None:
         # built whole, then bound in one step: two threads' first solves at once (the
         # GUI runs a design in a worker thread) each see None or the whole tuple
-        from scipy.linalg import lu_factor, lu_solve
+        from invrad_wb.core.accel.lapack import lu_functions
         from invrad_wb.core.accel.workers import blas_one_thread_limiter
+        lu_factor, lu_solve = lu_functions()
         _LAPACK = (lu_factor, lu_solve, blas_one_thread_limiter())
     return _LAPACK
 
