@@ -10,21 +10,30 @@ import was 0.065 of 0.18 s of imports (wall, the least of six runs).
 The functions below call the same routines of the same module (``dgetrf``, ``dgetrs``)
 as scipy's own functions do for float64 arrays, with the same arguments: the same numbers
 bit for bit. Anything else (other dtypes, a scipy whose module is not where it is looked
-for) goes to ``scipy.linalg`` itself, as does everything once ``scipy.linalg`` is
-imported anyway.
+for) goes to ``scipy.linalg`` itself; where ``scipy.linalg`` is imported before the first
+call, its own functions are used (a caller keeps what it got for the process's life).
+The first load is done under a lock (two threads' first solves load it once).
 """
 import importlib.machinery
 import importlib.util
 import os
 import sys
+import threading
 import warnings
 
 import numpy as np
 
 _FLAPACK = "scipy.linalg._flapack"
+_LOCK = threading.Lock()
 
 
 def _flapack():
+    """:func:`_load` under the module's lock."""
+    with _LOCK:
+        return _load()
+
+
+def _load():
     """scipy's LAPACK module, loaded on its own (not its package), or None where it is
     not found. Registered under its own name in ``sys.modules`` (Python does so for an
     extension module of the classic kind): a later ``import scipy.linalg`` uses this
