@@ -36,6 +36,13 @@ def radiance_binaries():
     return b, env
 
 
+#: direct light: every source tested for shadow at every point (``-dt 0 -dc 1``; Radiance's
+#: default -dt 0.03 leaves the sources of least potential untested and guesses their
+#: visibility: with 13 dimmed panels in an L with a column that put the work plane's
+#: interreflected light 4.4 % low, 62.3 against 64.8 lx at -ab 6 -ad 512, where the design
+#: model has 65.2), the area sources split finely (-ds 0.02), no jitter
+DIRECT = ["-dt", "0", "-dc", "1", "-dj", "0", "-ds", "0.02"]
+
 #: gamma angles (degrees) of the IES files written here
 GAMMAS = [2.5 * i for i in range(73)]
 
@@ -110,7 +117,7 @@ class RadianceRoom:
     def _rtrace(self, opts, points, dirs):
         rays = "".join(f"{p[0]:.6f} {p[1]:.6f} {p[2]:.6f} {d[0]:.6f} {d[1]:.6f} {d[2]:.6f}\n"
                        for p, d in zip(points, dirs))
-        return self._run("rtrace", "-h", "-dj", "0", "-ds", "0.02", *opts, "scene.oct",
+        return self._run("rtrace", "-h", *DIRECT, *opts, "scene.oct",
                          stdin=rays).splitlines()
 
     @staticmethod
@@ -147,8 +154,8 @@ class RadianceRoom:
         vu = "0 0 1"
         args = ["-vta", "-vp", *[f"{x:.6f}" for x in eye], "-vd",
                 *[f"{x:.6f}" for x in view], "-vu", *vu.split(), "-vh", "180", "-vv", "180",
-                "-x", str(pixels), "-y", str(pixels), "-ps", "1", "-pj", "0", "-dj", "0",
-                "-ds", "0.02", *self.ambient, "-af", "scene.amb", "scene.oct"]
+                "-x", str(pixels), "-y", str(pixels), "-ps", "1", "-pj", "0", *DIRECT,
+                *self.ambient, "-af", "scene.amb", "scene.oct"]
         with open(pic, "wb") as fh:
             subprocess.run([os.path.join(self.bin, "rpict"), *args], cwd=self.folder,
                            env=self.env, stdout=fh, check=True)
