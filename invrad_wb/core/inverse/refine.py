@@ -576,7 +576,12 @@ class RefineProblem:
                 block[:, -1] = e[i] if own is None else e[i] + own
             jac_blocks.append(block)
         J = jac_blocks[0] if len(jac_blocks) == 1 else np.concatenate(jac_blocks, axis=1)
-        # divided in place (the blocks are this call's own arrays)
+        # divided in place (the blocks are this call's own arrays), by Ep repeated along
+        # each row where J is one block of memory (the same quotients, no short loops)
+        if J.flags.c_contiguous:
+            flat = J.reshape(-1)
+            np.divide(flat, np.repeat(Ep, J.shape[1]), out=flat)
+            return J
         return np.divide(J, Ep[:, None], out=J)
 
     def _aim_jacobian(self, L, vis, h=1e-4):
