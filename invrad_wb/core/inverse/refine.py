@@ -533,8 +533,7 @@ class RefineProblem:
                 if own is not None:
                     E += own
         Ep = np.add(E, self.eps_lux, out=E)         # E is this call's own
-        r = np.log(Ep)
-        r -= self.log_target
+        r = np.log(Ep) - self.log_target
         if not with_jac:
             if key is not None:
                 memo["trial"] = (key, list(vis_list), [L.indirect for L in lights], extra,
@@ -549,18 +548,9 @@ class RefineProblem:
         derivatives de (K, k, 3) and the predicted light plus eps, Ep (k,)."""
         if all(L.kind == "free" and not L.free_aim and not L.free_flux
                and L.indirect_grad is None for L in lights):
-            # mid-air luminaires fitting their positions only: d E / d parameters is d E /
-            # d position (dpos() the identity), the blocks side by side in one copy; + 0.0
-            # is what the product with the identity did to the numbers (-0.0 becomes 0.0,
-            # every other value stays), so J is the same bit for bit (the office's
-            # optimiser: 405 such calls, a matmul and a concatenation each); divided by
-            # Ep repeated along each row (the same quotients; a broadcast over rows of
-            # three is a loop of three per point, twice as slow)
-            n = 3 * len(lights)
+            # d E / d position (dpos() = I); + 0.0: the product with I's zeros, bit for bit
             J = np.add(de.transpose(1, 0, 2), 0.0, out=np.empty((len(Ep), len(lights), 3)))
-            flat = J.reshape(-1)
-            np.divide(flat, np.repeat(Ep, n), out=flat)
-            return J.reshape(len(Ep), n)
+            return optim.divide_rows(J.reshape(len(Ep), -1), Ep)
         jac_blocks = []
         for i, L in enumerate(lights):
             own = (L.indirect if L.flux_scale == 1.0 and L.indirect_grad is None
@@ -576,13 +566,8 @@ class RefineProblem:
                 block[:, -1] = e[i] if own is None else e[i] + own
             jac_blocks.append(block)
         J = jac_blocks[0] if len(jac_blocks) == 1 else np.concatenate(jac_blocks, axis=1)
-        # divided in place (the blocks are this call's own arrays), by Ep repeated along
-        # each row where J is one block of memory (the same quotients, no short loops)
-        if J.flags.c_contiguous:
-            flat = J.reshape(-1)
-            np.divide(flat, np.repeat(Ep, J.shape[1]), out=flat)
-            return J
-        return np.divide(J, Ep[:, None], out=J)
+        # divided in place (the blocks are this call's own arrays)
+        return optim.divide_rows(J, Ep)
 
     def _aim_jacobian(self, L, vis, h=1e-4):
         """(k, 2) d E / d aim coordinates of one aimable luminaire (central differences)."""
@@ -607,25 +592,10 @@ class RefineProblem:
         return np.stack([(E[0] - E[1]) / (2 * h), (E[2] - E[3]) / (2 * h)], axis=1)
 
     def cost_of(self, r):
-        c = self.robust_scale
-        # w c^2 (sqrt(1 + (r / c)^2) - 1) in one scratch array, w c^2 made once per scale:
-        # the same operations on the same numbers as the expression written out
-        wcc = self._w_cc(c)
-        t = np.divide(r, c)
-        if t.shape != wcc.shape:        # a residual broadcast over the points
-            return float(np.sum(wcc * (np.sqrt(1.0 + t ** 2) - 1.0)))
-        np.square(t, out=t)
-        np.add(t, 1.0, out=t)
-        np.sqrt(t, out=t)
-        np.subtract(t, 1.0, out=t)
-        return float(np.sum(np.multiply(wcc, t, out=t)))
-
-    def _w_cc(self, c):
-        """``w_area * c * c`` for the robust scale ``c`` (kept while both stay)."""
-        got = getattr(self, "_wcc", None)
+        c, got = self.robust_scale, getattr(self, "_wcc", None)     # w_area c^2, kept
         if got is None or got[0] != c or got[1] is not self.w_area:
             got = self._wcc = (c, self.w_area, self.w_area * c * c)
-        return got[2]
+        return optim.pseudo_huber(r, c, got[2])
 
     def cost(self, lights, vis_list=None, extra=None):
         if vis_list is None:
@@ -776,19 +746,11 @@ class RefineProblem:
                 return np.array([self.cost_of(r[0])])
             return np.array([self.cost_of(r[0, :k]) + float(r[0, k:] @ r[0, k:])])
 
-        def irls(r, out=None):
-            # w_area / sqrt(1 + (r / c)^2) in one array (the same operations)
-            t = np.divide(r, c, out=out)
-            np.square(t, out=t)
-            np.add(t, 1.0, out=t)
-            np.sqrt(t, out=t)
-            return np.divide(self.w_area, t, out=t)
-
         def weights(r):
             if not pairs:
-                return irls(r[0])[None]
+                return optim.pseudo_huber_weights(r[0], c, self.w_area)[None]
             w = np.ones_like(r)
-            irls(r[0, :k], out=w[0, :k])
+            optim.pseudo_huber_weights(r[0, :k], c, self.w_area, out=w[0, :k])
             return w
 
         def project(x_old, x_new, _idx):
