@@ -473,13 +473,13 @@ class RefineProblem:
         return _Direct(E, N, dx, dy, dz, A, B, r2, t)
 
     def _lambertian_grad(self, st):
-        """d E / d position (K, k, 3) of a :class:`_Direct` (whose A, B, r2 and scratch it
-        overwrites: one gradient per state)."""
+        """d E / d position (K, k, 3; a (k, K, 3) array's view, the Jacobian's layout) of a
+        :class:`_Direct` (its A, B, r2 and scratch overwritten: one gradient per state)."""
         E, N, t = st.E, st.N, st.t
         # d E / d c = E (-N / A + n / B - 4 (c - s) / r^2), one component at a time
         iA, iB, ir2 = np.divide(1.0, st.A, out=st.A), np.divide(1.0, st.B, out=st.B), \
             np.divide(-4.0, st.r2, out=st.r2)
-        dE = np.empty(E.shape + (3,))
+        dE = np.empty((E.shape[1], E.shape[0], 3)).transpose(1, 0, 2)
         u = np.empty_like(E)
         for j, (dj, nj) in enumerate(((st.dx, self._nT[0]), (st.dy, self._nT[1]),
                                       (st.dz, self._nT[2]))):
@@ -548,8 +548,8 @@ class RefineProblem:
         derivatives de (K, k, 3) and the predicted light plus eps, Ep (k,)."""
         if all(L.kind == "free" and not L.free_aim and not L.free_flux
                and L.indirect_grad is None for L in lights):
-            # d E / d position (dpos() = I); + 0.0: the product with I's zeros, bit for bit
-            J = np.add(de.transpose(1, 0, 2), 0.0, out=np.empty((len(Ep), len(lights), 3)))
+            J = de.transpose(1, 0, 2)       # + 0.0: the product with dpos() = I, bit for bit
+            J = np.add(J, 0.0, out=J if J.flags.c_contiguous else np.empty(J.shape))
             return optim.divide_rows(J.reshape(len(Ep), -1), Ep)
         jac_blocks = []
         for i, L in enumerate(lights):
