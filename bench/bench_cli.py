@@ -125,6 +125,27 @@ quarter), work-groups of 8, 64, 128 (0.110-0.111). Left: the optimiser (0.31-0.3
 1.13-1.20 s, ``refine.py``), numpy's (0.055 CPU s) and pyopencl's (0.048: pytools,
 importlib.metadata, attrs) imports, the LU (0.037), the form-factor kernels.
 
+Round 12 (h12-opt) (2026-11-26, load average 2-4, ``--before 436b785``; CPU s before ->
+after): the optimiser's arithmetic, the same numbers bit for bit: mid-air luminaires'
+Jacobian without the product with dpos() = I and the concatenation (+ 0.0 does what the
+product did to -0.0), the lambertian gradient written in the Jacobian's (k, K, 3) layout
+(no transposing copy), the row division by Ep repeated per row (no loops of 3), the
+pseudo-Huber cost and its IRLS weights in one scratch array (``optim.pseudo_huber``,
+``pseudo_huber_weights``, ``divide_rows``). Per Jacobian (office, one process): three
+mid-air luminaires 155 -> 36 us, one 43 -> 21 us; all 405 of a run 36 -> 17 ms (the
+gradient 27 -> 31 ms: its strided writes). The office's 31 optimiser runs replayed in one
+process, 5 passes, 3 alternations: 0.273-0.278 -> 0.256-0.263. Office ``--quick``: 9
+rounds without the numpy run, LM 0.281 -> 0.258, whole CLI 0.997 -> 0.964; 5 rounds with
+it, LM 0.279 -> 0.260, whole 0.983 -> 0.974 (ratio 0.092 -> 0.092, numpy 10.6 CPU s); all
+rooms, 3 rounds: office LM 0.283 -> 0.259, whole 0.993 -> 0.986 (ratio 0.089 -> 0.088),
+l_room rho 0.6 1.830 -> 1.766 (0.085 -> 0.082), two_ceiling direct 0.684 -> 0.616 (0.051 ->
+0.046). Every RESULT.json identical to 436b785's, and office ``--aim fixed``'s. Tried and
+dropped: the Marquardt step's ``J * w`` with w repeated per row (no gain measured). Left
+in the office's LM (0.26 s): the forward model (87 us a call, 583 calls), the Marquardt
+step (78 us, 552: einsum on the transposed J, the solve), the allowed-region projection
+(36 us, 1031 calls: surface luminaires near a border, ``map_contains_all``), the
+gradient (76 us, 405), the cost (20 us, 957).
+
 Usage: python bench/bench_cli.py [--before REV] [--rounds N] [--quick] [--no-numpy]
 """
 import argparse

@@ -62,6 +62,41 @@ def sum_of_squares(r):
     return np.einsum("nk,nk->n", r, r)
 
 
+def pseudo_huber(r, c, wcc):
+    """``sum(wcc (sqrt(1 + (r / c)^2) - 1))`` (``wcc``: the weights times c^2), the robust
+    cost: the written-out expression's operations on the same numbers, in one scratch
+    array (a fifth of the temporaries; called at every optimiser trial)."""
+    t = np.divide(r, c)
+    if t.shape != np.shape(wcc):          # a residual broadcast over the points
+        return float(np.sum(wcc * (np.sqrt(1.0 + t ** 2) - 1.0)))
+    np.square(t, out=t)
+    np.add(t, 1.0, out=t)
+    np.sqrt(t, out=t)
+    np.subtract(t, 1.0, out=t)
+    return float(np.sum(np.multiply(wcc, t, out=t)))
+
+
+def pseudo_huber_weights(r, c, w, out=None):
+    """The IRLS weights of :func:`pseudo_huber`, ``w / sqrt(1 + (r / c)^2)``, in one
+    array (``out``, else a new one): the written-out expression's numbers."""
+    t = np.divide(r, c, out=out)
+    np.square(t, out=t)
+    np.add(t, 1.0, out=t)
+    np.sqrt(t, out=t)
+    return np.divide(w, t, out=t)
+
+
+def divide_rows(J, d):
+    """``J (k, n) / d[:, None]`` in place: where ``J`` is one block of memory, by ``d``
+    repeated along each row (the same quotients; a broadcast over rows of a few columns
+    is a loop of that few per row, twice as slow)."""
+    if not J.flags.c_contiguous:
+        return np.divide(J, d[:, None], out=J)
+    flat = J.reshape(-1)
+    np.divide(flat, np.repeat(d, J.shape[1]), out=flat)
+    return J
+
+
 def _solve(M, g):
     """``M^-1 g`` per problem ``(N, n, n), (N, n)``; ``ok`` False where ``M`` is singular."""
     try:

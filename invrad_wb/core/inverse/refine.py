@@ -473,13 +473,13 @@ class RefineProblem:
         return _Direct(E, N, dx, dy, dz, A, B, r2, t)
 
     def _lambertian_grad(self, st):
-        """d E / d position (K, k, 3) of a :class:`_Direct` (whose A, B, r2 and scratch it
-        overwrites: one gradient per state)."""
+        """d E / d position (K, k, 3; a (k, K, 3) array's view, the Jacobian's layout) of a
+        :class:`_Direct` (its A, B, r2 and scratch overwritten: one gradient per state)."""
         E, N, t = st.E, st.N, st.t
         # d E / d c = E (-N / A + n / B - 4 (c - s) / r^2), one component at a time
         iA, iB, ir2 = np.divide(1.0, st.A, out=st.A), np.divide(1.0, st.B, out=st.B), \
             np.divide(-4.0, st.r2, out=st.r2)
-        dE = np.empty(E.shape + (3,))
+        dE = np.empty((E.shape[1], E.shape[0], 3)).transpose(1, 0, 2)
         u = np.empty_like(E)
         for j, (dj, nj) in enumerate(((st.dx, self._nT[0]), (st.dy, self._nT[1]),
                                       (st.dz, self._nT[2]))):
@@ -532,7 +532,7 @@ class RefineProblem:
                        else L.own_indirect())
                 if own is not None:
                     E += own
-        Ep = E + self.eps_lux
+        Ep = np.add(E, self.eps_lux, out=E)         # E is this call's own
         r = np.log(Ep) - self.log_target
         if not with_jac:
             if key is not None:
@@ -546,6 +546,11 @@ class RefineProblem:
     def _jacobian(self, lights, vis_list, e, de, Ep):
         """(k, n) d r / d parameters from each luminaire's light e (K, k), its position
         derivatives de (K, k, 3) and the predicted light plus eps, Ep (k,)."""
+        if all(L.kind == "free" and not L.free_aim and not L.free_flux
+               and L.indirect_grad is None for L in lights):
+            J = de.transpose(1, 0, 2)       # + 0.0: the product with dpos() = I, bit for bit
+            J = np.add(J, 0.0, out=J if J.flags.c_contiguous else np.empty(J.shape))
+            return optim.divide_rows(J.reshape(len(Ep), -1), Ep)
         jac_blocks = []
         for i, L in enumerate(lights):
             own = (L.indirect if L.flux_scale == 1.0 and L.indirect_grad is None
@@ -562,7 +567,7 @@ class RefineProblem:
             jac_blocks.append(block)
         J = jac_blocks[0] if len(jac_blocks) == 1 else np.concatenate(jac_blocks, axis=1)
         # divided in place (the blocks are this call's own arrays)
-        return np.divide(J, Ep[:, None], out=J)
+        return optim.divide_rows(J, Ep)
 
     def _aim_jacobian(self, L, vis, h=1e-4):
         """(k, 2) d E / d aim coordinates of one aimable luminaire (central differences)."""
@@ -587,8 +592,10 @@ class RefineProblem:
         return np.stack([(E[0] - E[1]) / (2 * h), (E[2] - E[3]) / (2 * h)], axis=1)
 
     def cost_of(self, r):
-        c = self.robust_scale
-        return float(np.sum(self.w_area * c * c * (np.sqrt(1.0 + (r / c) ** 2) - 1.0)))
+        c, got = self.robust_scale, getattr(self, "_wcc", None)     # w_area c^2, kept
+        if got is None or got[0] != c or got[1] is not self.w_area:
+            got = self._wcc = (c, self.w_area, self.w_area * c * c)
+        return optim.pseudo_huber(r, c, got[2])
 
     def cost(self, lights, vis_list=None, extra=None):
         if vis_list is None:
@@ -741,9 +748,9 @@ class RefineProblem:
 
         def weights(r):
             if not pairs:
-                return (self.w_area / np.sqrt(1.0 + (r[0] / c) ** 2))[None]
+                return optim.pseudo_huber_weights(r[0], c, self.w_area)[None]
             w = np.ones_like(r)
-            w[0, :k] = self.w_area / np.sqrt(1.0 + (r[0, :k] / c) ** 2)
+            optim.pseudo_huber_weights(r[0, :k], c, self.w_area, out=w[0, :k])
             return w
 
         def project(x_old, x_new, _idx):

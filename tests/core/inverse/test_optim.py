@@ -151,3 +151,22 @@ def test_as_rng_accepts_seeds_and_generators(seed):
     g = np.random.default_rng(seed)
     assert optim.as_rng(g) is g
     assert optim.as_rng(seed).standard_normal() == np.random.default_rng(seed).standard_normal()
+
+
+def test_robust_cost_weights_and_row_division_are_the_written_out_numbers():
+    """optim.pseudo_huber, pseudo_huber_weights and divide_rows (one scratch array,
+    a repeated divisor) give the plain expressions' numbers bit for bit."""
+    rng = np.random.default_rng(5)
+    r, w, c = rng.standard_normal(1001) * 0.3, rng.uniform(0, 1, 1001), 0.1
+    assert optim.pseudo_huber(r, c, w * c * c) == float(
+        np.sum(w * c * c * (np.sqrt(1.0 + (r / c) ** 2) - 1.0)))
+    ref = w / np.sqrt(1.0 + (r / c) ** 2)
+    assert optim.pseudo_huber_weights(r, c, w).tobytes() == ref.tobytes()
+    out = np.ones(1200)
+    optim.pseudo_huber_weights(r, c, w, out=out[:1001])
+    assert out[:1001].tobytes() == ref.tobytes() and np.all(out[1001:] == 1.0)
+    d = rng.uniform(0.5, 500.0, 1001)
+    for J in (rng.standard_normal((1001, 7)), rng.standard_normal((7, 1001)).T):
+        ref = J / d[:, None]
+        got = optim.divide_rows(J, d)
+        assert got is J and J.tobytes() == ref.tobytes()

@@ -119,3 +119,35 @@ def test_separation_rows_are_every_close_pair_few_or_many():
         want = _pairs_reference(prob, lights)
         assert np.array_equal(r, want) and J.shape == (len(want), 3 * n)
         assert n < 3 or len(want) > 0
+
+
+def _bits(a):
+    return np.ascontiguousarray(a).view(np.int64).tobytes()
+
+
+def test_mid_air_jacobian_and_cost_give_the_plain_expressions_numbers():
+    """Mid-air luminaires' Jacobian (no product with the identity, no concatenation) and
+    the robust cost (one scratch array) are bit for bit the written-out expressions', the
+    signs of zeros included (unlit points' derivatives are -0.0 before the product)."""
+    prob, rng = _problem(3)
+    k = len(prob.positions)
+    free = [Light("free", np.array([x, y, z]), np.array([0.0, 0.0, -1.0]), 1,
+                  indirect=rng.uniform(0, 30, k))
+            for x, y, z in [(1.0, 1.0, 2.0), (3.0, 2.2, 1.6), (2.0, 0.5, 2.4)]]
+    for lights in (free[:1], free):
+        vis = [rng.uniform(size=k) > 0.2 for _ in lights]
+        e, de = _reference(prob, lights, vis)
+        assert np.any(np.signbit(de) & (de == 0.0))
+        Ep = prob.indirect + e.sum(axis=0) if len(lights) > 1 else prob.indirect + e[0]
+        for L in lights:
+            Ep = Ep + L.indirect
+        Ep = Ep + prob.eps_lux
+        J_ref = np.concatenate([de[i] @ L.dpos().T for i, L in enumerate(lights)], axis=1)
+        J_ref = J_ref / Ep[:, None]
+        r, J = prob.residuals(lights, vis, with_jac=True)
+        assert _bits(r) == _bits(np.log(Ep) - prob.log_target)
+        assert J.shape == J_ref.shape and J.flags.c_contiguous
+        assert _bits(J) == _bits(J_ref)
+        c = prob.robust_scale
+        ref = float(np.sum(prob.w_area * c * c * (np.sqrt(1.0 + (r / c) ** 2) - 1.0)))
+        assert prob.cost_of(r) == ref
