@@ -571,7 +571,8 @@ def _ugr(lums, rad, mf, scale=1.0):
     if scale != 1.0:
         from dataclasses import replace
         lums = [replace(lum, flux_lm=lum.flux_lm * scale) for lum in lums]
-    u = [ugr(lums, x, v, mf * bl * scale) for (x, v), bl in zip(rad["obs"], rad["ind"])]
+    # new condition (roomglare's module doc): the background without MF (round 12)
+    u = [ugr(lums, x, v, bl * scale) for (x, v), bl in zip(rad["obs"], rad["ind"])]
     u = [x for x in u if x is not None]
     return max(u) if u else None
 

@@ -1,6 +1,18 @@
 """The deep-dimming note of a designed room (luminaires below ``DEEP_DIMMING`` of their
 rated output) and what the catalogue's smaller types would trade."""
+import math
+
 from invrad_wb.constants import DEEP_DIMMING
+
+
+def _pct(fraction):
+    """An output below ``DEEP_DIMMING`` in per cent, as printed: whole per cent, or one
+    decimal (rounded down) where the whole number would read as the threshold itself
+    ('49.7 %', not '50 %' in a note about outputs below 50 %)."""
+    p = 100.0 * fraction
+    if round(p) < 100.0 * DEEP_DIMMING:
+        return f"{p:.0f}"
+    return f"{math.floor(p * 10.0) / 10.0:.1f}"
 
 
 def deep_dimming_note(rd, entries=None):
@@ -16,8 +28,8 @@ def deep_dimming_note(rd, entries=None):
     parts, trades = [], []
     for t, (low, n) in sorted(rd.deep_dimmed().items()):
         lows = [v for v, u in zip(x, types) if u == t and v < DEEP_DIMMING - 1e-9]
-        lo, hi = 100 * min(lows), 100 * max(lows)
-        at = f"at {lo:.0f} %" if round(lo) == round(hi) else f"at {lo:.0f} to {hi:.0f} %"
+        lo, hi = _pct(min(lows)), _pct(max(lows))
+        at = f"at {lo} %" if lo == hi else f"at {lo} to {hi} %"
         parts.append(f"the {t} {at}" if n == 1 else f"all {n} {t} {at}" if low == n
                      else f"{low} of {n} {t} {at}")
         if entries is not None:

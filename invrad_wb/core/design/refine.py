@@ -356,7 +356,7 @@ def _fast_parts(search, cand, groups):
             lux[gi] += (d + m.mf * e.flux_lm * int(cols.sum())
                         * m.indirect_per_lm[e.key]) * m.correction
             if glare is not None:
-                glare[1][gi] += (m.mf * e.flux_lm * int(cols.sum())
+                glare[1][gi] += (e.flux_lm * int(cols.sum())    # new (roomglare)
                                  * search.eye_ind[e.key])
         if glare is not None:
             # a type of high luminance ranks by what it really may draw under the UGR

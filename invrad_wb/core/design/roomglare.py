@@ -1,7 +1,16 @@
 """UGR of a designed room's whole installation (CIE 117 at the standard observers), the
 glare and background terms of a part of it (:func:`glare_terms`: the accents' are
 constants of the general lighting's programme, :mod:`.accentglare`), and of its general
-lighting dimmed beside accents (:func:`glare_parts`, :func:`ugr_at`)."""
+lighting dimmed beside accents (:func:`glare_parts`, :func:`ugr_at`).
+
+UGR rates the installation **new** (CIE 117; EN 12464-1's UGR limits hold for the
+installation in new condition, as the luminaire makers' UGR tables, which know no
+maintenance factor): the luminaires' luminance at their (designed) output and the
+background luminance from the light they give new, both without the maintenance factor.
+Until round 12 the background was taken maintained (x MF) with the luminance new: a mix
+that read every room 8 log10(1 / MF) high (+0.78 at MF 0.8), conservative but costing
+watts where UGR binds (tests/core/design/test_design_radiance.py: Radiance's CIE 117
+figure in the new condition)."""
 import numpy as np
 
 
@@ -16,7 +25,7 @@ def room_ugr(model, droom, luminaires):
         return None
     eyes = np.array([e for e, _ in obs])
     views = np.array([v for _, v in obs])
-    lb = model.mf * model.indirect_at(eyes, views, luminaires)
+    lb = model.indirect_at(eyes, views, luminaires)       # new condition (module doc)
     values = [ugr(luminaires, e, v, b) for (e, v), b in zip(obs, lb)]
     values = [u for u in values if u is not None]
     return max(values) if values else None
@@ -38,7 +47,7 @@ def ugr_note(rd, droom):
 
 
 def glare_terms(model, droom, luminaires, covering=None):
-    """(glare sums ``L^2 omega / p^2`` (O,), maintained background lux (O,)) of
+    """(glare sums ``L^2 omega / p^2`` (O,), background lux (O,), new) of
     ``luminaires`` at the CIE 117 observers, as :func:`room_ugr` counts them: the
     background is the interreflected light at the eye (the direct light left out), and
     light adds up, so a part's terms add to another's (``covering``:
@@ -52,7 +61,7 @@ def glare_terms(model, droom, luminaires, covering=None):
     # ugr() at a background of pi/4 lx is 8 log10 of the sum itself
     out = [ugr(luminaires, e, v, 0.25 * np.pi) for e, v in obs]
     sums = np.array([0.0 if u is None else 10.0 ** (u / 8.0) for u in out])
-    return sums, model.mf * model.indirect_at(eyes, views, luminaires, covering)
+    return sums, model.indirect_at(eyes, views, luminaires, covering)
 
 
 def glare_parts(model, droom, general, accents):

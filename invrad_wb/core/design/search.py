@@ -325,7 +325,8 @@ class RoomSearch:
         g0, g1 = self.GL[self._optics(e0)][0][sel], self.GL[self._optics(e1)][1][sel]
         N = self.N[sel]
         total = (e0.flux_lm ** 2 * g0 + e1.flux_lm ** 2 * g1) * (dim ** 2)[:, None]
-        lb = m.mf * dim[:, None] * (np.outer(N[:, 0] * e0.flux_lm, self.eye_ind[e0.key])
+        # the background new, as roomglare rates UGR
+        lb = dim[:, None] * (np.outer(N[:, 0] * e0.flux_lm, self.eye_ind[e0.key])
                                     + np.outer(N[:, 1] * e1.flux_lm, self.eye_ind[e1.key]))
         u = ugr_from_sum(total, lb)
         with np.errstate(all="ignore"):
@@ -349,7 +350,7 @@ class RoomSearch:
                 total[o] += lum.flux_lm ** 2 * unit_glare(
                     eye, view, lum.position[None], lum.normal[None], self._area(e),
                     self.phot.get(e.name), lum.c0)[0]
-        lb = self.model.mf * self.model.indirect_at(eyes, views, luminaires, covering)
+        lb = self.model.indirect_at(eyes, views, luminaires, covering)     # new
         return total, lb
 
     def _calibrate_all(self):

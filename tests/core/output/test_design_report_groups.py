@@ -213,6 +213,9 @@ def test_deep_dimming_counts_each_luminaire_not_the_type_mean():
     one = _room(GRID[:1], [0.3])
     assert D._deep_text(one) == "the DL-3500 below 50 %"
     assert "the DL-3500 at 30 %" in deep_dimming_note(one)
+    # just below the threshold: one decimal, never '50 %' in a note about outputs below 50 %
+    near = _room(GRID[:2], [0.4996, 0.4960])
+    assert "all 2 DL-3500 at 49.6 to 49.9 %" in deep_dimming_note(near)
     # accents (after the general lighting) are not general lighting: not counted
     acc = _room(np.r_[GRID, [[5.5, 3.5]]], np.r_[np.full(15, 0.8), 0.2], dims=False)
     acc.candidate = Candidate(SimpleNamespace(positions=np.c_[GRID, np.zeros(15)],
