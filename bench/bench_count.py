@@ -292,8 +292,9 @@ rss MB / sd cm / sd % / rms/sd; sd the full model's bound):
   array12_issue  0.014 m 1509728 v 12/12 yes 0.86 0.38 562 401 4078 | 0.81 0.37 1.05
                  (0.027 m: 2.33 cm 1.06 %, sd 1.57 cm; the build, render with
                  interreflection, 10 min wall, peak 2893 MB)
-  cluster4_0.3h  0.012 m  880174 v  4/4  yes 2.06 5.24 294 ~170 2578 | 1.15 3.42 1.44
-                 (0.019 m: 2.22 cm 4.05 %, sd 1.82 cm 5.41 %; build 253 s wall)
+  cluster4_0.3h  0.012 m  880174 v  4/4  yes 2.06 5.24 294   -  2578 | 1.15 3.42 1.44
+                 (0.019 m: 2.22 cm 4.05 %, sd 1.82 cm 5.41 %; build 253 s wall; build,
+                 locate and bound together 301 CPU s)
 array12_issue meets the Done-when (2 cm, 5 %) at 0.014 m, at the bound (rms/sd 1.05);
 cluster4 at 0.012 m is 1.8 sd (position) and 1.5 sd (flux) of its bound, which is what
 stops it: the bound's 0.8 cm / 2 % needs about 0.008 m there.
@@ -307,9 +308,9 @@ distances, +1.17 GB over the baseline, the same in the truth render): now in blo
 2^18 triangles, and each room's triangles copied once: the model's build peaks at 365
 instead of 564 bytes a face (630 000 faces: 219 against 339 MB of numpy allocations),
 the patches bit for bit the same. The streamed refit's own arrays (50 000-vertex chunks,
-about 220 bytes a vertex held: views, a float64 interreflection and coordinate rows per
-chunk, up to 64 one-byte visibility masks, the interpolation's 64 bytes, the exact
-interreflection in float32) were not the peak and are left as they are.
+about 220 bytes a vertex by their sizes: views, a float64 interreflection and coordinate
+rows per chunk, up to 64 one-byte visibility masks, the interpolation's 64 bytes, the
+exact interreflection in float32) were not the peak and are left as they are.
 The count search and selection (on the 20 000-vertex subset, interreflection held between
 refreshes) do not need the gradient: the count is right in every scene at every mesh run
 (7/7 at 0.2 m, and each fine mesh), and the last refit from their answer ends at the bound
