@@ -301,7 +301,7 @@ stops it: the bound's 0.8 cm / 2 % needs about 0.008 m there.
 Memory: the peak RSS grows by about 2.7 kB per target vertex (0.027 m, 409 022 vertices:
 1203 MB; 0.014 m, 1 509 728: 4176 MB by /usr/bin/time, truth render and bound included),
 so 2 million vertices take about 5.5 GB: time, not memory, is this machine's limit (the
-exact interreflection gathers, render and last refit, about 0.2 ms a vertex each). The
+scene and its render 5-6 CPU min, locate 401 CPU s at 1.51 million vertices). The
 largest transient of locate at 880 174 vertices (RSS sampled with the stack every 0.1 s)
 was the radiosity model's patch statistics (patches._cluster_stats' (T, 3, 3) corner
 distances, +1.17 GB over the baseline, the same in the truth render): now in blocks of
