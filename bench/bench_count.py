@@ -295,9 +295,14 @@ rss MB / sd cm / sd % / rms/sd; sd the full model's bound):
   cluster4_0.3h  0.012 m  880174 v  4/4  yes 2.06 5.24 294   -  2578 | 1.15 3.42 1.44
                  (0.019 m: 2.22 cm 4.05 %, sd 1.82 cm 5.41 %; build 253 s wall; build,
                  locate and bound together 301 CPU s)
-array12_issue meets the Done-when (2 cm, 5 %) at 0.014 m, at the bound (rms/sd 1.05);
-cluster4 at 0.012 m is 1.8 sd (position) and 1.5 sd (flux) of its bound, which is what
-stops it: the bound's 0.8 cm / 2 % needs about 0.008 m there.
+  cluster4_0.3h  0.008 m 1975756 v  4/4  yes 1.04 3.62 942   -  3397 | 0.77 2.28 1.20
+                 (build 963 s wall; build, locate and bound 1229 CPU s; run on the code
+                 before this round's patch-statistics change)
+array12_issue and cluster4 meet the Done-when (2 cm, 5 %, flux unknown) at 0.014 m and
+0.008 m, each at its bound (rms/sd 1.05, 1.20); at 0.012 m cluster4 was 1.8 sd (position)
+and 1.5 sd (flux) of its bound off, just outside. Flux given not rerun finer (0.027 m
+0.52 cm and 0.019 m 1.16 cm already within 2 cm); array16 and array12_mixed not run at
+fine meshes (their 0.013 / 0.016 m would take 30-40 min wall each here).
 Memory: the peak RSS grows by about 2.7 kB per target vertex (0.027 m, 409 022 vertices:
 1203 MB; 0.014 m, 1 509 728: 4176 MB by /usr/bin/time, truth render and bound included),
 so 2 million vertices take about 5.5 GB: time, not memory, is this machine's limit (the
@@ -310,7 +315,10 @@ instead of 564 bytes a face (630 000 faces: 219 against 339 MB of numpy allocati
 the patches bit for bit the same. The streamed refit's own arrays (50 000-vertex chunks,
 about 220 bytes a vertex by their sizes: views, a float64 interreflection and coordinate
 rows per chunk, up to 64 one-byte visibility masks, the interpolation's 64 bytes, the
-exact interreflection in float32) were not the peak and are left as they are.
+exact interreflection in float32) were not the peak and are left as they are. At 0.008 m
+(3.94 million faces) the peak, 3.3 GB, is the scene's construction (its face areas'
+cross products) and, in the bench's bound, its canvas (votemaps._dummy_maps'
+raster.locate_points, +1.5 GB): neither is locate's.
 The count search and selection (on the 20 000-vertex subset, interreflection held between
 refreshes) do not need the gradient: the count is right in every scene at every mesh run
 (7/7 at 0.2 m, and each fine mesh), and the last refit from their answer ends at the bound
