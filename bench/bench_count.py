@@ -301,8 +301,13 @@ rss MB / sd cm / sd % / rms/sd; sd the full model's bound):
 array12_issue and cluster4 meet the Done-when (2 cm, 5 %, flux unknown) at 0.014 m and
 0.008 m, each at its bound (rms/sd 1.05, 1.20); at 0.012 m cluster4 was 1.8 sd (position)
 and 1.5 sd (flux) of its bound off, just outside. Flux given not rerun finer (0.027 m
-0.52 cm and 0.019 m 1.16 cm already within 2 cm); array16 and array12_mixed not run at
-fine meshes (their 0.013 / 0.016 m would take 30-40 min wall each here).
+0.52 cm and 0.019 m 1.16 cm already within 2 cm). array16 and array12_mixed at 0.04 m
+(load 2-4, with the patch change; same columns):
+  array12_mixed  0.04 m  182768 v 12/12 yes 1.40 1.08  49  47 1064 | 3.51 1.58 0.52
+  array16_0.8h   0.04 m  189426 v 16/16 yes 3.96 1.01 105 106 1597 | 3.48 2.15 0.95
+  given array16  0.04 m  189426 v 16/16 yes 4.18       31  33 1597 | 1.72      1.82
+array12_mixed is within 2 cm / 5 % already at 0.04 m (one draw, 0.4 sd); array16 is at its
+bound (free) and needs about 0.013 m (free) / 0.02 m (given), not run (30-40 min wall here).
 Memory: the peak RSS grows by about 2.7 kB per target vertex (0.027 m, 409 022 vertices:
 1203 MB; 0.014 m, 1 509 728: 4176 MB by /usr/bin/time, truth render and bound included),
 so 2 million vertices take about 5.5 GB: time, not memory, is this machine's limit (the
