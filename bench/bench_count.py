@@ -284,6 +284,51 @@ every vertex 4.5 CPU s (2.3 s wall); three LM steps 60 CPU s; the Fisher bound 1
 The refit's own arrays stay bounded by the chunk; the resident memory is the scene's
 (about 200 bytes a face), the vertices' (130 bytes each, held twice in that script) and
 the radiosity model of a 3.55 million-face room.
+
+Round 12 (h12-fine), 2026-11-26, finer meshes on this machine (23 GB, 2 shared cores, load
+4-5; flux unknown, 5 % noise, every target vertex in the last refit with the
+interreflection's gradient; count / ok / max cm / max flux % / locate wall s / CPU s / peak
+rss MB / sd cm / sd % / rms/sd; sd the full model's bound):
+  array12_issue  0.014 m 1509728 v 12/12 yes 0.86 0.38 562 401 4078 | 0.81 0.37 1.05
+                 (0.027 m: 2.33 cm 1.06 %, sd 1.57 cm; the build, render with
+                 interreflection, 10 min wall, peak 2893 MB)
+  cluster4_0.3h  0.012 m  880174 v  4/4  yes 2.06 5.24 294   -  2578 | 1.15 3.42 1.44
+                 (0.019 m: 2.22 cm 4.05 %, sd 1.82 cm 5.41 %; build 253 s wall; build,
+                 locate and bound together 301 CPU s)
+  cluster4_0.3h  0.008 m 1975756 v  4/4  yes 1.04 3.62 942   -  3397 | 0.77 2.28 1.20
+                 (build 963 s wall; build, locate and bound 1229 CPU s; run on the code
+                 before this round's patch-statistics change)
+array12_issue and cluster4 meet the Done-when (2 cm, 5 %, flux unknown) at 0.014 m and
+0.008 m, each at its bound (rms/sd 1.05, 1.20); at 0.012 m cluster4 was 1.8 sd (position)
+and 1.5 sd (flux) of its bound off, just outside. Flux given not rerun finer (0.027 m
+0.52 cm and 0.019 m 1.16 cm already within 2 cm). array16 and array12_mixed at 0.04 m
+(load 2-4, with the patch change; same columns):
+  array12_mixed  0.04 m  182768 v 12/12 yes 1.40 1.08  49  47 1064 | 3.51 1.58 0.52
+  array16_0.8h   0.04 m  189426 v 16/16 yes 3.96 1.01 105 106 1597 | 3.48 2.15 0.95
+  given array16  0.04 m  189426 v 16/16 yes 4.18       31  33 1597 | 1.72      1.82
+array12_mixed is within 2 cm / 5 % already at 0.04 m (one draw, 0.4 sd); array16 is at its
+bound (free) and needs about 0.013 m (free) / 0.02 m (given), not run (30-40 min wall here).
+Memory: the peak RSS grows by about 2.7 kB per target vertex (0.027 m, 409 022 vertices:
+1203 MB; 0.014 m, 1 509 728: 4176 MB by /usr/bin/time, truth render and bound included),
+so 2 million vertices take about 5.5 GB: time, not memory, is this machine's limit (the
+scene and its render 5-6 CPU min, locate 401 CPU s at 1.51 million vertices). The
+largest transient of locate at 880 174 vertices (RSS sampled with the stack every 0.1 s)
+was the radiosity model's patch statistics (patches._cluster_stats' (T, 3, 3) corner
+distances, +1.17 GB over the baseline, the same in the truth render): now in blocks of
+2^18 triangles, and each room's triangles copied once: the model's build peaks at 365
+instead of 564 bytes a face (630 000 faces: 219 against 339 MB of numpy allocations),
+the patches bit for bit the same. The streamed refit's own arrays (50 000-vertex chunks,
+about 220 bytes a vertex by their sizes: views, a float64 interreflection and coordinate
+rows per chunk, up to 64 one-byte visibility masks, the interpolation's 64 bytes, the
+exact interreflection in float32) were not the peak and are left as they are. At 0.008 m
+(3.94 million faces) the peak, 3.3 GB, is the scene's construction (its face areas'
+cross products) and, in the bench's bound, its canvas (votemaps._dummy_maps'
+raster.locate_points, +1.5 GB): neither is locate's.
+The count search and selection (on the 20 000-vertex subset, interreflection held between
+refreshes) do not need the gradient: the count is right in every scene at every mesh run
+(7/7 at 0.2 m, and each fine mesh), and the last refit from their answer ends at the bound
+(rms/sd 1.05 and 1.44 here, 0.6-1.25 at h11's meshes, the gap to the truth's own refit
+0.1-1.1 noise variances): no error is left that starts there.
 """
 import argparse
 import os

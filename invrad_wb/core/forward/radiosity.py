@@ -354,12 +354,12 @@ class RadiosityModel:
         self.patch_room = np.zeros(n_total, dtype=np.int64)
         self.patch_point = np.zeros((n_total, 3))
         self.patch_centroid = np.zeros((n_total, 3))
-        tri = sc.triangles
         rooms = []
         for r, sl, faces, cell in self.rooms:
             self.patch_room[sl] = r
             fp = face_patch[faces] - sl.start
-            ps = PatchSet(tri[faces], fp, self.patch_plane[sl], self.patch_normal[sl],
+            tri = sc.vertices[sc.faces[faces]]     # this room's (not every face's) copy
+            ps = PatchSet(tri, fp, self.patch_plane[sl], self.patch_normal[sl],
                           reflectance=self.patch_reflectance[sl],
                           emits=~self.patch_virtual[sl])
             self.patch_point[sl] = ps.point
@@ -369,7 +369,7 @@ class RadiosityModel:
             fs = face_sub[faces]
             us, sinv = np.unique(fs, return_inverse=True)
             sinv = sinv.reshape(-1)
-            s_area, _, s_point, _, s_rep = _cluster_stats(tri[faces], sinv, len(us))
+            s_area, _, s_point, _, s_rep = _cluster_stats(tri, sinv, len(us))
             s_parent = fp[s_rep]
             order = np.argsort(s_parent, kind="stable")
             room.sample_point = s_point[order]

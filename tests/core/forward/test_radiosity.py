@@ -563,3 +563,23 @@ def test_patch_direct_light_follows_shadows_and_the_distribution():
         & (np.abs(model.patch_centroid[:, 1] - 2.0) < 0.5)
     assert under.any() and np.all(shadowed[under] == 0.0)
     assert got[under].min() > 50.0
+
+
+def test_patch_stats_in_blocks_equal_whole():
+    """The patches' area, centroid, representative point and radius computed a block of
+    triangles at a time (bounded temporaries on rooms of millions of faces) are the same
+    numbers, bit for bit, as computed over every triangle at once."""
+    from invrad_wb.core.forward.patches import _cluster_stats
+    rng = np.random.default_rng(3)
+    tri = rng.standard_normal((2000, 3, 3))
+    cl = rng.integers(0, 40, len(tri))
+    cl[:40] = np.arange(40)
+    whole = _cluster_stats(tri, cl, 40, block=len(tri))
+    for block in (1, 7, 512):
+        got = _cluster_stats(tri, cl, 40, block=block)
+        assert all(np.array_equal(a, b) for a, b in zip(whole, got))
+    # a patch of two triangles: its area, centroid and the corner farthest from it
+    sq = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0]], [[0, 0, 0], [1, 1, 0], [0, 1, 0.]]])
+    area, cen, _pt, radius, _rep = _cluster_stats(sq, np.array([0, 0]), 1, block=1)
+    assert area[0] == pytest.approx(1.0) and np.allclose(cen[0], [0.5, 0.5, 0])
+    assert radius[0] == pytest.approx(np.sqrt(0.5))
