@@ -38,3 +38,47 @@ def test_room_ugr_is_the_new_installations_and_its_terms_add_up():
     t1, b1 = glare_terms(model, droom, lums[:2], covering=lums)
     t2, b2 = glare_terms(model, droom, lums[2:], covering=lums)
     assert np.nanmax(ugr_from_sum(t1 + t2, b1 + b2)) == pytest.approx(u[0.8], abs=1e-6)
+
+
+def test_the_searchs_ugr_paths_rate_the_installation_new_as_room_ugr():
+    """The search's UGR figures (search.fast_ugr of the table, search.exact_glare of a
+    layout, and the per-group programme's background rows, refine._fast_parts) count the
+    background as room_ugr does, new: the same figures whatever the model's maintenance
+    factor (which scales the maintained lux only), and exact_glare gives room_ugr's UGR."""
+    from invrad_wb.core.design.design import _with_surroundings
+    from invrad_wb.core.design.evaluate import surface_grids
+    from invrad_wb.core.design.refine import _fast_parts, groups_of
+    from invrad_wb.core.design.search import RoomSearch
+    from invrad_wb.core.design.spec import spec_from_dict
+    sc = g.with_reflectances(g.box_room(size=(5.0, 4.0, 2.8), cell=0.5))
+    spec = spec_from_dict({"maintenance_factor": 0.8, "rooms": {"0": {
+        "work_plane": {"lux": 500, "u0": 0.6}, "ugr_max": 19}}, "catalogue": [
+        {"name": "DL-3500", "flux_lm": 3500, "watts": 26.0, "dimming": [0.1, 1.0],
+         "radius_m": 0.25}]})
+    rs, droom = spec.room_spec(0), DesignRoom(sc, 0)
+    req = rs.work_plane
+    pts, _ = droom.grid(req.height_m, req.margin_m)
+    surfaces = surface_grids(sc, 0, droom)
+    rs = _with_surroundings(rs, droom, req, surfaces, type("RD", (), {"notes": []})())
+    model = RoomModel(sc, droom, pts, 0.8, surfaces=surfaces, backend="numpy")
+    search = RoomSearch(model, req, rs, spec.entries_for(rs, 2.8), {}, mixed=False)
+    search._calibrate_all()
+    assert search.obs and search.ugr_max == 19
+    t = search.table()
+    cand = search.candidate(t, int(np.flatnonzero(np.isfinite(t["ugr"]))[0]))
+    lums = search.luminaires(cand)
+    groups = groups_of(cand.geom.plan, cand.geom.cls)
+    sel = np.arange(len(search.geoms))
+    pair = (0, 0)
+
+    def figures():
+        return (search.fast_ugr(pair, sel, np.full(len(sel), 0.7)),
+                search.exact_glare(lums)[1], _fast_parts(search, cand, groups)[1][1])
+
+    at_08 = figures()
+    total, lb = search.exact_glare(lums)
+    assert np.nanmax(ugr_from_sum(total, lb)) == pytest.approx(
+        room_ugr(model, droom, lums), abs=1e-9)
+    model.mf = 0.5                      # the maintained lux halve; UGR stays
+    for a, b in zip(at_08, figures()):
+        assert np.isfinite(a).any() and np.array_equal(a, b, equal_nan=True)
