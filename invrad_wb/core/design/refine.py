@@ -158,10 +158,11 @@ def solve_outputs(parts, watts, lo, hi, search, glare=None, may_drop=False,
     ``parts``: dict with ``lux`` (G, k) maintained lux at the model's points at full
     output, ``direct`` (G, k) its direct part, optionally ``ez`` (G, c) maintained Ez;
     ``watts`` (G,) rated power per group; ``lo``, ``hi`` (G,) output range; ``glare``:
-    (T (G, O), B (G, O)) glare sums and maintained background lux per group at full output,
-    or None (UGR not constrained). ``may_drop``: a group may also be left out (``x = 0``,
-    its luminaires not installed) where that draws less: a mixed-integer programme, each
-    group off or within its range (a type that does not dim: off or at full output).
+    (T (G, O), B (G, O)) glare sums and background lux (new, as :mod:`.roomglare` rates
+    UGR) per group at full output, or None (UGR not constrained). ``may_drop``: a group
+    may also be left out (``x = 0``, its luminaires not installed) where that draws less:
+    a mixed-integer programme, each group off or within its range (a type that does not
+    dim: off or at full output).
     ``time_limit``: seconds per programme (HiGHS); ``max_watts``: no answer over it;
     ``exclusive``: pairs of groups of which at most one is on (with ``may_drop``);
     ``log``: called with a line per programme solved (figures of the rounds).

@@ -335,9 +335,9 @@ class RoomSearch:
 
     def exact_glare(self, luminaires, covering=None):
         """(total (O,), background lux (O,)) of luminaires: the glare sums of
-        :func:`unit_glare` and the maintained interreflected light at the eyes by an exact
-        solve; ``ugr_from_sum(f^2 total, f lb)`` is the UGR at output fraction f
-        (``covering``: :meth:`.evaluate.RoomModel.solve`)."""
+        :func:`unit_glare` and the interreflected light at the eyes, new (as
+        :mod:`.roomglare` rates UGR), by an exact solve; ``ugr_from_sum(f^2 total, f lb)``
+        is the UGR at output fraction f (``covering``: :meth:`.evaluate.RoomModel.solve`)."""
         if not self.obs or not luminaires:
             return None
         eyes = np.array([e for e, _ in self.obs])
