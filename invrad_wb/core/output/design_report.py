@@ -555,7 +555,7 @@ def summary_rows(r):
                      "verdict": ("-" if "Ez" not in v else "pass" if v["Ez"] else "FAIL"),
                      "source": "spec or room type (EN 12464-1:2021 4.6.2)"})
     ugr = "not computable" if r.ugr is None else ("< 10" if r.ugr < 10 else f"{r.ugr:.1f}")
-    rows.append({"item": "UGR (CIE 117, worst standard observer)",
+    rows.append({"item": "UGR (CIE 117, worst standard observer, installation new)",
                  "required": "-" if r.ugr_limit is None else f"<= {r.ugr_limit:g}",
                  "achieved": ugr,
                  "verdict": ("-" if "UGR" not in v else "pass" if v["UGR"] else "FAIL"),

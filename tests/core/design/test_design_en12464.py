@@ -254,7 +254,8 @@ def test_power_deep_dimming_energy_and_the_room_summary_through_the_cli(tmp_path
     for words in ("Room summary", "task area (work plane)", "immediate surroundings",
                   "walls", "ceiling", "UGR (CIE 117", "installed (rated) power",
                   "W/m&sup2;/100 lx", "deep dimming", "kWh/a", "maintenance factor 0.8",
-                  "EN 12464-1:2021 5.2.3"):
+                  "EN 12464-1:2021 5.2.3", "UGR excepted: rated for the installation new",
+                  "worst standard observer, installation new"):
         assert words in html, words
     rows = (tmp_path / "rep" / "rooms.csv").read_text(encoding="utf-8").splitlines()
     assert "rated_w" in rows[0] and "walls" in rows[0]
