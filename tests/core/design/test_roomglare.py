@@ -79,6 +79,6 @@ def test_the_searchs_ugr_paths_rate_the_installation_new_as_room_ugr():
     total, lb = search.exact_glare(lums)
     assert np.nanmax(ugr_from_sum(total, lb)) == pytest.approx(
         room_ugr(model, droom, lums), abs=1e-9)
-    model.mf = 0.5                      # the maintained lux halve; UGR stays
+    model.mf = 0.5                      # the maintained lux x 0.625; UGR stays
     for a, b in zip(at_08, figures()):
         assert np.isfinite(a).any() and np.array_equal(a, b, equal_nan=True)
