@@ -123,24 +123,18 @@ hall 6.5 m 823.9 (828.12) 894.9 (895.68) 0.921 302/0.61 210/0.65 120/0.27 44/0.6
   within the rounding of invrad's printed figures (ceiling 30 / 30.6); the classroom and
   the L office read 0.6-1.8 % high by the model (Em 505 / 502.2 and 505 / 500.7, walls
   145 / 142.6 and 145 / 142.5, ceiling 77 / 75.6 and 80 / 78.9): inside the 1 % margin
-  on the work plane, the other means met with room to spare.
-* Doubtful: UGR. invrad designs to the limit - 0.1; Radiance reads 18.98 (classroom)
-  and 19.046 (L office: met only by the judge's +0.05). The luminaires' term is the same;
-  the background illuminance at the eye (interreflected) is 1.4-4.1 % lower by Radiance
-  there (L office 71.6 / 69.8, 79.5 / 78.3, 85.2 / 81.7, 69.9 / 67.9 lx: UGR 18.90 ->
-  19.05 at the eye (6.0, 0.5) looking +y; classroom 1.5-2.3 %, +0.05-0.08), where in the
-  box rooms Radiance reads -0.6 to +3.8 % (meeting, lab, hall: UGR +0.02 to -0.13 per
-  eye) and the corridor 0 to +8.2 %. Not Radiance's settings: the L office's
-  eyes re-traced alone at -ab 6 (as judged), -ab 10, and -ab 7 -ad 512 -as 128 -aa 0.1
-  -ar 32 give 79.3-81.7 lx at (6.0, 0.5); not the model's cells (0.25 m for 0.35 m: +0.3
-  %); hardly round 11 (round 10's code reads these eyes 0.1-0.9 % lower: 84.8 lx, UGR
-  18.92); not the eye's own patch (gathered as a point in the air, every patch counted
-  with the visibility of the floor patch under it, as Ez is: the same or 1-2 % more).
-  Where it comes from is not established. Aside: ``RoomModel.indirect_at`` gathers an
-  eye as lying on its nearest face's patch; about 1.2 m or more from the walls that is a
-  floor patch and the floor's light is left out: the L office at (3.0, 2.0, 1.2) looking
-  +y, 39.6 lx against 74.8 in the air and 73.4 by Radiance (the standard observers, 0.5
-  m from a wall, are not hit: a wall patch is nearer).
+  on the work plane, the other means met with room to spare (rtrace's -dt 0.03: round
+  12b).
+* Doubtful then: UGR. Radiance read 18.98 (classroom) and 19.046 (L office: met only by
+  the judge's +0.05) against the design's 18.9, the interreflected light at the eyes
+  1.4-4.1 % lower by Radiance (L office (6.0, 0.5) looking +y: UGR 18.90 -> 19.05); not
+  -ab, -ad or the model's cells. Explained in round 12b: rtrace's default -dt 0.03 (the
+  full text: ``git show e129fd4:bench/bench_design_radiance.py``). Aside:
+  ``RoomModel.indirect_at`` gathers an eye as lying on its nearest face's patch; about
+  1.2 m or more from the walls that is a floor patch and the floor's light is left out:
+  the L office at (3.0, 2.0, 1.2) looking +y, 39.6 lx against 74.8 in the air and 73.4
+  by Radiance (the standard observers, 0.5 m from a wall, are not hit: a wall patch is
+  nearer).
 * Wall s per design (grid / invrad): corridor 25 / 20, classroom 33 / 71, L office 113
   / 178, meeting 11 / 21, lab 12 / 40, hall 93 / 52; 11 judgements traced in 19-84 s
   each, and 3 re-dimmed above the floor (corridor, classroom, hall) re-traced; all six
