@@ -20,58 +20,6 @@
 
 #define LN_PI 1.1447298858494002f
 
-#ifndef ROW_TEST
-#define ROW_TEST 1
-#endif
-#define SKIP_ROWS (ROW_TEST && !PROFILE)
-
-#if SKIP_ROWS
-/* Which of 16 points (lanes) certainly give none of a block's 16 pixels a vote
- * (lambertian): the block skips them, 16 points tested at once. The same votes: a pair's
- * votes are all 0 there, and the others are cast as before, in the same order. Along the
- * block's row c = c0 + t V (t = 0..15, V in the map plane) A is constant, B linear and
- * r^2 a parabola; with their bounds over the row
- *     e_lo <= e = A B / (pi r^4) <= e_hi,   |grad_t ln e| <= m_t / B + 4 / r
- * (the tangential part of -n / A is zero), and a pixel votes only where
- * |ln e - ln E| < pixel |grad_t ln e|: none does where E (1 - x) > e_hi or
- * E < e_lo (1 - x), x = pixel (m_t / B_lo + 4 / r_lo) (e^x <= 1 / (1 - x) and
- * e^-x >= 1 - x, x < 1/2). The bounds carry SLACK metres for float32 coordinates and
- * relative margins for the kernel's own rounding; a pair near their limits (A or B near
- * 0 on the row, x >= 1/2) is not skipped. The office example: seven pairs in ten, the
- * cast 0.143 -> 0.110 CPU s (2-core PoCL machine), every vote bit for bit as without
- * the test (-D ROW_TEST=0: tests/core/inverse/test_votes_rows.py). */
-#define SLACK 1e-4f
-#define INV_PI 0.3183098861837907f
-inline int16 no_vote_in_row(const float3 c0, const float3 V, const float VV, const float3 n,
-                            const float16 sx, const float16 sy, const float16 sz,
-                            const float16 mx, const float16 my, const float16 mz,
-                            const float16 E, const float pixel)
-{
-    const float16 dx = c0.x - sx, dy = c0.y - sy, dz = c0.z - sz;
-    const float16 A = -(n.x * dx + n.y * dy + n.z * dz);
-    const float16 B0 = mx * dx + my * dy + mz * dz;
-    const float16 B1 = B0 + 15.0f * (mx * V.x + my * V.y + mz * V.z);
-    const float16 Bhi = fmax(B0, B1) + SLACK, Blo = fmin(B0, B1) - SLACK;
-    const float16 Alo = A - SLACK;
-    const int16 dark = (A + SLACK <= 1e-6f) | (Bhi <= 1e-6f);    /* no A, B > 1e-6 */
-    const int16 clear = (Blo > 1e-3f) & (Alo > 1e-3f);
-    const float16 dV = dx * V.x + dy * V.y + dz * V.z, r20 = dx * dx + dy * dy + dz * dz;
-    const float16 t = clamp(-dV / VV, 0.0f, 15.0f);
-    const float16 Bc = select((float16)(1.0f), Blo, clear);
-    const float16 Ac = select((float16)(1.0f), Alo, clear);
-    const float16 r2lo = fmax(r20 + t * (2.0f * dV + t * VV) - 1e-5f * r20, Ac * Ac) * 0.999f;
-    const float16 r2hi = fmax(r20, r20 + 15.0f * (2.0f * dV + 15.0f * VV)) * 1.001f + SLACK;
-    const float16 mn = mx * n.x + my * n.y + mz * n.z;
-    const float16 mt = sqrt(fmax(1.0f - mn * mn, 0.0f)) + 1e-3f;
-    const float16 x = 1.02f * pixel * (mt / Bc + 4.0f * rsqrt(r2lo) + 1e-3f / Ac) + 1e-3f;
-    const float16 e_hi = (A + SLACK) * Bhi * INV_PI / (r2lo * r2lo);
-    const float16 e_lo = Ac * Bc * INV_PI / (r2hi * r2hi);
-    const int16 far = clear & (x < 0.5f)
-        & ((E * (1.0f - x) > e_hi * 1.001f) | (E < e_lo * (1.0f - x) * 0.999f));
-    return dark | far;
-}
-#endif
-
 #if PROFILE
 /* A photometric distribution (-D PROFILE=1): prof[i] = (ln p, w) at gamma = i * PROFILE_STEP
  * degrees, p the C-averaged intensity (cd/lm) and w = (d ln p / d gamma) / sin gamma; then
@@ -164,32 +112,9 @@ __kernel void exact_votes(const int nblocks, const int first, __global const int
     float16 acc = (float16)(baseline);
     float16 lne;
     __global const float *Wm = W + (size_t)map * npts;
-#if !SKIP_ROWS
     for (int p = 0; p < npts; ++p) {
         const float w = Wm[p];
         if (w <= 0.0f) continue;
-#else
-    const float3 c0 = (float3)(cx.s0, cy.s0, cz.s0);
-    const float VV = dot(V, V);
-    for (int p0 = 0; p0 < npts; p0 += 16) {
-      /* the next 16 points' row test, then each point that may vote, in order */
-      float wa[16], sxa[16], sya[16], sza[16], mxa[16], mya[16], mza[16], ea[16];
-      int skip[16];
-      for (int l = 0; l < 16; ++l) {
-          const int q = min(p0 + l, npts - 1);
-          const float4 sq = pts[q], nq = pnrm[q];
-          wa[l] = (p0 + l < npts) ? Wm[q] : 0.0f;
-          sxa[l] = sq.x; sya[l] = sq.y; sza[l] = sq.z;
-          mxa[l] = nq.x; mya[l] = nq.y; mza[l] = nq.z; ea[l] = nq.w;
-      }
-      vstore16(no_vote_in_row(c0, V, VV, n, vload16(0, sxa), vload16(0, sya),
-                              vload16(0, sza), vload16(0, mxa), vload16(0, mya),
-                              vload16(0, mza), vload16(0, ea), pixel), 0, skip);
-      const int pend = min(p0 + 16, npts);
-      for (int p = p0; p < pend; ++p) {
-        const float w = wa[p - p0];
-        if (w <= 0.0f || skip[p - p0]) continue;
-#endif
         const float4 sp = pts[p];
         const float3 s = sp.xyz, m = pnrm[p].xyz;
         float16 v = tent_votes(cx, cy, cz, n, s, m, sp.w, w, pixel, prof, nprof, &lne);
@@ -209,9 +134,6 @@ __kernel void exact_votes(const int nblocks, const int first, __global const int
 #endif
         acc += v;
     }
-#if SKIP_ROWS
-    }
-#endif
 #if SHADE
     /* forbid pixels whose luminaire would put more than the limit on a shade point */
     int16 forbid = (int16)(0);

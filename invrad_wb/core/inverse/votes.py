@@ -264,12 +264,6 @@ def canvas_device_arrays(canvas):
     return origin, u, v, n, info, blocks
 
 
-#: the exact-vote kernel skips, 16 points at a time, those that certainly give none of a
-#: block's 16 pixels a vote (lambertian votes; the same votes bit for bit: see
-#: ``no_vote_in_row`` in ``kernels/votes_exact.cl``); False builds it without that test
-ROW_TEST = True
-
-
 def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
                       shade_limit_lux=None, baseline=0.0, profile=None):
     """Exact votes on the OpenCL device; same contract as :func:`cast_exact_numpy`."""
@@ -282,14 +276,12 @@ def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
     knl = env.kernel("votes_exact", "exact_votes",
                      [f"-D OCCLUSION={int(occlusion)}", f"-D SHADE={int(use_shade)}",
                       f"-D PROFILE={int(profile is not None)}",
-                      f"-D PROFILE_STEP={PROFILE_STEP_DEG!r}f"]
-                     + ([] if ROW_TEST else ["-D ROW_TEST=0"]))
+                      f"-D PROFILE_STEP={PROFILE_STEP_DEG!r}f"])
     prof = (np.zeros((2, 2), np.float32) if profile is None
             else np.ascontiguousarray(profile, np.float32))
     origin, u, v, n, info, blocks = canvas_device_arrays(canvas)
-    E = np.maximum(vote_lux, 1e-30) / flux     # per lumen; the kernel's row test reads it
     with np.errstate(divide="ignore"):
-        lnE = np.log(E)
+        lnE = np.log(np.maximum(vote_lux, 1e-30) / flux)
 
     def buf(a):
         return device_buffer(env, a)
@@ -307,7 +299,7 @@ def cast_exact_opencl(canvas, points, W, vote_lux, flux, bvh=None, shade=None,
     launch_chunked(env, knl, nb,
                    (buf(blocks), buf(origin), buf(u), buf(v), buf(n), buf(info),
                     np.float32(canvas.pixel), np.int32(len(points)),
-                    buf(float4(points.positions, lnE)), buf(float4(points.normals, E)),
+                    buf(float4(points.positions, lnE)), buf(float4(points.normals)),
                     buf(np.ascontiguousarray(W, np.float32)), np.int32(ns), buf(sp), buf(sn),
                     np.float32(ln_lim), np.float32(C.RAY_EPS_M), np.float32(baseline),
                     buf(prof), np.int32(len(prof))),
