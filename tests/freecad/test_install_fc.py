@@ -181,9 +181,16 @@ class TestInstallAsAnArchitect(unittest.TestCase):
     def test_office_locate_and_design_in_freecadcmd(self):
         office = os.path.join(self.mod, "examples", "office.ply")
         out = os.path.join(self.out, "office.json")
-        rc, text = self.cli(["locate", office, "--flux", "3000", "--backend", "opencl",
-                             "-o", out], "office locate")
+        # the default backend: OpenCL from pyopencl[pocl], or, where that driver fails
+        # invrad's self-test (core/accel/probe.py: PoCL 3.0 from PyPI aborts compiling the
+        # vote kernel on an AMD Zen 4), numpy with a one-line warning that says so
+        rc, text = self.cli(["locate", office, "--flux", "3000", "-o", out],
+                            "office locate")
         self.assertEqual(rc, 0, text)
+        if "failed invrad's self-test" in text:
+            self.assertIn("(numpy)", text)
+        else:
+            self.assertIn("(opencl)", text)
         with open(out) as fh:
             found = [l["position"] for l in json.load(fh)["luminaires"]]
         with open(os.path.join(self.mod, "examples", "office_true.json")) as fh:
@@ -197,7 +204,7 @@ class TestInstallAsAnArchitect(unittest.TestCase):
         out = os.path.join(self.out, "office_design.json")
         rc, text = self.cli(["design", office, "--spec",
                              os.path.join(self.mod, "examples", "office_design.json"),
-                             "--backend", "opencl", "-o", out], "office design")
+                             "-o", out], "office design")
         self.assertEqual(rc, 0, text)
         with open(out) as fh:
             design = json.load(fh)
@@ -217,7 +224,7 @@ class TestInstallAsAnArchitect(unittest.TestCase):
             report = os.path.join(self.out, f"fzk_{kind}")
             lit = os.path.join(self.out, f"fzk_{kind}.ifc")
             rc, text = self.cli(["freecad", ifc, "--targets", path, "--rooms", room,
-                                 "--mesh-size", "0.5", "--backend", "opencl",
+                                 "--mesh-size", "0.5",
                                  "--out", lit, "--report", report], f"FZK {kind}")
             with self.subTest(kind=kind):
                 self.assertEqual(rc, 0, text)

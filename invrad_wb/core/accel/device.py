@@ -315,6 +315,12 @@ def get_env():
         if _env is None:
             cl = _import_cl()
             dev = _pick_device(cl)
+            from invrad_wb.core.accel import probe
+            if probe.needs_probe(dev):
+                why = probe.verdict(cl, dev, kernel_cache_dir())
+                if why:
+                    raise DeviceError(f"{why}; use the numpy backend, or another OpenCL"
+                                      " driver (on Debian: pocl-opencl-icd)")
             try:
                 ctx = cl.Context([dev])
             except Exception as exc:

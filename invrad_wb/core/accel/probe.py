@@ -1,0 +1,124 @@
+"""A first-use self-test of an OpenCL driver known to abort on some CPUs, in a child
+process, so that a driver that crashes while compiling invrad's kernels costs a numpy run,
+not the user's FreeCAD session.
+
+PoCL from PyPI (``pyopencl[pocl]``: ``pocl-binary-distribution`` 3.0, the driver
+``dependencies.install()`` gives an architect) aborts the whole process when its LLVM
+compiles the vote kernel on an AMD Zen 4 (EPYC, family 25 model 17, AVX-512): "LLVM ERROR:
+Do not know how to scalarize this operator's operand!" (SIGABRT), or SIGSEGV in an older
+kernel, and its own kernel cache then answers INVALID_KERNEL_NAME in later runs. Measured
+2026-11-26 on this project's machine; Debian's PoCL on the same CPU runs every kernel. An
+abort cannot be caught in the process that compiles, so for that driver (only: every other
+driver is used as before, at no cost) the first use runs a small locate (votes, direct
+light, shadows, radiosity) in a child process, with the same interpreter and ``sys.path``
+(:func:`workers.worker_python`); the verdict is kept in the kernel cache's folder, keyed by
+everything the driver's answer depends on (driver, device, pyopencl, the kernels' sources),
+so the test runs once per machine and version.
+"""
+import hashlib
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+from invrad_wb import constants as C
+
+#: set in the child: it must not test itself again
+ENV_CHILD = "INVRAD_OPENCL_PROBE_CHILD"
+#: tests: a child that aborts as the faulty driver does
+ENV_FAKE_ABORT = "INVRAD_OPENCL_PROBE_ABORT"
+#: seconds the child may take (a small room; kernels compiled once)
+TIMEOUT_S = 300
+
+_CHILD = r"""
+import json, os, sys
+sys.path[:0] = json.loads(sys.argv[1])
+if os.environ.get("INVRAD_OPENCL_PROBE_ABORT"):
+    os.abort()
+from invrad_wb import cli
+out = sys.argv[2]
+cli.main(["example", "one_ceiling", "-o", os.path.join(out, "probe.ply"), "--cell", "0.25",
+          "--truth", os.path.join(out, "truth.json"), "--backend", "opencl"])
+cli.main(["locate", os.path.join(out, "probe.ply"), "--backend", "opencl", "-o",
+          os.path.join(out, "found.json")])
+"""
+
+
+def needs_probe(device):
+    """True for the driver that may abort (PoCL from ``pocl-binary-distribution``) unless
+    this is the probe's own child."""
+    if os.environ.get(ENV_CHILD):
+        return False
+    try:
+        name = device.platform.name
+    except Exception:                                        # noqa: BLE001
+        return False
+    if "Portable Computing Language" not in name and "pocl" not in name.lower():
+        return False
+    import importlib.util
+    try:
+        return importlib.util.find_spec("pocl_binary_distribution") is not None
+    except (ImportError, ValueError):
+        return False
+
+
+def _key(cl, device):
+    h = hashlib.sha256()
+    d = device
+    for part in (cl.VERSION_TEXT, d.platform.name, d.platform.version, d.name, d.version,
+                 d.driver_version, sys.version):
+        h.update(str(part).encode("utf-8", "replace") + b"\0")
+    for f in sorted(os.listdir(C.KERNELS_DIR)):
+        with open(os.path.join(C.KERNELS_DIR, f), "rb") as fh:
+            h.update(f.encode() + b"\0" + fh.read() + b"\0")
+    return h.hexdigest()[:32]
+
+
+def verdict(cl, device, cache_dir):
+    """None where the device runs invrad's kernels, else why not (one line). Runs the child
+    once per key; the verdict is kept in ``cache_dir`` (None: not kept)."""
+    from invrad_wb.core.accel.workers import worker_python
+    path = None
+    try:
+        key = _key(cl, device)
+        if cache_dir:
+            path = os.path.join(cache_dir, f"opencl-probe-{key}.json")
+            if os.path.isfile(path):
+                with open(path) as fh:
+                    return json.load(fh).get("why")
+    except (OSError, ValueError):
+        path = None
+    exe = worker_python()
+    if exe is None:
+        return None               # no interpreter to test with: used as before
+    env = dict(os.environ, **{ENV_CHILD: "1", "INVRAD_KERNEL_CACHE": "0"})
+    with tempfile.TemporaryDirectory(prefix="invrad-opencl-probe-") as tmp:
+        try:
+            p = subprocess.run([exe, "-c", _CHILD, json.dumps(sys.path), tmp], env=env,
+                               stdin=subprocess.DEVNULL, capture_output=True, text=True,
+                               timeout=TIMEOUT_S)
+            rc, text = p.returncode, (p.stderr or "") + (p.stdout or "")
+        except subprocess.TimeoutExpired:
+            rc, text = None, f"no answer in {TIMEOUT_S} s"
+        except OSError as exc:
+            return None
+    why = None
+    if rc != 0:
+        lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
+        said = next((ln for ln in lines if "ERROR" in ln or "rror" in ln), lines[-1] if
+                    lines else "")
+        how = (f"signal {-rc}" if rc is not None and rc < 0 else
+               f"exit status {rc}" if rc is not None else "timeout")
+        why = (f"the OpenCL driver {device.platform.name} on {device.name.strip()} failed"
+               f" invrad's self-test ({how}: {said[:160]})")
+    if path:
+        try:
+            os.makedirs(os.path.dirname(path), exist_ok=True)
+            tmp = path + f".{os.getpid()}.tmp"
+            with open(tmp, "w") as fh:
+                json.dump({"why": why}, fh)
+            os.replace(tmp, path)
+        except OSError:
+            pass
+    return why
