@@ -125,6 +125,12 @@ quarter), work-groups of 8, 64, 128 (0.110-0.111). Left: the optimiser (0.31-0.3
 1.13-1.20 s, ``refine.py``), numpy's (0.055 CPU s) and pyopencl's (0.048: pytools,
 importlib.metadata, attrs) imports, the LU (0.037), the form-factor kernels.
 
+Round 12, later the same day: the row test was reverted (4aa2606) while finding why
+PoCL 3.0 from PyPI aborts on an AMD Zen 4 (not the cause: 2f69707 aborts there too;
+``core/accel/probe.py``); it is not back until it is checked under that driver. Its share
+above: one office cast 0.143 -> 0.110 CPU s (about 0.03 of the whole CLI's 1.1-1.2 s), so
+the office ratio without it is about 0.003 higher than the figures here; not measured.
+
 Round 12 (h12-opt) (2026-11-26, load average 2-4, ``--before 436b785``; CPU s before ->
 after): the optimiser's arithmetic, the same numbers bit for bit: mid-air luminaires'
 Jacobian without the product with dpos() = I and the concatenation (+ 0.0 does what the
