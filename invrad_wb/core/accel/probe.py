@@ -101,7 +101,7 @@ def verdict(cl, device, cache_dir):
             rc, text = p.returncode, (p.stderr or "") + (p.stdout or "")
         except subprocess.TimeoutExpired:
             rc, text = None, f"no answer in {TIMEOUT_S} s"
-        except OSError as exc:
+        except OSError:           # no interpreter to start: used as before
             return None
     why = None
     if rc != 0:
