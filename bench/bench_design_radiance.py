@@ -86,60 +86,6 @@ hall 6.5 m 805.6 (809.19) 895.0 (895.68) 0.900 302/0.62 201/0.65 114/0.28 43/0.6
   luminaires, 99 against 32 s in the L office); all six rooms 23.0 min (classroom 7.4,
   L office 6.8, lab 3.5, hall 2.4, meeting 1.9, corridor 0.9 min).
 
-Round 12 (2026-11-26, 18:47-19:15 UTC, main 2f69707: round 11's exact model, which
-leaves out the ceiling behind a luminous opening and averages a near luminaire's
-intensity over a patch; shared 2-core machine at load 4-5, Radiance on one core). All
-designs and grid references made afresh (nothing cached) and traced. W by Radiance after
-the common re-dimming to Radiance's need (as the exact model designed it); items:
-invrad's design by Radiance, maintained (the grids too meet every item by Radiance):
-
-========== ============== ============== ===== ======== ======== ======== ======= ======== ====
-room       invrad W       grid W         ratio task     surround walls    ceiling Ez       UGR
-========== ============== ============== ===== ======== ======== ======== ======= ======== ====
-L corridor 52.0 (52.38)   52.1 (52.32)   0.997 123/0.62 101/0.40 67/0.40  30/0.68 -        26.0
-classroom  317.2 (318.24) 343.9 (343.41) 0.922 500/0.69 317/0.40 142/0.36 75/0.70 -        19.0
-L office   390.2 (390.17) none compliant -     501/0.61 300/0.40 143/0.40 79/0.62 -        19.0
-meeting    106.5 (107.53) 115.0 (115.04) 0.926 500/0.75 328/0.51 151/0.34 76/0.66 161/0.84 18.9
-lab        235.9 (238.01) 255.8 (255.96) 0.922 501/0.73 300/0.48 142/0.38 77/0.70 -        18.9
-hall 6.5 m 823.9 (828.12) 894.9 (895.68) 0.921 302/0.61 210/0.65 120/0.27 44/0.68 -        21.9
-========== ============== ============== ===== ======== ======== ======== ======= ======== ====
-
-* Every room compliant on every item by Radiance, both methods (the L office: invrad
-  alone; no grid of the catalogue complies there by the exact model). Ratios within
-  0.002 of rounds 9-11 (corridor 0.998, classroom 0.920, meeting 0.927, lab 0.922, hall
-  0.921; L office 389.9 W); 0.95 x the grid is met in five rooms, not in the L corridor
-  (round 11 below: no layout found that Radiance passes under 0.95 x its grid).
-* Layouts as round 10's except the corridor: 1 x DL-2200W + 5 x PN-3600 (6 of a 4 x 3
-  grid), 52.38 W by the exact model (round 9-11: 5 x PN-3600, 52.59 W), the panels
-  re-dimmed above their floor x 0.988 and re-traced: 52.0 W (51.8). Classroom 72 of a
-  10 x 8 DL-1200N at 44 %; L office 100 of 14 x 10 at 39 % (Radiance's Em 500.7 leaves
-  no re-dimming: 390.2 W both ways); meeting 20 of 6 x 4 at 54 %; lab 55 of 9 x 7 at 43
-  %; hall 16 HB-13000D + 4 clear HB-15000 of 4 x 6. Grid references: the classroom's is
-  now 11 x 7 (75 kept) DL-1200N at 46 % (343.41 W; round 7's 344.5); the others as
-  round 7's to 0.3 W (corridor 3 x 1 + 1 x 2 PN-3600 at 36 %, meeting 6 x 5 DL-1200N
-  at 38 %, lab 8 x 7 DL-1200N at 46 %, hall 4 x 3 HB-13000D at 75 %).
-* Model against Radiance as designed (invrad's own / Radiance): meeting, lab and hall
-  within 0.3 % on every mean (Em 505 / 505.5, 505 / 505.1, 303 / 303.3); the corridor
-  within the rounding of invrad's printed figures (ceiling 30 / 30.6); the classroom and
-  the L office read 0.6-1.8 % high by the model (Em 505 / 502.2 and 505 / 500.7, walls
-  145 / 142.6 and 145 / 142.5, ceiling 77 / 75.6 and 80 / 78.9): inside the 1 % margin
-  on the work plane, the other means met with room to spare (rtrace's -dt 0.03: round
-  12b).
-* Doubtful then: UGR. Radiance read 18.98 (classroom) and 19.046 (L office: met only by
-  the judge's +0.05) against the design's 18.9, the interreflected light at the eyes
-  1.4-4.1 % lower by Radiance (L office (6.0, 0.5) looking +y: UGR 18.90 -> 19.05); not
-  -ab, -ad or the model's cells. Explained in round 12b: rtrace's default -dt 0.03 (the
-  full text: ``git show e129fd4:bench/bench_design_radiance.py``). Aside:
-  ``RoomModel.indirect_at`` gathers an eye as lying on its nearest face's patch; about
-  1.2 m or more from the walls that is a floor patch and the floor's light is left out:
-  the L office at (3.0, 2.0, 1.2) looking +y, 39.6 lx against 74.8 in the air and 73.4
-  by Radiance (the standard observers, 0.5 m from a wall, are not hit: a wall patch is
-  nearer).
-* Wall s per design (grid / invrad): corridor 25 / 20, classroom 33 / 71, L office 113
-  / 178, meeting 11 / 21, lab 12 / 40, hall 93 / 52; 11 judgements traced in 19-84 s
-  each, and 3 re-dimmed above the floor (corridor, classroom, hall) re-traced; all six
-  rooms 27.5 min.
-
 Round 11 (2026-11-26): the L corridor stays at 0.998 (invrad 52.59 W by the exact
 model, 51.8 W by Radiance; grid 52.31 / 52.0 W). Is 0.95 x the grid (49.40 W by
 Radiance) reachable with this catalogue? ``bench_design_bound.py`` (every item, no
@@ -155,41 +101,8 @@ against the model's 29.6 converged). No layout was found that meets every item b
 Radiance under 0.95 x the grid: the search was not changed (a search that wins in this
 room by such layouts would win by the model's error, not by Radiance).
 
-Earlier rounds, condensed (the full text: ``git show 2f69707:bench/bench_design_radiance.py``);
-invrad / grid by Radiance after the common re-dimming (round 4: grid W by the exact
-model; L office: invrad's W, no compliant grid):
-
-==========  =====  =====  =====  =====  =====  =====  =====
-room        r4     r5     r7     r9     r10    r12    r12b
-==========  =====  =====  =====  =====  =====  =====  =====
-meeting     0.974  0.951  0.946  0.927  0.927  0.926  0.897
-L corridor  1.010  1.018  0.998  0.998  -      0.997  0.996
-classroom   1.030  1.015  0.932  0.925  0.920  0.922  0.898
-lab         0.949  0.933  0.924  0.925  0.922  0.922  0.923
-hall 6.5 m  none   none   0.989  0.982  0.921  0.921  0.900
-L office    -      430.4  392.7  392.7  389.9  390.2  386.0
-==========  =====  =====  =====  =====  =====  =====  =====
-
-* Round 4-5: luminous openings light from their area and the ceiling behind them
-  reflects as the opening (before: point sources, the direct light 1.6-2.6 % high under
-  0.6 m panels, and Radiance's interreflection 8-13 % below invrad's where panels cover
-  the ceiling); then direct light within 0.1-0.8 %, Em within 0.4 %. Radiance's -ab 6
-  stops the series early (a closed box: -1.9 % at rho 0.5, -8.4 % at rho 0.7):
-  ``design_margin``'s 1 %. Rows dimmed apart (a linear programme on the exact model);
-  the L corridor's outline read right (its corner square had been left out);
-  ``glare.observers`` moves an eye off an L's inner wall (it had read UGR 19.7 by
-  Radiance in the L office from an eye in the wall; after, four observers within 0.05
-  of Radiance). The hall's one 6.5 m type (clear HB-15000) met UGR 22 in no layout.
-* Round 7: layouts per luminous size, the regular grids as candidates dimmed per group;
-  the diffused HB-13000D added for the hall (both methods): every room compliant by
-  Radiance; a design stopped by its floor-bound luminaires is re-dimmed above the floor
-  and re-traced (:func:`redim_at_floor`). Means-only bounds (``bench_design_bound.py``):
-  corridor 48.5 W, hall 731.7 W of clear HB-15000 only.
-* Round 9: per-group dimming may leave a group out (on / off): hall 0.982; the other
-  rooms redesigned (meeting 0.927, classroom 0.925, lab 0.925).
-* Round 10: the hall's clear / diffused mix (:func:`refine.swap_entry`, UGR by a
-  variable per squared output): 0.921; the classroom dimmed per group over the kept
-  luminaires' own rings; the background area merged (none in these rooms).
+Round 12 and rounds 4-10 (figures, layouts, what changed each round):
+``bench/history/design_radiance.md``.
 """
 import itertools
 import math
