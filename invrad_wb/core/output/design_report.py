@@ -580,7 +580,9 @@ def room_rows(result):
                        layout=r.candidate.geom.describe(), source=q.source,
                        ugr="n/c" if r.ugr is None else f"{r.ugr:.1f}",
                        ugr_limit="-" if r.ugr_limit is None else f"{r.ugr_limit:g}",
-                       ugr_ok=v.get("UGR", True),
+                       # None: no limit, no verdict (the value in plain text, not
+                       # green as if it passed: "UGR 37.6" under "-" read as met)
+                       ugr_ok=v.get("UGR"),
                        height=f"{q.height_m:g}", margin=f"{q.margin_m:g}",
                        summary=summary_rows(r),
                        walls=_surface_text(r, "walls"), ceiling=_surface_text(r, "ceiling"),
