@@ -240,11 +240,12 @@ def describe_design(res):
         # are not what is judged)
         areas = r.get("task_areas") or [
             {"name": None, "em_lux": r.get("em_lux", nan), "u0": r.get("u0", nan),
+             "emin_lux": r.get("emin_lux"),
              "required": req}]
         figs = "; ".join(
             ("" if a["name"] is None else f"{a['name']} ")
             + f"Em {a.get('em_lux', nan):.0f} lx for {a['required'].get('lux', nan):.0f},"
-            f" U0 {a.get('u0', nan):.2f} for {a['required'].get('u0', nan):.2f}"
+            f" U0 {_u0(a):.2f} for {a['required'].get('u0', nan):.2f}"
             for a in areas)
         pw = r.get("power") or {}
         rated = ("" if pw.get("rated_w") is None else
@@ -261,6 +262,15 @@ def describe_design(res):
     return lines
 
 
+def _u0(d):
+    """U0 of a summary's figures: Emin / Em where both are given (the summary's ``u0`` is
+    rounded to 3 places, and 0.67498 -> 0.675 -> '0.68' where the report says 0.67)."""
+    em, emin = d.get("em_lux"), d.get("emin_lux")
+    if em and emin is not None:
+        return emin / em
+    return d.get("u0", float("nan"))
+
+
 def _other_items(r):
     """The room's EN 12464-1 items beyond the task area, as the command line and the
     report give them: walls, ceiling, surroundings, background, Ez where judged, UGR with
@@ -268,7 +278,7 @@ def _other_items(r):
     from invrad_wb.core.design.spec import part_name
     areas = {part_name(a["name"]) for a in r.get("task_areas") or ()}  # said before
     items = [f"{k} Em {v['em_lux']:.0f} lx for {v['required']['lux']:.4g},"
-             f" U0 {v['u0']:.2f} for {v['required']['u0']:.2f}"
+             f" U0 {_u0(v):.2f} for {v['required']['u0']:.2f}"
              for k, v in (r.get("surfaces") or {}).items()
              if v.get("required") and k not in areas]
     cz = r.get("cylindrical") or {}

@@ -96,3 +96,16 @@ def test_every_judged_item_and_the_ugr_in_the_message():
     assert "UGR 37.6 (no limit given)" in "\n".join(runner.describe_design(_res([free])))
     none = dict(room, ugr=None)
     assert "UGR not computable" in "\n".join(runner.describe_design(_res([none])))
+
+
+def test_u0_as_the_report_rounds_it():
+    # FZK's Buero: Emin 340.87 / Em 505.01 = 0.67498, stored as u0 0.675: the message said
+    # 0.68 where the report, from the unrounded figures, said 0.67
+    room = {"name": "Buero", "compliant": True, "em_lux": 505.01, "emin_lux": 340.87,
+            "u0": 0.675, "watts": 69.0, "w_per_m2": 5.3, "notes": [],
+            "requirement": {"lux": 500, "u0": 0.6},
+            "surfaces": {"walls": {"em_lux": 225.72, "emin_lux": 115.72, "u0": 0.513,
+                                   "required": {"lux": 50, "u0": 0.1}}}}
+    text = "\n".join(runner.describe_design(_res([room])))
+    assert "Em 505 lx for 500, U0 0.67 for 0.60" in text, text
+    assert "walls Em 226 lx for 50, U0 0.51 for 0.10" in text, text
