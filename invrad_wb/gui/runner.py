@@ -258,7 +258,10 @@ def describe_design(res):
         lines += [f"    {n}" for n in r.get("notes") or []
                   if not collect_small_sources(n, small)]
     if small:
-        lines.append(point_source_note(small))
+        # what to do about it, in the panel's words
+        lines.append(point_source_note(small) + ": give the type its Luminous size in the"
+                     " Design panel (the diameter of its lit opening), or a photometry"
+                     " file with one, for its UGR from its luminance")
     return lines
 
 

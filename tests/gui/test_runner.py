@@ -26,6 +26,8 @@ def test_point_source_glare_note_said_once_in_plain_words():
     assert "give no luminous area" not in text and "CIE 147" not in text
     ugr = [ln for ln in lines if "point sources" in ln]
     assert len(ugr) == 1 and "Downlight A, Panel B" in ugr[0], lines
+    # and what to do about it: the panel's field that gives a type its luminous area
+    assert "Luminous size in the Design panel" in ugr[0], ugr
     assert "    too dark: something" in lines          # other notes kept per room
     assert sum(ln.startswith("  ") and "meets its requirements" in ln for ln in lines) == 3
 
