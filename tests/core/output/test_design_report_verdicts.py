@@ -38,3 +38,20 @@ def test_the_ugr_cell_is_coloured_only_against_a_limit(tmp_path, ugr, limit, wan
     # the room summary gives no verdict either where there is no limit
     row = [s for s in D.summary_rows(rd) if s["item"].startswith("UGR")][0]
     assert row["verdict"] == {None: "-", "pass": "pass", "fail": "FAIL"}[want]
+
+
+def test_notes_write_square_metres_as_the_tables_do(tmp_path):
+    # the notes come from the design as plain text ('24.0 m2', 'W/m2'); the page's
+    # tables write m²: the office's report mixed both on one page
+    rd = _room(GRID, OUTPUTS)
+    rd.metrics.emax, rd.metrics.surfaces = float(rd.metrics.lux.max()), {}
+    rd.requirement = SimpleNamespace(lux=500.0, u0=0.6, height_m=0.75, margin_m=0.5,
+                                     source="spec")
+    rd.notes = ["surface goal on the floor at (3.00, 2.00, 0.00) m (2501 target points,"
+                " 24.0 m2): 354 lx for 319 lx", "deep dimming: 5.0 W/m2 drawn"]
+    result = _result(rd)
+    result.spec.maintenance_factor = 0.8
+    html = open(D.write_design_report(result, str(tmp_path / "r"), pdf=False)).read()
+    notes = html.split('<ul class="notes">', 1)[1].split("</ul>", 1)[0]
+    assert "24.0 m²" in notes and "5.0 W/m²" in notes
+    assert not re.search(r"\bm2\b", notes), notes
