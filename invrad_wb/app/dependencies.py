@@ -368,8 +368,10 @@ class Status:
                 "no-device": "no OpenCL driver (no OpenCL device)",
                 "pending": f"installed ({self.detail}), used after FreeCAD restarts",
                 "ok": f"ok {self.detail}".strip()}[self.state]
-        need = "" if p.needed else f"; without it: no {p.use}" if p.name != "pyopencl" \
-            else f"; {p.use}"
+        # what it is for, so that an architect can tell what she must have from what
+        # only adds a feature ("trimesh: missing" said neither)
+        need = (f"; needed for {p.use}" if p.needed else f"; without it: no {p.use}"
+                if p.name != "pyopencl" else f"; {p.use}")
         return f"{p.name}: {what}" + (need if self.state not in ("ok", "pending") else "")
 
 

@@ -30,16 +30,17 @@ class DesignPanel(Panel):
 
     UI = "design.ui"
 
-    CAT_COLUMNS = ("name", "flux_lm", "watts", "dim_percent", "photometry")
-    #: entry keys the table shows (dim_percent is the entry's "dimming")
-    TABLE_KEYS = ("name", "flux_lm", "watts", "dimming", "photometry")
+    CAT_COLUMNS = ("name", "flux_lm", "watts", "dim_percent", "photometry", "size_mm")
+    #: entry keys the table shows (dim_percent is the entry's "dimming", size_mm the
+    #: luminous opening's diameter, its "radius_m")
+    TABLE_KEYS = ("name", "flux_lm", "watts", "dimming", "photometry", "radius_m")
     #: Catalogue columns shown in the table (the names, whole); the others are edited in
     #: the form below it for the selected entry (a second column cut the names to
     #: "Downlight 100..." in the default task view).
     CAT_SHOWN = 1
     #: The catalogue entry's form: widget -> column.
     ENTRY_FIELDS = (("entry_flux", 1), ("entry_watts", 2), ("entry_dim", 3),
-                    ("entry_photometry", 4))
+                    ("entry_photometry", 4), ("entry_size", 5))
     #: The requirements table shows room, Em and U0; the room type (column 1) is the
     #: drop-down below it for the selected rooms, and the room name's tooltip.
     REQ_HIDDEN = (1,)
@@ -197,7 +198,8 @@ class DesignPanel(Panel):
         dim = e.get("dimming") or [1.0, 1.0]
         cells = [str(e.get("name", "")), f"{float(e.get('flux_lm', 0)):g}",
                  f"{float(e.get('watts', 0)):g}", f"{100.0 * float(dim[0]):g}",
-                 str(e.get("photometry") or "")]
+                 str(e.get("photometry") or ""),
+                 f"{2000.0 * float(e.get('radius_m') or 0.0):g}"]
         row = cat.rowCount()
         cat.insertRow(row)
         for col, text in enumerate(cells):
@@ -292,6 +294,10 @@ class DesignPanel(Panel):
         for row in range(cat.rowCount()):
             text = [(cat.item(row, c).text().strip() if cat.item(row, c) else "")
                     for c in range(len(self.CAT_COLUMNS))]
+            try:
+                size_mm = float(text[5] or 0.0)
+            except ValueError:
+                size_mm = 0.0
             where = f"catalogue row {row + 1} ({text[0] or 'no name'})"
             try:
                 flux, watts, dim = float(text[1]), float(text[2]), float(text[3] or 100)
@@ -307,6 +313,8 @@ class DesignPanel(Panel):
                       "dimming": [dim / 100.0, 1.0]})
             if text[4]:
                 e["photometry"] = text[4]
+            if size_mm > 0:          # none: a point (the file's own opening, if any)
+                e["radius_m"] = size_mm / 2000.0
             entries.append(e)
         mount = get_value(self.widget("mounting"))
         mounting = mount if mount == "ceiling" else {

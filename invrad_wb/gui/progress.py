@@ -169,6 +169,10 @@ def run(title, work, poll_ms=100):
             from invrad_wb.gui.qtcompat import run_exec
             run_exec(loop)
         thread.join()
+        # a job done before the loop started (Recalculate peaks: a few ms) never let
+        # poll() stop the timer: it went on firing every poll_ms into the deleted dialog
+        # ("Internal C++ object already deleted", a traceback each time)
+        timer.stop()
         dialog.update_from(job)
         dialog.hide()
         dialog.deleteLater()

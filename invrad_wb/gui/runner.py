@@ -240,19 +240,61 @@ def describe_design(res):
         # are not what is judged)
         areas = r.get("task_areas") or [
             {"name": None, "em_lux": r.get("em_lux", nan), "u0": r.get("u0", nan),
+             "emin_lux": r.get("emin_lux"),
              "required": req}]
         figs = "; ".join(
             ("" if a["name"] is None else f"{a['name']} ")
             + f"Em {a.get('em_lux', nan):.0f} lx for {a['required'].get('lux', nan):.0f},"
-            f" U0 {a.get('u0', nan):.2f} for {a['required'].get('u0', nan):.2f}"
+            f" U0 {_u0(a):.2f} for {a['required'].get('u0', nan):.2f}"
             for a in areas)
-        lines.append(f"  {name}: {verdict}; {figs}; {r.get('watts', 0):.1f} W"
-                     f" ({r.get('w_per_m2', 0):.1f} W/m2)")
+        pw = r.get("power") or {}
+        rated = ("" if pw.get("rated_w") is None else
+                 f", {pw['rated_w']:.1f} W installed ({pw.get('rated_w_per_m2', nan):.1f}"
+                 " W/m2)")
+        lines.append(f"  {name}: {verdict}; {figs}; {r.get('watts', 0):.1f} W drawn"
+                     f" ({r.get('w_per_m2', 0):.1f} W/m2){rated}")
+        if "em_lux" in r:
+            lines.append("    " + "; ".join(_other_items(r)))
         lines += [f"    {n}" for n in r.get("notes") or []
                   if not collect_small_sources(n, small)]
     if small:
-        lines.append(point_source_note(small))
+        # what to do about it, in the panel's words
+        lines.append(point_source_note(small) + ": give the type its Luminous size in the"
+                     " Design panel (the diameter of its lit opening), or a photometry"
+                     " file with one, for its UGR from its luminance")
     return lines
+
+
+def _u0(d):
+    """U0 of a summary's figures: Emin / Em where both are given (the summary's ``u0`` is
+    rounded to 3 places, and 0.67498 -> 0.675 -> '0.68' where the report says 0.67)."""
+    em, emin = d.get("em_lux"), d.get("emin_lux")
+    if em and emin is not None:
+        return emin / em
+    return d.get("u0", float("nan"))
+
+
+def _other_items(r):
+    """The room's EN 12464-1 items beyond the task area, as the command line and the
+    report give them: walls, ceiling, surroundings, background, Ez where judged, UGR with
+    its limit (or none: a value, not a verdict)."""
+    from invrad_wb.core.design.spec import part_name
+    areas = {part_name(a["name"]) for a in r.get("task_areas") or ()}  # said before
+    items = [f"{k} Em {v['em_lux']:.0f} lx for {v['required']['lux']:.4g},"
+             f" U0 {_u0(v):.2f} for {v['required']['u0']:.2f}"
+             for k, v in (r.get("surfaces") or {}).items()
+             if v.get("required") and k not in areas]
+    cz = r.get("cylindrical") or {}
+    if cz.get("judged"):
+        items.append(f"Ez {cz['em_lux']:.0f} lx for {cz['required']['lux']:g},"
+                     f" U0 {cz['u0']:.2f} for {cz['required']['u0']:.2f}")
+    if r.get("ugr") is None:
+        items.append("UGR not computable")
+    elif r.get("ugr_limit") is None:
+        items.append(f"UGR {r['ugr']:.1f} (no limit given)")
+    else:
+        items.append(f"UGR {r['ugr']:.1f} for at most {r['ugr_limit']:g}")
+    return items
 
 
 def repeak(doc=None, threshold=None, neighbourhood_m=None):

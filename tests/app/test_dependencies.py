@@ -156,3 +156,16 @@ def test_find_python_takes_the_same_python_version_with_pip(tmp_path):
 ])
 def test_version_bounds(version, req, ok):
     assert deps.satisfies(version, req) is ok
+
+
+def test_each_missing_package_says_whether_it_is_needed_and_for_what():
+    # the install dialog and the headless installer list these lines: a required
+    # package said only "trimesh: missing", an optional one what is lost without it
+    by_name = {p.name: p for p in deps.packages()}
+    line = deps.Status(by_name["trimesh"], "missing").line
+    assert line == "trimesh: missing; needed for meshes"
+    assert deps.Status(by_name["jinja2"], "missing").line.endswith(
+        "needed for every report")
+    assert deps.Status(by_name["ifcopenshell"], "missing").line.endswith(
+        "without it: no IFC files and NativeIFC")
+    assert deps.Status(by_name["trimesh"], "ok", "4.5").line == "trimesh: ok 4.5"

@@ -26,6 +26,8 @@ def test_point_source_glare_note_said_once_in_plain_words():
     assert "give no luminous area" not in text and "CIE 147" not in text
     ugr = [ln for ln in lines if "point sources" in ln]
     assert len(ugr) == 1 and "Downlight A, Panel B" in ugr[0], lines
+    # and what to do about it: the panel's field that gives a type its luminous area
+    assert "Luminous size in the Design panel" in ugr[0], ugr
     assert "    too dark: something" in lines          # other notes kept per room
     assert sum(ln.startswith("  ") and "meets its requirements" in ln for ln in lines) == 3
 
@@ -65,3 +67,47 @@ def test_task_areas_each_reported_against_their_own_requirement():
     plain = dict(room, task_areas=None)
     line = [ln for ln in runner.describe_design(_res([plain])) if "office" in ln][0]
     assert "Em 423 lx for 500, U0 0.55 for 0.60" in line
+
+
+def test_every_judged_item_and_the_ugr_in_the_message():
+    # the command line and the report give walls, ceiling, surroundings, Ez and UGR; the
+    # GUI's message gave Em and U0 only, so "meets its requirements" hid a UGR of 37.6
+    # with no limit, and the installed power
+    req = lambda lux, u0: {"lux": lux, "u0": u0, "source": "EN 12464-1"}  # noqa: E731
+    room = {"name": "office", "compliant": True, "em_lux": 505.0, "u0": 0.61,
+            "watts": 120.1, "w_per_m2": 5.0, "notes": [],
+            "requirement": {"lux": 500, "u0": 0.6},
+            "surfaces": {"walls": {"em_lux": 251.0, "u0": 0.54, "required": req(75, 0.1)},
+                         "ceiling": {"em_lux": 138.0, "u0": 0.79, "required": req(50, 0.1)},
+                         "surroundings": {"em_lux": 316.0, "u0": 0.64,
+                                          "required": req(300, 0.4)},
+                         "floor": {"em_lux": 300.0, "u0": 0.5}},       # not judged
+            "cylindrical": {"judged": True, "em_lux": 239.0, "u0": 0.86,
+                            "required": {"lux": 150, "u0": 0.1}},
+            "ugr": 18.7, "ugr_limit": 19,
+            "power": {"rated_w": 182.0, "rated_w_per_m2": 7.58}}
+    text = "\n".join(runner.describe_design(_res([room])))
+    for want in ("walls Em 251 lx for 75, U0 0.54 for 0.10",
+                 "ceiling Em 138 lx for 50, U0 0.79 for 0.10",
+                 "surroundings Em 316 lx for 300, U0 0.64 for 0.40",
+                 "Ez 239 lx for 150, U0 0.86 for 0.10", "UGR 18.7 for at most 19",
+                 "120.1 W drawn", "182.0 W installed (7.6 W/m2)"):
+        assert want in text, (want, text)
+    assert "floor" not in text
+    free = dict(room, ugr=37.6, ugr_limit=None)
+    assert "UGR 37.6 (no limit given)" in "\n".join(runner.describe_design(_res([free])))
+    none = dict(room, ugr=None)
+    assert "UGR not computable" in "\n".join(runner.describe_design(_res([none])))
+
+
+def test_u0_as_the_report_rounds_it():
+    # FZK's Buero: Emin 340.87 / Em 505.01 = 0.67498, stored as u0 0.675: the message said
+    # 0.68 where the report, from the unrounded figures, said 0.67
+    room = {"name": "Buero", "compliant": True, "em_lux": 505.01, "emin_lux": 340.87,
+            "u0": 0.675, "watts": 69.0, "w_per_m2": 5.3, "notes": [],
+            "requirement": {"lux": 500, "u0": 0.6},
+            "surfaces": {"walls": {"em_lux": 225.72, "emin_lux": 115.72, "u0": 0.513,
+                                   "required": {"lux": 50, "u0": 0.1}}}}
+    text = "\n".join(runner.describe_design(_res([room])))
+    assert "Em 505 lx for 500, U0 0.67 for 0.60" in text, text
+    assert "walls Em 226 lx for 50, U0 0.51 for 0.10" in text, text

@@ -26,7 +26,8 @@ from invrad_wb.core.io.atomic import atomic_dir
 from invrad_wb.constants import DEEP_DIMMING, SPOT_TOLERANCE, SURFACE_REFERENCE
 from invrad_wb.core.output import document
 from invrad_wb.core.output.groups import output_groups  # noqa: F401 (the report's groups)
-from invrad_wb.core.output.figures import figure as _fig, iso_levels, label_iso_lines
+from invrad_wb.core.output.figures import (MARKER_HALF_PT, figure as _fig, iso_levels,
+                                           label_iso_lines)
 from invrad_wb.core.output.figures import thin_values
 from invrad_wb.core.output.taskarea_report import (area_of, draw_task_outlines, iso_words,
                                                    per_area, task_area_figures)
@@ -207,9 +208,13 @@ def room_plan_figure(rd, edges, lux_max, types, groups=None):
         if fits:
             _label_luminaires(fig, ax, rd.luminaires, groups or [])
     if getattr(ax, "iso_lines", None) is not None:
+        # the markers as drawn: a letter in them makes them 2-3 times the plain size
+        # (FZK's Galerie had its '400 lx' half under a lettered triangle)
+        half = max([0.5 * (ln.get_markersize() + ln.get_markeredgewidth())
+                    for ln in ax.get_lines() if ln.get_gid() == "luminaires"] or [0.0])
         label_iso_lines(ax, ax.iso_lines, rd.requirement.lux,
                         avoid=[lum.position[:2] for lum in rd.luminaires],
-                        field=ax.iso_field)
+                        field=ax.iso_field, avoid_half_pt=max(half, MARKER_HALF_PT))
     thin_values(fig, values, None if not areas else area_of(pts[::step], rd))
     return fig
 
@@ -580,7 +585,9 @@ def room_rows(result):
                        layout=r.candidate.geom.describe(), source=q.source,
                        ugr="n/c" if r.ugr is None else f"{r.ugr:.1f}",
                        ugr_limit="-" if r.ugr_limit is None else f"{r.ugr_limit:g}",
-                       ugr_ok=v.get("UGR", True),
+                       # None: no limit, no verdict (the value in plain text, not
+                       # green as if it passed: "UGR 37.6" under "-" read as met)
+                       ugr_ok=v.get("UGR"),
                        height=f"{q.height_m:g}", margin=f"{q.margin_m:g}",
                        summary=summary_rows(r),
                        walls=_surface_text(r, "walls"), ceiling=_surface_text(r, "ceiling"),

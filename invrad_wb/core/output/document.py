@@ -43,7 +43,15 @@ def render_page(template, **context):
     env = Environment(loader=FileSystemLoader(_TEMPLATES), undefined=StrictUndefined,
                       autoescape=select_autoescape(["html", "j2"]), trim_blocks=True,
                       lstrip_blocks=True)
+    env.filters["units"] = units
     return env.get_template(template).render(css=style_sheet(), **context)
+
+
+def units(text):
+    """A note as the page writes units: square metres as m² ('24.0 m2' and 'W/m2' in the
+    notes the design and locate steps write as plain text, 'm²' in the page's tables)."""
+    import re
+    return re.sub(r"(\d m|/m)2\b", "\\g<1>²", str(text))
 
 
 def pdf_engine():

@@ -197,14 +197,15 @@ def _candidates(ax, cs, values, label_px):
 
 
 def label_iso_lines(ax, cs, required=None, avoid=None, fontsize=7, inline_spacing=3,
-                    field=None):
+                    field=None, avoid_half_pt=None):
     """Label the iso-lux lines ``cs`` (a contour set of ``ax``) where each label fits:
     candidate places along each line at least as long as its label (:data:`LABEL_AT`:
     halfway first), kept one by one (the required level's lines first) only where the label's box (turned along the
     line, padded by :data:`ISO_LABEL_GAP_PT`) overlaps no label kept before, no plan point
     of ``avoid`` ((k, 2) data coordinates: the luminaires' markers) and stays inside the
     axes and, where ``field`` (a matplotlib Triangulation) is given, on the coloured field
-    (white on the white page beside it is unreadable); one label per line, at its first place that fits. The kept ones are drawn inline
+    (white on the white page beside it is unreadable; ``avoid_half_pt``: the markers'
+    half size as drawn, points, else :data:`MARKER_HALF_PT`); one label per line, at its first place that fits. The kept ones are drawn inline
     (the line broken under them only). Matplotlib's own ``clabel`` measures the lines
     where it is called and never looks at the other labels: called before the page's
     layout shrank the panel, a small task area with steep light got four labels on top
@@ -243,7 +244,7 @@ def label_iso_lines(ax, cs, required=None, avoid=None, fontsize=7, inline_spacin
     marks = np.zeros((0, 4))
     if avoid is not None and len(avoid):
         c = ax.transData.transform(np.asarray(avoid, dtype=float)[:, :2])
-        h = MARKER_HALF_PT * px
+        h = (MARKER_HALF_PT if avoid_half_pt is None else avoid_half_pt) * px
         marks = np.c_[c - h, c + h]
 
     def hits(b, others):
