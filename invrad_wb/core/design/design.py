@@ -182,7 +182,7 @@ class RoomDesign:
         if self.metrics is not None:
             m = self.metrics
             d.update({"em_lux": round(m.em, 2), "emin_lux": round(m.emin, 2),
-                      "emax_lux": round(m.emax, 2), "u0": round(m.u0, 3),
+                      "emax_lux": round(m.emax, 2), "u0": round(m.u0, 6),
                       "shade_max_lux": round(m.shade_max, 3),
                       "pass": {k: bool(v) for k, v in self.verdicts.items()},
                       "compliant": self.compliant, "watts": round(self.watts, 2),
@@ -195,7 +195,7 @@ class RoomDesign:
                                          len(self.grid_points))})
             d["surfaces"] = {
                 k: {"em_lux": round(v[0], 2), "emin_lux": round(v[1], 2),
-                    "u0": round(v[2], 3),
+                    "u0": round(v[2], 6),
                     **({"required": self.surface_reqs[k].to_dict()}
                        if k in self.surface_reqs else {})}
                 for k, v in m.surfaces.items()}

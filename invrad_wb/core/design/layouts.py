@@ -68,8 +68,9 @@ class Geometry:
         even = all(len(v) < 3 or np.allclose(np.diff(v), v[1] - v[0], atol=1e-6)
                    for v in (s, t))
         if len(s) * len(t) != self.count or not even:   # an L, a stair, an opening...
-            return (f"{self.count} positions of a {self.ns} x {self.nt} grid clipped to"
-                    " where the room allows luminaires (its outline, no stair)")
+            return (f"{self.count} positions of a {self.ns} x {self.nt} grid (the others"
+                    " fall outside the room's outline or in an obstacle, or the design"
+                    " left them out)")
 
         def axis(v, size):
             step = f"{v[1] - v[0]:.2f} m apart, " if len(v) > 1 else ""

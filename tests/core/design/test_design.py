@@ -439,3 +439,17 @@ def test_ugr_of_the_general_lighting_dimmed_beside_accents_is_their_parts_added(
             D.room_ugr(model, droom, dimmed + accent), abs=0.08)
     # the accent's glare stands out as the general lighting dims: UGR rises
     assert D.ugr_at(parts, 0.2) > D.ugr_at(parts, 1.0)
+
+
+def test_u0_in_the_json_rounds_once_as_the_report_does():
+    """The JSON's U0 is not pre-rounded: FZK's Buero, Emin / Em 0.67498, read 0.675 in the
+    JSON and so '0.68' on the freecad command's line, where the report says 0.67."""
+    import dataclasses
+    sc = g.box_room(size=(6.0, 4.0, 3.0), cell=0.5, reflectance=0.0)
+    rd = design_room(sc, spec(), 0)
+    m = rd.metrics
+    rd.metrics = dataclasses.replace(
+        m, u0=0.67498, surfaces={k: (v[0], v[1], 0.67498) for k, v in m.surfaces.items()})
+    d = rd.to_dict()
+    assert f"{d['u0']:.2f}" == f"{rd.metrics.u0:.2f}" == "0.67"
+    assert all(f"{s['u0']:.2f}" == "0.67" for s in d["surfaces"].values())

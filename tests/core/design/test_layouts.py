@@ -29,8 +29,9 @@ def test_a_full_grid_gives_its_spacing_and_an_l_its_clipped_count():
     assert g.describe() == ("3 x 2 grid: along the room 2.00 m apart, 1.00 m from the walls;"
                             " across 2.00 m apart, 1.00 m from the walls")
     ell = _grid(3, 3, 0.5, (6.0, 6.0), lambda p: ~((p[:, 0] > 3) & (p[:, 1] > 3)))
-    assert ell.describe() == ("8 positions of a 3 x 3 grid clipped to where the room allows"
-                              " luminaires (its outline, no stair)")
+    assert ell.describe() == ("8 positions of a 3 x 3 grid (the others fall outside the"
+                              " room's outline or in an obstacle, or the design left them"
+                              " out)")
     # a column left out over a stair: not a regular 4 x 2 grid
     hole = _grid(5, 2, 0.5, (7.0, 5.0), lambda p: np.abs(p[:, 0] - 3.5) > 0.1)
-    assert hole.describe().startswith("8 positions of a 5 x 2 grid clipped")
+    assert hole.describe().startswith("8 positions of a 5 x 2 grid (the others")
