@@ -45,7 +45,6 @@ import numpy as np
 from invrad_wb.core.design import en12464
 from invrad_wb.core.design.evaluate import luminous_samples
 from invrad_wb.core.forward.direct import direct_illuminance
-from invrad_wb.core.geometry.raster import locate_points
 from invrad_wb.core.model.targets import WORK_PLANE_HEADROOM_M
 
 #: horizontal directions of the interreflected part of Ez
@@ -120,53 +119,16 @@ class CylindricalGrid:
         # receivers: N_DIRECTIONS vertical ones per point, then one facing up
         pts = np.concatenate([np.tile(self.points, (N_DIRECTIONS, 1)), self.points])
         nrm = np.concatenate([np.repeat(dirs, k, axis=0), np.tile([0.0, 0.0, 1.0], (k, 1))])
-        self._blocks = self._gather_blocks(pts, nrm,
-                                           np.tile(self._floor_patches(), N_DIRECTIONS + 1))
-
-    def _gather_blocks(self, pts, nrm, patch):
-        """Per room of the radiosity model: (rows, patch slice, (rows, P_room) float32
-        form factors x visibility). Unlike a surface receiver, a point in the air belongs
-        to no plane: every patch counts (the floor below it too, for a vertical receiver);
-        occlusion is the visibility row of the floor patch under it."""
-        from invrad_wb.core.forward.form_factors import form_factor_matrix
-        rad = self.model.rad
-        pr = np.where(patch >= 0, rad.patch_room[np.maximum(patch, 0)], -1)
-        out = []
-        for room in rad.rooms:
-            rows = np.flatnonzero((patch >= 0) & (pr == room.room))
-            if len(rows) == 0 or room.patches.n == 0:
-                continue
-            mat = np.empty((len(rows), room.patches.n), np.float32)
-            step = max(1, (64 << 20) // (8 * room.patches.n))
-            for s in range(0, len(rows), step):
-                r = rows[s:s + step]
-                mat[s:s + len(r)] = form_factor_matrix(
-                    pts[r], nrm[r], np.full(len(r), -1), room.patches,
-                    point_patch=patch[r] - room.sl.start, visibility=room.vis,
-                    backend=rad.backend, centre=room.centre)
-            out.append((rows, room.sl, mat))
-        return out
+        under = np.tile(model.floor_patches(self.points), N_DIRECTIONS + 1)
+        self._op = model.air_gather(pts, nrm, under)
 
     def gather(self, exitance):
-        """Interreflected (ez (k,), eh (k,)) lux for patch exitances ``exitance`` (P,)."""
+        """Interreflected (ez (k,), eh (k,)) lux for patch exitances ``exitance`` (P,)
+        (:class:`~.evaluate.AirGather`: a point in the air belongs to no plane, every
+        patch counts; occlusion is the visibility row of the floor patch under it)."""
         k = len(self.points)
-        e = np.zeros((N_DIRECTIONS + 1) * k)
-        b = np.asarray(exitance, dtype=np.float64)
-        for rows, sl, mat in self._blocks:
-            e[rows] = mat @ b[sl].astype(np.float32)
+        e = self._op(exitance)
         return e[:N_DIRECTIONS * k].reshape(N_DIRECTIONS, k).mean(axis=0), e[N_DIRECTIONS * k:]
-
-    def _floor_patches(self):
-        """Floor patch under each point (its visibility row), nearest patch elsewhere."""
-        from invrad_wb.core.geometry.meshing import nearest_site
-        m, rad = self.model.mesh, self.model.rad
-        floor = np.flatnonzero(m.face_normals[:, 2] > 0.99)
-        idx, _ = locate_points(m.triangles[floor][..., :2], self.points[:, :2])
-        patch = np.where(idx >= 0, rad.face_patch[floor[np.maximum(idx, 0)]], -1)
-        miss = np.flatnonzero(idx < 0)
-        if len(miss):
-            patch[miss] = rad.face_patch[nearest_site(m.face_centroids, self.points[miss])]
-        return patch
 
     def direct(self, luminaires):
         """Direct (ez (k,), eh (k,)) lux of the new installation (not maintained)."""

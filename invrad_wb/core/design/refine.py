@@ -46,7 +46,8 @@ import math
 
 import numpy as np
 
-from invrad_wb.core.design.evaluate import unit_response
+from invrad_wb.core.design.evaluate import half_sides, unit_response
+from invrad_wb.core.design.roomglare import seen_shares
 from invrad_wb.core.design.search import (EXACT_ONLY, Candidate, Metrics, margin_kept,
                                           metrics_comply)
 from invrad_wb.core.output.glare import ugr_from_sum, unit_glare
@@ -363,8 +364,11 @@ def _fast_parts(search, cand, groups):
             # a type of high luminance ranks by what it really may draw under the UGR
             # limit, not by its lumens per watt alone
             for o, (eye, view) in enumerate(search.obs):
+                seen = seen_shares(m, eye, g.positions[sel], g.normals[sel],
+                                   half_sides(e.radius_m, search.phot.get(e.name)),
+                                   search._c0(e))
                 u = unit_glare(eye, view, g.positions[sel], g.normals[sel], search._area(e),
-                               search.phot.get(e.name), search._c0(e))
+                               search.phot.get(e.name), search._c0(e), seen)
                 glare[0][:, o] += e.flux_lm ** 2 * np.bincount(groups[sel], weights=u,
                                                                minlength=G)
     w, lo, hi = _group_watts(search, cand, groups)

@@ -10,8 +10,79 @@ background luminance from the light they give new, both without the maintenance 
 Until round 12 the background was taken maintained (x MF) with the luminance new: a mix
 that read every room 8 log10(1 / MF) high (+0.78 at MF 0.8), conservative but costing
 watts where UGR binds (tests/core/design/test_design_radiance.py: Radiance's CIE 117
-figure in the new condition)."""
+figure in the new condition).
+
+UGR counts what the observer **sees** (CIE 117's sum runs over the luminaires in view;
+Radiance and evalglare see nothing else): in an L, a room with columns or partitions, a
+luminaire behind the inner corner or a column adds nothing, and one partly hidden adds the
+share of its luminous area the eye sees (:func:`seen_shares`: the 2 x 2 Gauss points of its
+luminous rectangle, by the same segment test through the room's occluders as its direct
+light on the grids; a disk as the square of its area, a small source by its centre). Until
+round 13 every luminaire counted: in the L with a column of
+tests/core/design/test_design_radiance.py, 4 luminaires of the other leg behind the inner
+corner put the observer at (3, 4.5) looking -y about 0.5 high. A convex room has no
+occluders: every luminaire is wholly seen, the same figures as before.
+"""
+import math
+
 import numpy as np
+
+from invrad_wb.core.design.evaluate import half_sides
+from invrad_wb.core.forward.occlusion import segments_occluded
+from invrad_wb.core.model.aiming import photometric_frame
+
+
+def seen_shares(model, eye, positions, normals, half=None, c0=None):
+    """(L,) share of each luminous area the eye sees past the room's occluders.
+
+    Parameters
+    ----------
+    model : evaluate.RoomModel (its occluders ``bvh``, None in a convex room)
+    eye : (3,) float64, metres
+    positions, normals : (L, 3) float64, luminaire centres and facing directions
+    half : (half along C0, half along C90) metres of the luminous rectangle, or None (a
+        small source: its centre)
+    c0 : (3,) float64 or None, the C0 direction (:func:`.aiming.photometric_frame`)
+
+    Returns
+    -------
+    (L,) float64 in [0, 1] (the share of the rectangle's 2 x 2 Gauss points with a clear
+    segment to the eye), or None where nothing in the room can block a sight line.
+    """
+    if model.bvh is None:
+        return None
+    P = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    N = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    if len(P) == 0:
+        return np.zeros(0)
+    # the same luminaire in many layouts of the search is tested once
+    uniq, inv = np.unique(np.round(np.c_[P, N], 9), axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    P, N = uniq[:, :3], uniq[:, 3:]
+    if half is None:
+        off = np.zeros((1, 2))
+    else:
+        a, b = half[0] / math.sqrt(3.0), half[1] / math.sqrt(3.0)   # Gauss-Legendre
+        off = np.array([[-a, -b], [a, -b], [-a, b], [a, b]])
+    pts = np.empty((len(P), len(off), 3))
+    for key in np.unique(np.round(N, 9), axis=0):
+        rows = np.flatnonzero(np.all(np.abs(N - key) < 1e-8, axis=1))
+        u, w = photometric_frame(N[rows[0]], c0)
+        pts[rows] = P[rows, None, :] + off[:, :1] * u + off[:, 1:] * w
+    flat = pts.reshape(-1, 3)
+    eye = np.asarray(eye, dtype=np.float64)
+    hidden = segments_occluded(model.bvh, np.broadcast_to(eye, flat.shape), flat,
+                               model.backend)
+    return (1.0 - hidden.reshape(len(P), len(off)).mean(axis=1))[inv]
+
+
+def luminaire_shares(model, eye, luminaires):
+    """:func:`seen_shares` of a list of luminaires (each its own opening and C0)."""
+    if model.bvh is None or not luminaires:
+        return None
+    return np.array([seen_shares(model, eye, lum.position[None], lum.normal[None],
+                                 half_sides(lum.radius_m, getattr(lum, "photometry", None)),
+                                 lum.c0)[0] for lum in luminaires])
 
 
 def room_ugr(model, droom, luminaires):
@@ -26,7 +97,8 @@ def room_ugr(model, droom, luminaires):
     eyes = np.array([e for e, _ in obs])
     views = np.array([v for _, v in obs])
     lb = model.indirect_at(eyes, views, luminaires)       # new condition (module doc)
-    values = [ugr(luminaires, e, v, b) for (e, v), b in zip(obs, lb)]
+    values = [ugr(luminaires, e, v, b, luminaire_shares(model, e, luminaires))
+              for (e, v), b in zip(obs, lb)]
     values = [u for u in values if u is not None]
     return max(values) if values else None
 
@@ -59,7 +131,8 @@ def glare_terms(model, droom, luminaires, covering=None):
     eyes = np.array([e for e, _ in obs])
     views = np.array([v for _, v in obs])
     # ugr() at a background of pi/4 lx is 8 log10 of the sum itself
-    out = [ugr(luminaires, e, v, 0.25 * np.pi) for e, v in obs]
+    out = [ugr(luminaires, e, v, 0.25 * np.pi, luminaire_shares(model, e, luminaires))
+           for e, v in obs]
     sums = np.array([0.0 if u is None else 10.0 ** (u / 8.0) for u in out])
     return sums, model.indirect_at(eyes, views, luminaires, covering)
 

@@ -18,9 +18,10 @@ import math
 
 import numpy as np
 
-from invrad_wb.core.design.evaluate import (Layout, entry_c0, luminaires_of,
+from invrad_wb.core.design.evaluate import (Layout, entry_c0, half_sides, luminaires_of,
                                             turned_entries, unit_response)
 from invrad_wb.core.design.spec import SurfaceRequirement
+from invrad_wb.core.design.roomglare import luminaire_shares, seen_shares
 from invrad_wb.core.output.glare import observers, ugr_from_sum, unit_glare
 from invrad_wb.core.design.layouts import grid_geometries, zone_geometries
 
@@ -310,9 +311,12 @@ class RoomSearch:
             if key in self.GL:
                 continue
             out = np.zeros((2 * G, O))
+            half = half_sides(e.radius_m, self.phot.get(e.name))
             for o, (eye, view) in enumerate(self.obs):
+                seen = seen_shares(self.model, eye, pos, nrm, half, self._c0(e))
                 np.add.at(out[:, o], group, unit_glare(eye, view, pos, nrm, self._area(e),
-                                                       self.phot.get(e.name), self._c0(e)))
+                                                       self.phot.get(e.name), self._c0(e),
+                                                       seen))
             self.GL[key] = out.reshape(G, 2, O).transpose(1, 0, 2)
 
     def fast_ugr(self, pair, sel, dim):
@@ -344,12 +348,14 @@ class RoomSearch:
         views = np.array([v for _, v in self.obs])
         total = np.zeros(len(self.obs))
         for o, (eye, view) in enumerate(self.obs):
-            for lum in luminaires:
+            seen = luminaire_shares(self.model, eye, luminaires)
+            seen = np.ones(len(luminaires)) if seen is None else seen
+            for k, lum in enumerate(luminaires):
                 e = next(x for x in self.entries if x.name == lum.extra.get("type")
                          and x.orientation == lum.extra.get("orientation"))
                 total[o] += lum.flux_lm ** 2 * unit_glare(
                     eye, view, lum.position[None], lum.normal[None], self._area(e),
-                    self.phot.get(e.name), lum.c0)[0]
+                    self.phot.get(e.name), lum.c0, seen[k:k + 1])[0]
         lb = self.model.indirect_at(eyes, views, luminaires, covering)     # new
         return total, lb
 

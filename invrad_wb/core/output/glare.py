@@ -7,7 +7,10 @@ over its luminous area projected on that direction), ``omega_k`` (sr) that proje
 over the squared distance, ``p_k`` the Guth position index of its direction relative to the
 line of sight, and ``Lb`` (cd/m^2) the background luminance: the indirect illuminance at the
 eye (a vertical plane facing the view) over pi. Only luminaires above the eye and in front
-of it (within the half space the observer faces) count; the Guth index uses the usual fit
+of it (within the half space the observer faces) count, and of those only what the observer
+sees: a caller that knows the room's walls and obstacles gives the seen share of each
+luminous area (``seen``; :func:`invrad_wb.core.design.roomglare.seen_shares`). The Guth
+index uses the usual fit
 (IESNA Lighting Handbook):
 
     ln p = (35.2 - 0.31889 tau - 1.22 exp(-2 tau / 9)) 1e-3 sigma
@@ -46,7 +49,7 @@ def is_small_source(lum):
     return area is None or area < SMALL_SOURCE_M2
 
 
-def ugr(luminaires, eye, view, background_lux):
+def ugr(luminaires, eye, view, background_lux, seen=None):
     """UGR of luminaires seen from ``eye`` (3,) looking along horizontal ``view`` (3,).
 
     Parameters
@@ -55,6 +58,10 @@ def ugr(luminaires, eye, view, background_lux):
         luminous opening; without one, or below ``SMALL_SOURCE_M2`` projected: the CIE 147
         small-source rule)
     background_lux : float, indirect illuminance at the eye on a plane facing the view (lx)
+    seen : (L,) float or None, the share of each luminaire's luminous area the eye sees
+        past walls and obstacles (0: hidden; None: all wholly seen, a convex room). CIE
+        117's sum runs over what the observer sees: a luminaire partly hidden counts with
+        its luminance and the seen share of its solid angle (its term times the share).
 
     Returns
     -------
@@ -64,7 +71,10 @@ def ugr(luminaires, eye, view, background_lux):
     v = np.asarray(view, dtype=np.float64)
     v = v / np.linalg.norm(v)
     total = 0.0
-    for lum in luminaires:
+    for k, lum in enumerate(luminaires):
+        share = 1.0 if seen is None else float(seen[k])
+        if share <= 0.0:
+            continue                      # hidden by a wall or an obstacle
         area = luminous_area(lum)
         d = lum.position - eye
         r = float(np.linalg.norm(d))
@@ -87,14 +97,15 @@ def ugr(luminaires, eye, view, background_lux):
                                       max(float(perp[2]), 1e-12)))
         p = float(guth_index(tau, sigma))
         luminance = i_cd / a_proj
-        total += luminance ** 2 * (a_proj / r ** 2) / p ** 2
+        total += share * luminance ** 2 * (a_proj / r ** 2) / p ** 2
     if total <= 0:
         return None
     lb = max(background_lux, 1e-6) / math.pi
     return 8.0 * math.log10(0.25 / lb * total)
 
 
-def unit_glare(eye, view, positions, normals, area_m2=None, photometry=None, c0=None):
+def unit_glare(eye, view, positions, normals, area_m2=None, photometry=None, c0=None,
+               seen=None):
     """Vectorised glare terms of luminaires of one type at unit flux: ``(L,)`` values of
     ``L^2 omega / p^2`` per lm^2 (a luminaire of flux F adds ``F^2`` times its term to the
     sum of :func:`ugr`), 0 for those the observer does not see (behind, below the eye,
@@ -108,7 +119,9 @@ def unit_glare(eye, view, positions, normals, area_m2=None, photometry=None, c0=
     photometry : object with ``intensity_per_lm(local_dirs)`` or None (lambertian)
     c0 : (3,) float64 or None, the C = 0 direction of every luminaire (None: the frame of
         its normal, :func:`~invrad_wb.core.model.aiming.photometric_frame`)
+    seen : (L,) float64 or None, the share of each luminous area the eye sees (:func:`ugr`)
     """
+    share = None if seen is None else np.asarray(seen, dtype=np.float64).reshape(-1)
     eye = np.asarray(eye, dtype=np.float64)
     v = np.asarray(view, dtype=np.float64)
     v = v / np.linalg.norm(v)
@@ -142,7 +155,7 @@ def unit_glare(eye, view, positions, normals, area_m2=None, photometry=None, c0=
     p = guth_index(tau, sigma)
     luminance = i_lm / a_proj
     out[seen] = luminance ** 2 * (a_proj / r ** 2) / p ** 2
-    return out
+    return out if share is None else out * share
 
 
 def ugr_from_sum(total, background_lux):
