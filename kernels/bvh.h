@@ -22,6 +22,8 @@
 
 #pragma OPENCL FP_CONTRACT OFF
 
+#include "vec16.h"
+
 #define BVH_STACK 64
 
 /* o: ray start, (kx, ky, kz) its axes, (sx, sy, sz) its shear; t in units of the segment */
@@ -43,7 +45,7 @@ inline int leaf_hit(const float ox, const float oy, const float oz,
     const int16 inside = ((u >= 0.0f) & (v >= 0.0f) & (w >= 0.0f))
                          | ((u <= 0.0f) & (v <= 0.0f) & (w <= 0.0f));
     const int16 hit = inside & (det != 0.0f) & (t > tmin) & (t < tmax);
-    return any(hit);
+    return any16(hit);
 }
 
 /* 1 if a triangle crosses the segment p -> q strictly between eps and |q-p| - eps. */
