@@ -151,8 +151,8 @@ inline float16 block_form_factors(const float3 p, const float3 m, const int2 ri,
         f = VLOAD16_FLOAT(fv);
     }
 #if VIS
-    const uchar16 v = vload16(0, vis + (size_t)ri.y * ppad + 16 * b);   /* 128-bit: fine */
-    f *= (float16)(convert_float8(v.lo), convert_float8(v.hi));
+    __global const uchar *v = vis + (size_t)ri.y * ppad + 16 * b;
+    f *= (float16)(convert_float8(vload8(0, v)), convert_float8(vload8(1, v)));
 #endif
     return f;
 }

@@ -14,6 +14,13 @@ light, shadows, radiosity) in a child process, with the same interpreter and ``s
 (:func:`workers.worker_python`); the verdict is kept in the kernel cache's folder, keyed by
 everything the driver's answer depends on (driver, device, pyopencl, the kernels' sources),
 so the test runs once per machine and version.
+
+The cause on that CPU was found (see ``kernels/vec16.h``): the driver builds kernels without
+AVX-512 but links AVX-512 built-ins, and any OpenCL built-in called on a 16-lane vector
+aborts LLVM; invrad's kernels no longer make such calls, and the self-test passes there.
+The child now first builds and launches every kernel in every variant that has code of its
+own (:data:`KERNEL_VARIANTS`, :func:`launch_every_kernel`: where a driver's compiler fails,
+it fails at the first launch), then runs the small locate.
 """
 import hashlib
 import json
@@ -37,12 +44,55 @@ sys.path[:0] = json.loads(sys.argv[1])
 if os.environ.get("INVRAD_OPENCL_PROBE_ABORT"):
     os.abort()
 from invrad_wb import cli
+from invrad_wb.core.accel import probe
+from invrad_wb.core.accel.device import get_env
+probe.launch_every_kernel(get_env())
 out = sys.argv[2]
 cli.main(["example", "one_ceiling", "-o", os.path.join(out, "probe.ply"), "--cell", "0.25",
           "--truth", os.path.join(out, "truth.json"), "--backend", "opencl"])
 cli.main(["locate", os.path.join(out, "probe.ply"), "--backend", "opencl", "-o",
           os.path.join(out, "found.json")])
 """
+
+#: every program of ``kernels/`` with the -D options that together compile each line of it
+#: once (each ``#if`` branch; the values the kernel modules pass: inverse/votes.py's
+#: PROFILE_STEP_DEG, tests/core/accel/test_kernel_builds.py checks they agree)
+KERNEL_VARIANTS = (
+    ("votes_exact", ("-D OCCLUSION=1", "-D SHADE=1", "-D PROFILE=0", "-D PROFILE_STEP=0.25f")),
+    ("votes_exact", ("-D OCCLUSION=1", "-D SHADE=1", "-D PROFILE=1", "-D PROFILE_STEP=0.25f")),
+    ("votes_ellipse", ("-D OCCLUSION=1",)),
+    ("direct", ("-D OCCLUSION=1",)),
+    ("photometric", ("-D OCCLUSION=1",)),
+    ("radiosity", ("-D VIS=1",)),
+    ("occlusion", ()),
+)
+
+
+def launch_every_kernel(env, variants=KERNEL_VARIANTS):
+    """Build each program of ``variants`` as invrad does (:meth:`CLEnv.program`) and launch
+    each of its kernels once over 16 work-items with count 0 and zeroed buffers: nothing is
+    computed, but a driver compiles a kernel's machine code at its first launch (PoCL), so a
+    compiler that fails on a kernel fails here. Returns the (program, options, kernel)
+    launched."""
+    import numpy as np
+    cl = env.cl
+    zeros = np.zeros(4096, np.float32)
+    buf = cl.Buffer(env.ctx, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR,
+                    hostbuf=zeros)
+    done = []
+    for name, options in variants:
+        for knl in env.program(name, list(options)).all_kernels():
+            # every by-value argument of invrad's kernels is a 4-byte int or float (a count
+            # first): 0; a pointer refuses 4 bytes (CL_INVALID_ARG_SIZE) and gets the buffer
+            for i in range(knl.num_args):
+                try:
+                    knl.set_arg(i, np.int32(0))
+                except cl.Error:
+                    knl.set_arg(i, buf)
+            cl.enqueue_nd_range_kernel(env.queue, knl, (16,), None)
+            env.queue.finish()
+            done.append((name, options, knl.function_name))
+    return done
 
 
 def needs_probe(device):
