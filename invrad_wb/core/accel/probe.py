@@ -17,7 +17,8 @@ so the test runs once per machine and version.
 
 The cause on that CPU was found (see ``kernels/vec16.h``): the driver builds kernels without
 AVX-512 but links AVX-512 built-ins, and any OpenCL built-in called on a 16-lane vector
-aborts LLVM; invrad's kernels no longer make such calls, and the self-test passes there.
+aborts LLVM; for that driver (:func:`split16`) invrad's kernels call them on 8-lane halves,
+and the self-test passes there.
 The child now first builds and launches every kernel in every variant that has code of its
 own (:data:`KERNEL_VARIANTS`, :func:`launch_every_kernel`: where a driver's compiler fails,
 it fails at the first launch), then runs the small locate.
@@ -35,6 +36,8 @@ from invrad_wb import constants as C
 ENV_CHILD = "INVRAD_OPENCL_PROBE_CHILD"
 #: tests: a child that aborts as the faulty driver does
 ENV_FAKE_ABORT = "INVRAD_OPENCL_PROBE_ABORT"
+#: ``1``: call built-ins on 16-lane vectors' halves on any driver (``0``: never); tests
+ENV_SPLIT16 = "INVRAD_OPENCL_SPLIT16"
 #: seconds the child may take (a small room; kernels compiled once)
 TIMEOUT_S = 300
 
@@ -95,11 +98,8 @@ def launch_every_kernel(env, variants=KERNEL_VARIANTS):
     return done
 
 
-def needs_probe(device):
-    """True for the driver that may abort (PoCL from ``pocl-binary-distribution``) unless
-    this is the probe's own child."""
-    if os.environ.get(ENV_CHILD):
-        return False
+def is_pypi_pocl(device):
+    """True for PoCL from PyPI (``pocl-binary-distribution``), the driver that aborted."""
     try:
         name = device.platform.name
     except Exception:                                        # noqa: BLE001
@@ -111,6 +111,24 @@ def needs_probe(device):
         return importlib.util.find_spec("pocl_binary_distribution") is not None
     except (ImportError, ValueError):
         return False
+
+
+def needs_probe(device):
+    """True for the driver that may abort (:func:`is_pypi_pocl`) unless this is the
+    probe's own child."""
+    return not os.environ.get(ENV_CHILD) and is_pypi_pocl(device)
+
+
+def split16(device):
+    """Whether kernels call OpenCL built-ins on the 8-lane halves of 16-lane vectors
+    (``-D INVRAD_SPLIT16=1``, kernels/vec16.h): ``$INVRAD_OPENCL_SPLIT16`` (``1``/``0``)
+    if set, else for PoCL from PyPI only. That driver aborts on whole 16-lane calls on an
+    AMD Zen 4; other drivers run them, and on an AVX-512 CPU faster (Debian's PoCL 3.1,
+    this Zen 4: the vote kernel on a 8 x 6 m room at 5 cm pixels 3.2 s whole, 5.1 s split)."""
+    v = os.environ.get(ENV_SPLIT16, "").strip().lower()
+    if v in ("0", "1", "false", "true", "no", "yes", "off", "on"):
+        return v in ("1", "true", "yes", "on")
+    return is_pypi_pocl(device)
 
 
 def _key(cl, device):

@@ -27,8 +27,12 @@ _PART = re.compile(r"\s*\.\s*(?:lo|hi|even|odd|[xyzw]{1,4}|s[0-9a-fA-F]{1,8})\b"
 
 
 def _source(path):
+    """A kernel file's text without comments, and without vec16.h's whole-vector branch
+    (built only for drivers that run it: ``-D INVRAD_SPLIT16`` unset)."""
     with open(path, encoding="utf-8") as fh:
         text = fh.read()
+    text = re.sub(r"#else /\* whole: not INVRAD_SPLIT16 \*/.*?#endif /\* INVRAD_SPLIT16 \*/", " ",
+                  text, flags=re.S)
     text = re.sub(r"/\*.*?\*/", " ", text, flags=re.S)
     return re.sub(r"//[^\n]*", " ", text)
 
@@ -150,6 +154,8 @@ def _user_functions(folder=C.KERNELS_DIR):
 def test_no_kernel_calls_a_builtin_on_a_512_bit_vector():
     fns, macros = _user_functions()
     assert {"tent_votes", "leaf_hit", "select16", "log16"} <= set(fns) and "VSTORE16" in macros
+    with open(os.path.join(C.KERNELS_DIR, "vec16.h"), encoding="utf-8") as fh:
+        assert "vstore16" in fh.read() and "vstore16" not in _source(fh.name)
     bad = [(os.path.basename(p), f, c) for p in _kernel_files()
            for f, c in wide_builtin_calls(p, fns, macros)]
     assert not bad, ("OpenCL built-ins called on 512-bit vectors (PoCL from PyPI aborts on"
@@ -186,14 +192,32 @@ def test_the_self_test_launches_every_kernel_with_the_options_invrad_builds():
 
 
 @pytest.mark.opencl
-def test_every_kernel_builds_and_launches_on_this_driver():
+@pytest.mark.parametrize("split", [None, "1"], ids=["as_chosen", "split16"])
+def test_every_kernel_builds_and_launches_on_this_driver(split):
+    """The driver's own choice of kernels/vec16.h's branch, and the split one (PoCL from
+    PyPI's) on any driver."""
     child = ("import sys; sys.path.insert(0, sys.argv[1])\n"
              "from invrad_wb.core.accel import probe\n"
              "from invrad_wb.core.accel.device import get_env\n"
              "print(len(probe.launch_every_kernel(get_env())))\n")
     env = dict(os.environ, **{probe.ENV_CHILD: "1"})
+    if split:
+        env[probe.ENV_SPLIT16] = split
     p = subprocess.run([sys.executable, "-c", child, str(ROOT)], env=env, capture_output=True,
                        text=True, timeout=probe.TIMEOUT_S, stdin=subprocess.DEVNULL)
     said = (p.stderr + p.stdout).strip().splitlines()
     assert p.returncode == 0, f"exit status {p.returncode}: " + "\n".join(said[-8:])
     assert said[-1] == str(len(probe.KERNEL_VARIANTS) + 1)    # radiosity holds two kernels
+
+
+@pytest.mark.opencl
+@pytest.mark.parametrize("name", ["votes_exact", "patch_form_factors", "segments_occluded"])
+def test_split_built_ins_match_the_numpy_twins(name, monkeypatch):
+    """kernels/vec16.h's split branch (what PoCL from PyPI builds) on this driver: the
+    parity cases of test_accel (votes_exact, radiosity and bvh.h use the helpers)."""
+    import test_accel
+    from invrad_wb.core.accel.device import get_env
+    from invrad_wb.core.accel.registry import pairs
+    monkeypatch.setattr(get_env(), "base_options", ["-D INVRAD_SPLIT16=1"])
+    args, kw, same = test_accel.CASES[name]()
+    same(pairs()[name].numpy(*args, **kw), pairs()[name].opencl(*args, **kw))
