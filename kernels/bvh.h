@@ -15,12 +15,18 @@
  * Moller-Trumbore, used before, computes barycentrics per triangle from its own edges; a
  * ray through a shared wall edge missed both triangles at some points (l_room, 0.1 m mesh:
  * 225 of 11790 vertices lit through a wall by one of its 18 lights). No fused multiply-add
- * may break the exact negation, hence FP_CONTRACT OFF.
+ * may break the exact negation, hence FP_CONTRACT OFF; nor may a reordering of the vertex
+ * images' sums (-cl-fast-relaxed-math allows it: LLVM 14, PoCL 3.0 from PyPI, computed one
+ * vertex's image differently for two of its triangles: tests/core/forward/test_watertight.py
+ * failed, the parity test's pillar room had a point lit through the pillar), hence
+ * "clang fp reassociate(off)" in leaf_hit (other compilers ignore the pragma).
  */
 #ifndef INVRAD_BVH_H
 #define INVRAD_BVH_H
 
 #pragma OPENCL FP_CONTRACT OFF
+
+#include "vec16.h"
 
 #define BVH_STACK 64
 
@@ -30,6 +36,7 @@ inline int leaf_hit(const float ox, const float oy, const float oz,
                     const float sx, const float sy, const float sz,
                     const float tmin, const float tmax, __global const float16 *leaf)
 {
+#pragma clang fp reassociate(off)
     const float16 az = leaf[kz] - oz, bz = leaf[3 + kz] - oz, cz = leaf[6 + kz] - oz;
     const float16 ax = (leaf[kx] - ox) - sx * az, ay = (leaf[ky] - oy) - sy * az;
     const float16 bx = (leaf[3 + kx] - ox) - sx * bz, by = (leaf[3 + ky] - oy) - sy * bz;
@@ -43,7 +50,7 @@ inline int leaf_hit(const float ox, const float oy, const float oz,
     const int16 inside = ((u >= 0.0f) & (v >= 0.0f) & (w >= 0.0f))
                          | ((u <= 0.0f) & (v <= 0.0f) & (w <= 0.0f));
     const int16 hit = inside & (det != 0.0f) & (t > tmin) & (t < tmax);
-    return any(hit);
+    return any16(hit);
 }
 
 /* 1 if a triangle crosses the segment p -> q strictly between eps and |q-p| - eps. */

@@ -29,6 +29,8 @@
  * Build options: -D VIS=0/1 (multiply by the patch-to-patch visibility vis[P, ppad]).
  */
 
+#include "vec16.h"
+
 #define INV_TWO_PI 0.15915494309189535f
 
 /* gamma_e * (m . unit(a x b)) of one contour edge a -> b (vectors from the receiver). */
@@ -123,33 +125,34 @@ inline float16 block_form_factors(const float3 p, const float3 m, const int2 ri,
 {
     __global const float16 *B = pblk + 8 * b;
     const float16 dx = B[0] - p.x, dy = B[1] - p.y, dz = B[2] - p.z;
-    const float16 d2 = fmax(dx * dx + dy * dy + dz * dz, 1e-12f);
+    const float16 d2 = fmax16(dx * dx + dy * dy + dz * dz, 1e-12f);
     const float16 ci = m.x * dx + m.y * dy + m.z * dz;            /* r cos_i */
     const float16 cj = -(B[3] * dx + B[4] * dy + B[5] * dz);      /* r cos_j */
-    const float16 ffar = B[6] * fmax(ci, 0.0f) * fmax(cj, 0.0f) / (M_PI_F * d2 * d2);
+    const float16 ffar = B[6] * fmax16(ci, 0.0f) * fmax16(cj, 0.0f) / (M_PI_F * d2 * d2);
     const int16 same = pplane[b] == (int16)(ri.x);
     const int16 isnear = (d2 < B[7]) & ~same;
-    float16 f = select(ffar, (float16)(0.0f), same | isnear);
-    if (any(isnear)) {
+    float16 f = select16(ffar, (float16)(0.0f), same | isnear);
+    if (any16(isnear)) {
         /* exact inside the near radius, blended linearly in r^2 into the far field up to
          * the blend radius (continuous: no seam, no backend-dependent jump) */
-        const float16 t = clamp((d2 - inner * B[7]) / ((1.0f - inner) * B[7]), 0.0f, 1.0f);
+        const float16 t = clamp16((d2 - inner * B[7]) / ((1.0f - inner) * B[7]), 0.0f, 1.0f);
         float fv[16], tv[16], av[16];
         int nv[16];
-        vstore16(f, 0, fv);
-        vstore16(ffar, 0, av);
-        vstore16(t, 0, tv);
-        vstore16(isnear, 0, nv);
+        VSTORE16(f, fv);
+        VSTORE16(ffar, av);
+        VSTORE16(t, tv);
+        VSTORE16(isnear, nv);
         for (int k = 0; k < 16; ++k)
             if (nv[k]) {
                 const float e = patch_near(p, m, 16 * b + k, (__global const float *)pblk,
                                            tstart, tris, eps);
                 fv[k] = e + tv[k] * (av[k] - e);
             }
-        f = vload16(0, fv);
+        f = VLOAD16_FLOAT(fv);
     }
 #if VIS
-    f *= convert_float16(vload16(0, vis + (size_t)ri.y * ppad + 16 * b));
+    __global const uchar *v = vis + (size_t)ri.y * ppad + 16 * b;
+    f *= (float16)(convert_float8(vload8(0, v)), convert_float8(vload8(1, v)));
 #endif
     return f;
 }
@@ -169,7 +172,7 @@ __kernel void form_factors(const int n, const int ppad,
     if (i >= n) return;
     const float16 f = block_form_factors(pts[i].xyz, nrm[i].xyz, rinfo[i], b, ppad, pblk,
                                          pplane, tstart, tris, vis, eps, inner);
-    vstore16(f, 0, out + (size_t)i * ppad + 16 * b);
+    VSTORE16(f, out + (size_t)i * ppad + 16 * b);
 }
 
 /* Patch-to-patch form factors: row r (a receiving patch) x 16 patches of block b, the
@@ -192,5 +195,5 @@ __kernel void patch_form_factors(const int nrows, const int ppad,
     for (int s = sstart[r]; s < sstart[r + 1]; ++s)
         acc += weight[s] * block_form_factors(pts[s].xyz, nrm[s].xyz, rinfo[s], b, ppad,
                                               pblk, pplane, tstart, tris, vis, eps, inner);
-    vstore16(acc, 0, out + (size_t)r * ppad + 16 * b);
+    VSTORE16(acc, out + (size_t)r * ppad + 16 * b);
 }

@@ -17,6 +17,7 @@
  * Numpy twin: invrad_wb.core.inverse.votes.cast_exact_numpy.
  */
 #include "bvh.h"
+#include "vec16.h"
 
 #define LN_PI 1.1447298858494002f
 
@@ -29,9 +30,9 @@
 inline void profile16(const float16 cosg, __global const float2 *prof, const int nprof,
                       float16 *lnp, float16 *w)
 {
-    const float16 f = acos(clamp(cosg, -1.0f, 1.0f)) * (57.29577951308232f / PROFILE_STEP);
+    const float16 f = acos16(clamp16(cosg, -1.0f, 1.0f)) * (57.29577951308232f / PROFILE_STEP);
     float fa[16], la[16], wa[16];
-    vstore16(f, 0, fa);
+    VSTORE16(f, fa);
     for (int l = 0; l < 16; ++l) {
         const int i = min((int)fa[l], nprof - 2);
         const float t = fa[l] - (float)i;
@@ -39,8 +40,8 @@ inline void profile16(const float16 cosg, __global const float2 *prof, const int
         la[l] = a.x + t * (b.x - a.x);
         wa[l] = a.y + t * (b.y - a.y);
     }
-    *lnp = vload16(0, la);
-    *w = vload16(0, wa);
+    *lnp = VLOAD16_FLOAT(la);
+    *w = VLOAD16_FLOAT(wa);
 }
 #endif
 
@@ -54,22 +55,22 @@ inline float16 tent_votes(const float16 cx, const float16 cy, const float16 cz,
     const float16 B = m.x * dx + m.y * dy + m.z * dz;
     const float16 r2 = dx * dx + dy * dy + dz * dz;
     int16 ok = (A > 1e-6f) & (B > 1e-6f);
-    const float16 Ac = select((float16)(1.0f), A, ok);
-    const float16 Bc = select((float16)(1.0f), B, ok);
+    const float16 Ac = select16((float16)(1.0f), A, ok);
+    const float16 Bc = select16((float16)(1.0f), B, ok);
     const float16 inv_r2 = 1.0f / r2;
     const float16 iA = 1.0f / Ac, iB = 1.0f / Bc;
 #if PROFILE
-    const float16 inv_r = rsqrt(r2);
+    const float16 inv_r = rsqrt16(r2);
     float16 lnp, wp;
     profile16(Ac * inv_r, prof, nprof, &lnp, &wp);
     ok &= (lnp > -1e29f);
-    const float16 lne = lnp + log(Bc) - 1.5f * log(r2);
+    const float16 lne = lnp + log16(Bc) - 1.5f * log16(r2);
     const float16 k = Ac * inv_r2 * inv_r;                /* A / r^3 */
     const float16 gx = wp * (n.x * inv_r + k * dx) + m.x * iB - 3.0f * dx * inv_r2;
     const float16 gy = wp * (n.y * inv_r + k * dy) + m.y * iB - 3.0f * dy * inv_r2;
     const float16 gz = wp * (n.z * inv_r + k * dz) + m.z * iB - 3.0f * dz * inv_r2;
 #else
-    const float16 lne = log(Ac * Bc * inv_r2 * inv_r2) - LN_PI;
+    const float16 lne = log16(Ac * Bc * inv_r2 * inv_r2) - LN_PI;
     const float16 gx = -n.x * iA + m.x * iB - 4.0f * dx * inv_r2;
     const float16 gy = -n.y * iA + m.y * iB - 4.0f * dy * inv_r2;
     const float16 gz = -n.z * iA + m.z * iB - 4.0f * dz * inv_r2;
@@ -78,10 +79,10 @@ inline float16 tent_votes(const float16 cx, const float16 cy, const float16 cz,
     const float16 L = lne - lnE;
     const float16 gn = gx * n.x + gy * n.y + gz * n.z;
     const float16 tx = gx - gn * n.x, ty = gy - gn * n.y, tz = gz - gn * n.z;
-    const float16 gt = sqrt(tx * tx + ty * ty + tz * tz);
-    const float16 delta = fabs(L) / fmax(gt, 1e-12f);
-    const float16 tent = fmax(1.0f - delta / pixel, 0.0f) * w;
-    return select((float16)(0.0f), tent, ok);
+    const float16 gt = sqrt16(tx * tx + ty * ty + tz * tz);
+    const float16 delta = fabs16(L) / fmax16(gt, 1e-12f);
+    const float16 tent = fmax16(1.0f - delta / pixel, 0.0f) * w;
+    return select16((float16)(0.0f), tent, ok);
 }
 
 __kernel void exact_votes(const int nblocks, const int first, __global const int4 *blocks,
@@ -119,9 +120,9 @@ __kernel void exact_votes(const int nblocks, const int first, __global const int
         const float3 s = sp.xyz, m = pnrm[p].xyz;
         float16 v = tent_votes(cx, cy, cz, n, s, m, sp.w, w, pixel, prof, nprof, &lne);
 #if OCCLUSION
-        if (any(v > 0.0f)) {
+        if (any16(v > 0.0f)) {
             float va[16], xa[16], ya[16], za[16];
-            vstore16(v, 0, va); vstore16(cx, 0, xa); vstore16(cy, 0, ya); vstore16(cz, 0, za);
+            VSTORE16(v, va); VSTORE16(cx, xa); VSTORE16(cy, ya); VSTORE16(cz, za);
             const float3 s_off = s + m * eps;
             for (int l = 0; l < 16; ++l) {
                 if (va[l] > 0.0f) {
@@ -129,7 +130,7 @@ __kernel void exact_votes(const int nblocks, const int first, __global const int
                     if (segment_occluded(s_off, c, eps, lo, hi, info, tris)) va[l] = 0.0f;
                 }
             }
-            v = vload16(0, va);
+            v = VLOAD16_FLOAT(va);
         }
 #endif
         acc += v;
@@ -137,7 +138,7 @@ __kernel void exact_votes(const int nblocks, const int first, __global const int
 #if SHADE
     /* forbid pixels whose luminaire would put more than the limit on a shade point */
     int16 forbid = (int16)(0);
-    for (int p = 0; p < nshade && !all(forbid); ++p) {
+    for (int p = 0; p < nshade && !all16(forbid); ++p) {
         const float3 s = shade_pts[p].xyz, m = shade_nrm[p].xyz;
         const float16 dx = cx - s.x, dy = cy - s.y, dz = cz - s.z;
         const float16 A = -(n.x * dx + n.y * dy + n.z * dz);
@@ -146,17 +147,17 @@ __kernel void exact_votes(const int nblocks, const int first, __global const int
         int16 ok = (A > 1e-6f) & (B > 1e-6f);
 #if PROFILE
         float16 lnp, wp;
-        profile16(select((float16)(1.0f), A, ok) * rsqrt(r2), prof, nprof, &lnp, &wp);
+        profile16(select16((float16)(1.0f), A, ok) * rsqrt16(r2), prof, nprof, &lnp, &wp);
         ok &= (lnp > -1e29f);
-        const float16 lnev = lnp + log(select((float16)(1.0f), B, ok)) - 1.5f * log(r2);
+        const float16 lnev = lnp + log16(select16((float16)(1.0f), B, ok)) - 1.5f * log16(r2);
 #else
-        const float16 lnev = log(select((float16)(1e-30f), A * B / (r2 * r2), ok)) - LN_PI;
+        const float16 lnev = log16(select16((float16)(1e-30f), A * B / (r2 * r2), ok)) - LN_PI;
 #endif
         int16 hot = ok & (lnev > ln_shade_limit) & !forbid;
 #if OCCLUSION
-        if (any(hot)) {
+        if (any16(hot)) {
             int ha[16]; float xa[16], ya[16], za[16];
-            vstore16(hot, 0, ha); vstore16(cx, 0, xa); vstore16(cy, 0, ya); vstore16(cz, 0, za);
+            VSTORE16(hot, ha); VSTORE16(cx, xa); VSTORE16(cy, ya); VSTORE16(cz, za);
             const float3 s_off = s + m * eps;
             for (int l = 0; l < 16; ++l) {
                 if (ha[l]) {
@@ -164,12 +165,12 @@ __kernel void exact_votes(const int nblocks, const int first, __global const int
                     if (segment_occluded(s_off, c, eps, lo, hi, info, tris)) ha[l] = 0;
                 }
             }
-            hot = vload16(0, ha);
+            hot = VLOAD16_INT(ha);
         }
 #endif
         forbid |= hot;
     }
-    acc = select(acc, (float16)(0.0f), forbid);
+    acc = select16(acc, (float16)(0.0f), forbid);
 #endif
-    vstore16(acc, 0, out + mi.x + b.y * mi.y + b.z);
+    VSTORE16(acc, out + mi.x + b.y * mi.y + b.z);
 }

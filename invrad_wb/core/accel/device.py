@@ -71,6 +71,10 @@ class CLEnv:
         self.device = device
         self.queue = cl.CommandQueue(ctx)
         self.is_cpu = bool(device.type & cl.device_type.CPU)
+        from invrad_wb.core.accel import probe
+        #: build options every program gets: -D INVRAD_SPLIT16=1 where 16-lane built-in
+        #: calls are split in halves (kernels/vec16.h, :func:`probe.split16`)
+        self.base_options = ["-D INVRAD_SPLIT16=1"] if probe.split16(device) else []
 
     @property
     def description(self):
@@ -78,7 +82,7 @@ class CLEnv:
 
     def program(self, name, options=()):
         """Build (once) and return the program ``kernels/<name>.cl``."""
-        key = (id(self.ctx), name, tuple(options))
+        key = (id(self.ctx), name, tuple(self.base_options), tuple(options))
         with _lock:
             prg = _programs.get(key)
             if prg is None:
@@ -88,7 +92,8 @@ class CLEnv:
                         src = fh.read()
                 except OSError as exc:
                     raise DeviceError(f"kernel source {path} is missing: {exc.strerror}")
-                opts = ["-I", C.KERNELS_DIR, "-cl-fast-relaxed-math"] + list(options)
+                opts = (["-I", C.KERNELS_DIR, "-cl-fast-relaxed-math"] + self.base_options
+                        + list(options))
                 t0 = time.perf_counter()
                 cached = _binary_path(self, src, opts)
                 prg = self._from_binary(cached, opts)
@@ -146,7 +151,7 @@ class CLEnv:
 
     def kernel(self, program, name, options=()):
         """A cached ``cl.Kernel`` ``name`` of ``kernels/<program>.cl`` built with options."""
-        key = (id(self.ctx), program, tuple(options), name)
+        key = (id(self.ctx), program, tuple(self.base_options), tuple(options), name)
         with _lock:
             k = _kernels.get(key)
         if k is None:

@@ -3,17 +3,26 @@ process, so that a driver that crashes while compiling invrad's kernels costs a 
 not the user's FreeCAD session.
 
 PoCL from PyPI (``pyopencl[pocl]``: ``pocl-binary-distribution`` 3.0, the driver
-``dependencies.install()`` gives an architect) aborts the whole process when its LLVM
-compiles the vote kernel on an AMD Zen 4 (EPYC, family 25 model 17, AVX-512): "LLVM ERROR:
-Do not know how to scalarize this operator's operand!" (SIGABRT), or SIGSEGV in an older
-kernel, and its own kernel cache then answers INVALID_KERNEL_NAME in later runs. Measured
-2026-11-26 on this project's machine; Debian's PoCL on the same CPU runs every kernel. An
+``dependencies.install()`` gives an architect) aborted the whole process when its LLVM
+compiled invrad's kernels on an AMD Zen 4 (EPYC, family 25 model 17, AVX-512): "LLVM ERROR:
+Do not know how to scalarize this operator's operand!" (SIGABRT), or SIGSEGV, and its own
+kernel cache then answered INVALID_KERNEL_NAME in later runs. Measured 2026-11-26 on this
+project's machine; Debian's PoCL on the same CPU runs every kernel. An
 abort cannot be caught in the process that compiles, so for that driver (only: every other
-driver is used as before, at no cost) the first use runs a small locate (votes, direct
-light, shadows, radiosity) in a child process, with the same interpreter and ``sys.path``
+driver is used as before, at no cost) the first use runs a self-test in a child process,
+with the same interpreter and ``sys.path``
 (:func:`workers.worker_python`); the verdict is kept in the kernel cache's folder, keyed by
 everything the driver's answer depends on (driver, device, pyopencl, the kernels' sources),
 so the test runs once per machine and version.
+
+The cause on that CPU was found (see ``kernels/vec16.h``): the driver builds kernels without
+AVX-512 but links AVX-512 built-ins, and any OpenCL built-in called on a 16-lane vector
+aborts LLVM; for that driver (:func:`split16`) invrad's kernels call them on 8-lane halves,
+and the self-test passes there.
+The child builds and launches every kernel in every variant that has code of its own
+(:data:`KERNEL_VARIANTS`, :func:`launch_every_kernel`: where a driver's compiler fails, it
+fails at the first launch), then runs a small locate (votes, direct light, shadows,
+radiosity): 13.6 s on this 2-core machine under load with cold caches, once.
 """
 import hashlib
 import json
@@ -28,6 +37,8 @@ from invrad_wb import constants as C
 ENV_CHILD = "INVRAD_OPENCL_PROBE_CHILD"
 #: tests: a child that aborts as the faulty driver does
 ENV_FAKE_ABORT = "INVRAD_OPENCL_PROBE_ABORT"
+#: ``1``: call built-ins on 16-lane vectors' halves on any driver (``0``: never); tests
+ENV_SPLIT16 = "INVRAD_OPENCL_SPLIT16"
 #: seconds the child may take (a small room; kernels compiled once)
 TIMEOUT_S = 300
 
@@ -37,6 +48,9 @@ sys.path[:0] = json.loads(sys.argv[1])
 if os.environ.get("INVRAD_OPENCL_PROBE_ABORT"):
     os.abort()
 from invrad_wb import cli
+from invrad_wb.core.accel import probe
+from invrad_wb.core.accel.device import get_env
+probe.launch_every_kernel(get_env())
 out = sys.argv[2]
 cli.main(["example", "one_ceiling", "-o", os.path.join(out, "probe.ply"), "--cell", "0.25",
           "--truth", os.path.join(out, "truth.json"), "--backend", "opencl"])
@@ -44,12 +58,49 @@ cli.main(["locate", os.path.join(out, "probe.ply"), "--backend", "opencl", "-o",
           os.path.join(out, "found.json")])
 """
 
+#: every program of ``kernels/`` with the -D options that together compile each line of it
+#: once (each ``#if`` branch; the values the kernel modules pass: inverse/votes.py's
+#: PROFILE_STEP_DEG, tests/core/accel/test_kernel_builds.py checks they agree)
+KERNEL_VARIANTS = (
+    ("votes_exact", ("-D OCCLUSION=1", "-D SHADE=1", "-D PROFILE=0", "-D PROFILE_STEP=0.25f")),
+    ("votes_exact", ("-D OCCLUSION=1", "-D SHADE=1", "-D PROFILE=1", "-D PROFILE_STEP=0.25f")),
+    ("votes_ellipse", ("-D OCCLUSION=1",)),
+    ("direct", ("-D OCCLUSION=1",)),
+    ("photometric", ("-D OCCLUSION=1",)),
+    ("radiosity", ("-D VIS=1",)),
+    ("occlusion", ()),
+)
 
-def needs_probe(device):
-    """True for the driver that may abort (PoCL from ``pocl-binary-distribution``) unless
-    this is the probe's own child."""
-    if os.environ.get(ENV_CHILD):
-        return False
+
+def launch_every_kernel(env, variants=KERNEL_VARIANTS):
+    """Build each program of ``variants`` as invrad does (:meth:`CLEnv.program`) and launch
+    each of its kernels once over 16 work-items with count 0 and zeroed buffers: nothing is
+    computed, but a driver compiles a kernel's machine code at its first launch (PoCL), so a
+    compiler that fails on a kernel fails here. Returns the (program, options, kernel)
+    launched."""
+    import numpy as np
+    cl = env.cl
+    zeros = np.zeros(4096, np.float32)
+    buf = cl.Buffer(env.ctx, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR,
+                    hostbuf=zeros)
+    done = []
+    for name, options in variants:
+        for knl in env.program(name, list(options)).all_kernels():
+            # every by-value argument of invrad's kernels is a 4-byte int or float (a count
+            # first): 0; a pointer refuses 4 bytes (CL_INVALID_ARG_SIZE) and gets the buffer
+            for i in range(knl.num_args):
+                try:
+                    knl.set_arg(i, np.int32(0))
+                except cl.Error:
+                    knl.set_arg(i, buf)
+            cl.enqueue_nd_range_kernel(env.queue, knl, (16,), None)
+            env.queue.finish()
+            done.append((name, options, knl.function_name))
+    return done
+
+
+def is_pypi_pocl(device):
+    """True for PoCL from PyPI (``pocl-binary-distribution``), the driver that aborted."""
     try:
         name = device.platform.name
     except Exception:                                        # noqa: BLE001
@@ -61,6 +112,24 @@ def needs_probe(device):
         return importlib.util.find_spec("pocl_binary_distribution") is not None
     except (ImportError, ValueError):
         return False
+
+
+def needs_probe(device):
+    """True for the driver that may abort (:func:`is_pypi_pocl`) unless this is the
+    probe's own child."""
+    return not os.environ.get(ENV_CHILD) and is_pypi_pocl(device)
+
+
+def split16(device):
+    """Whether kernels call OpenCL built-ins on the 8-lane halves of 16-lane vectors
+    (``-D INVRAD_SPLIT16=1``, kernels/vec16.h): ``$INVRAD_OPENCL_SPLIT16`` (``1``/``0``)
+    if set, else for PoCL from PyPI only. That driver aborts on whole 16-lane calls on an
+    AMD Zen 4; other drivers run them, and on an AVX-512 CPU faster (Debian's PoCL 3.1,
+    this Zen 4: the vote kernel on a 8 x 6 m room at 5 cm pixels 3.2 s whole, 5.1 s split)."""
+    v = os.environ.get(ENV_SPLIT16, "").strip().lower()
+    if v in ("0", "1", "false", "true", "no", "yes", "off", "on"):
+        return v in ("1", "true", "yes", "on")
+    return is_pypi_pocl(device)
 
 
 def _key(cl, device):
