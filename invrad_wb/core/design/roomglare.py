@@ -55,10 +55,38 @@ def seen_shares(model, eye, positions, normals, half=None, c0=None):
     N = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     if len(P) == 0:
         return np.zeros(0)
-    # the same luminaire in many layouts of the search is tested once
+    # the same luminaire in many layouts of the search is tested once: within a call, and
+    # across the calls of the search's fast programme (refine's candidates, each its
+    # layout's positions for each observer: the L with its column of
+    # tests/core/design/test_design_radiance.py made 1076 calls, 1.2 s of its 11 s
+    # design, before the model kept them)
     uniq, inv = np.unique(np.round(np.c_[P, N], 9), axis=0, return_inverse=True)
     inv = inv.reshape(-1)
-    P, N = uniq[:, :3], uniq[:, 3:]
+    eye = np.asarray(eye, dtype=np.float64)
+    cache = _share_cache(model, eye, half, c0)
+    keys = [r.tobytes() for r in uniq]
+    todo = [i for i, k in enumerate(keys) if k not in cache]
+    if todo:
+        got = _shares(model, eye, uniq[todo, :3], uniq[todo, 3:], half, c0)
+        cache.update(zip((keys[i] for i in todo), got.tolist()))
+    return np.array([cache[k] for k in keys])[inv]
+
+
+def _share_cache(model, eye, half, c0):
+    """The dict (rounded position and normal bytes -> share) that :func:`seen_shares`
+    keeps on ``model`` for one eye, opening and C0 (a plain dict where the model takes no
+    attributes)."""
+    key = (eye.tobytes(), None if half is None else tuple(float(h) for h in half),
+           None if c0 is None else np.asarray(c0, dtype=np.float64).tobytes())
+    try:
+        caches = model.__dict__.setdefault("_seen_share_cache", {})
+    except AttributeError:
+        return {}
+    return caches.setdefault(key, {})
+
+
+def _shares(model, eye, P, N, half, c0):
+    """(L,) :func:`seen_shares` of distinct luminaires, by the segment test."""
     if half is None:
         off = np.zeros((1, 2))
     else:
@@ -70,10 +98,9 @@ def seen_shares(model, eye, positions, normals, half=None, c0=None):
         u, w = photometric_frame(N[rows[0]], c0)
         pts[rows] = P[rows, None, :] + off[:, :1] * u + off[:, 1:] * w
     flat = pts.reshape(-1, 3)
-    eye = np.asarray(eye, dtype=np.float64)
     hidden = segments_occluded(model.bvh, np.broadcast_to(eye, flat.shape), flat,
                                model.backend)
-    return (1.0 - hidden.reshape(len(P), len(off)).mean(axis=1))[inv]
+    return 1.0 - hidden.reshape(len(P), len(off)).mean(axis=1)
 
 
 def luminaire_shares(model, eye, luminaires):
