@@ -86,22 +86,8 @@ hall 6.5 m 805.6 (809.19) 895.0 (895.68) 0.900 302/0.62 201/0.65 114/0.28 43/0.6
   luminaires, 99 against 32 s in the L office); all six rooms 23.0 min (classroom 7.4,
   L office 6.8, lab 3.5, hall 2.4, meeting 1.9, corridor 0.9 min).
 
-Round 11 (2026-11-26): the L corridor stays at 0.998 (invrad 52.59 W by the exact
-model, 51.8 W by Radiance; grid 52.31 / 52.0 W). Is 0.95 x the grid (49.40 W by
-Radiance) reachable with this catalogue? ``bench_design_bound.py`` (every item, no
-margin, any count, free positions on a 0.25 m grid, the three types a 2.6 m room allows,
-then moved off the grid by the exact model; figures there): by the exact model on the
-room's 0.3 m cells a layout of 7 luminaires of three types draws 48.82 W (0.933); but
-its downlights sit at the wall clearance (0.22 m), where light thrown on the wall next
-to them lights the ceiling (its 30 lx is what binds) and the model is not converged:
-finer cells and Radiance put its ceiling at 28.4-28.9 lx. Kept 0.45 m or more from the
-walls, the least for every item, relaxed, is 50.2 W (0.960), and its best layout
-(50.52 W) fails Radiance's ceiling too (28.4 lx, 28.6 with much finer ambient settings,
-against the model's 29.6 converged). No layout was found that meets every item by
-Radiance under 0.95 x the grid: the search was not changed (a search that wins in this
-room by such layouts would win by the model's error, not by Radiance).
-
-Round 12 and rounds 4-10 (figures, layouts, what changed each round):
+Round 12, round 11's answer for the L corridor (is 0.95 x the grid reachable?)
+and rounds 4-10 (figures, layouts, what changed each round):
 ``bench/history/design_radiance.md``.
 """
 import itertools

@@ -266,12 +266,15 @@ def describe_design(res):
 
 
 def _u0(d):
-    """U0 of a summary's figures: Emin / Em where both are given (the summary's ``u0`` is
-    rounded to 3 places, and 0.67498 -> 0.675 -> '0.68' where the report says 0.67)."""
+    """U0 of a summary's figures: its ``u0`` (kept to 6 places since round 13, read to 2
+    once, as the report reads the unrounded figure); Emin / Em where it is missing. Not
+    Emin / Em first: those are rounded to 2 places (Em 100.004, Emin 67.4951: U0 0.674924,
+    '0.67' in the report, but 67.5 / 100.0 = 0.675 -> '0.68')."""
+    u0 = d.get("u0")
+    if u0 is not None:
+        return u0
     em, emin = d.get("em_lux"), d.get("emin_lux")
-    if em and emin is not None:
-        return emin / em
-    return d.get("u0", float("nan"))
+    return emin / em if em and emin is not None else float("nan")
 
 
 def _other_items(r):

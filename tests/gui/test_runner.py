@@ -101,13 +101,20 @@ def test_every_judged_item_and_the_ugr_in_the_message():
 
 
 def test_u0_as_the_report_rounds_it():
-    # FZK's Buero: Emin 340.87 / Em 505.01 = 0.67498, stored as u0 0.675: the message said
-    # 0.68 where the report, from the unrounded figures, said 0.67
+    # FZK's Buero: Emin 340.87 / Em 505.01 = 0.67498, stored as u0 0.675 until the JSON
+    # kept 6 places (315a08f): the message said 0.68 where the report, from the unrounded
+    # figures, said 0.67
     room = {"name": "Buero", "compliant": True, "em_lux": 505.01, "emin_lux": 340.87,
-            "u0": 0.675, "watts": 69.0, "w_per_m2": 5.3, "notes": [],
+            "u0": 0.67498, "watts": 69.0, "w_per_m2": 5.3, "notes": [],
             "requirement": {"lux": 500, "u0": 0.6},
-            "surfaces": {"walls": {"em_lux": 225.72, "emin_lux": 115.72, "u0": 0.513,
+            "surfaces": {"walls": {"em_lux": 225.72, "emin_lux": 115.72, "u0": 0.512668,
                                    "required": {"lux": 50, "u0": 0.1}}}}
     text = "\n".join(runner.describe_design(_res([room])))
     assert "Em 505 lx for 500, U0 0.67 for 0.60" in text, text
     assert "walls Em 226 lx for 50, U0 0.51 for 0.10" in text, text
+    # Em and Emin are rounded to 2 places: their ratio is no better a U0 than the one
+    # given to 6 (Em 100.004, Emin 67.4951: U0 0.674924, '0.67' in the report; 67.5 /
+    # 100.0 read '0.68')
+    near = dict(room, em_lux=100.0, emin_lux=67.5, u0=0.674924, surfaces={})
+    text = "\n".join(runner.describe_design(_res([near])))
+    assert "Em 100 lx for 500, U0 0.67 for 0.60" in text, text

@@ -212,7 +212,9 @@ class RoomDesign:
                 d["cylindrical"] = {"required": dict(self.cylindrical),
                                     "judged": self.cyl_figures is not None}
                 if self.cyl_figures is not None:
-                    d["cylindrical"].update({k: (None if v is None else round(v, 3))
+                    # U0 to 6 places, as the work plane's: read to 2 places once
+                    d["cylindrical"].update({k: (None if v is None else
+                                                 round(v, 6 if k == "u0" else 3))
                                              for k, v in self.cyl_figures.items()})
                     d["cylindrical"]["pass"] = bool(self.verdicts.get("Ez"))
             d["power"] = {

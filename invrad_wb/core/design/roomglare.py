@@ -55,10 +55,58 @@ def seen_shares(model, eye, positions, normals, half=None, c0=None):
     N = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     if len(P) == 0:
         return np.zeros(0)
-    # the same luminaire in many layouts of the search is tested once
+    # the same luminaire in many layouts of the search is tested once: within a call, and
+    # across calls (the search's table of every layout, then refine's candidates, each
+    # its layout's positions for each observer: the L with its column of
+    # tests/core/design/test_design_radiance.py made 1076 calls, 1.2 s of its 11 s
+    # design, before the model kept them)
     uniq, inv = np.unique(np.round(np.c_[P, N], 9), axis=0, return_inverse=True)
     inv = inv.reshape(-1)
-    P, N = uniq[:, :3], uniq[:, 3:]
+    eye = np.asarray(eye, dtype=np.float64)
+    keys = np.ascontiguousarray(uniq).view(np.dtype((np.void, uniq.itemsize * 6))).ravel()
+    kept = _share_cache(model, eye, half, c0)
+    out = np.full(len(uniq), np.nan)
+    for table, shares in kept["tables"]:
+        at = np.minimum(np.searchsorted(table, keys), len(table) - 1)
+        hit = table[at] == keys
+        out[hit] = shares[at[hit]]
+    small = kept["small"]
+    todo = np.flatnonzero(np.isnan(out))
+    if small and len(todo):
+        got = np.array([small.get(keys[i].tobytes(), np.nan) for i in todo])
+        out[todo] = got
+        todo = todo[np.isnan(got)]
+    if len(todo):
+        out[todo] = _shares(model, eye, uniq[todo, :3], uniq[todo, 3:], half, c0)
+        if len(todo) > SHARE_TABLE_MIN:       # a table: sorted keys, searched
+            order = np.argsort(keys[todo])
+            kept["tables"].append((keys[todo][order], out[todo][order]))
+        else:
+            small.update((keys[i].tobytes(), float(out[i])) for i in todo)
+    return out[inv]
+
+
+#: a call of :func:`seen_shares` that traces more luminaires than this keeps them as a
+#: sorted table (the search's table of every layout: an open plan's 2331 layouts hold
+#: 50 k positions per observer and type, 2.8 MB so, tens of MB in a dict)
+SHARE_TABLE_MIN = 256
+
+
+def _share_cache(model, eye, half, c0):
+    """What :func:`seen_shares` keeps on ``model`` for one eye, opening and C0:
+    {'tables': [(sorted keys, shares)], 'small': {key bytes: share}} (fresh where the
+    model takes no attributes)."""
+    key = (eye.tobytes(), None if half is None else tuple(float(h) for h in half),
+           None if c0 is None else np.asarray(c0, dtype=np.float64).tobytes())
+    try:
+        caches = model.__dict__.setdefault("_seen_share_cache", {})
+    except AttributeError:
+        caches = {}
+    return caches.setdefault(key, {"tables": [], "small": {}})
+
+
+def _shares(model, eye, P, N, half, c0):
+    """(L,) :func:`seen_shares` of distinct luminaires, by the segment test."""
     if half is None:
         off = np.zeros((1, 2))
     else:
@@ -70,10 +118,9 @@ def seen_shares(model, eye, positions, normals, half=None, c0=None):
         u, w = photometric_frame(N[rows[0]], c0)
         pts[rows] = P[rows, None, :] + off[:, :1] * u + off[:, 1:] * w
     flat = pts.reshape(-1, 3)
-    eye = np.asarray(eye, dtype=np.float64)
     hidden = segments_occluded(model.bvh, np.broadcast_to(eye, flat.shape), flat,
                                model.backend)
-    return (1.0 - hidden.reshape(len(P), len(off)).mean(axis=1))[inv]
+    return 1.0 - hidden.reshape(len(P), len(off)).mean(axis=1)
 
 
 def luminaire_shares(model, eye, luminaires):

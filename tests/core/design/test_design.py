@@ -453,3 +453,15 @@ def test_u0_in_the_json_rounds_once_as_the_report_does():
     d = rd.to_dict()
     assert f"{d['u0']:.2f}" == f"{rd.metrics.u0:.2f}" == "0.67"
     assert all(f"{s['u0']:.2f}" == "0.67" for s in d["surfaces"].values())
+
+
+def test_ez_u0_in_the_json_rounds_once_as_the_report_does():
+    """The cylindrical illuminance's U0 as the work plane's: the report reads the figures
+    unrounded (Ez U0 0.67498 -> '0.67'); the JSON kept 3 places (0.675), so the freecad
+    command's and the GUI's lines read '0.68'."""
+    sc = g.box_room(size=(6.0, 4.0, 3.0), cell=0.5, reflectance=0.0)
+    rd = design_room(sc, spec(cylindrical={"lux": 50, "u0": 0.1}), 0)
+    assert rd.cyl_figures is not None
+    rd.cyl_figures = dict(rd.cyl_figures, u0=0.67498)
+    cz = rd.to_dict()["cylindrical"]
+    assert cz["judged"] and f"{cz['u0']:.2f}" == f"{rd.cyl_figures['u0']:.2f}" == "0.67"

@@ -129,3 +129,31 @@ def test_a_convex_room_keeps_its_figures():
                 if u is not None)
     assert room_ugr(model, droom, lums) == every
     assert seen_shares(model, obs[0][0], np.zeros((1, 3)), np.array([[0, 0, -1.0]])) is None
+
+
+def test_shares_of_luminaires_seen_before_are_not_traced_again(monkeypatch):
+    """The search's fast programme asks for the same luminaires' shares in layout after
+    layout: the model keeps them (the L with its column: 1076 calls, 1.2 s of an 11 s
+    design, traced each time before); a new luminaire, eye or opening is traced, and the
+    kept shares are the traced ones (the first call's)."""
+    import invrad_wb.core.design.roomglare as rg
+    sc, droom, model = _l_model()
+    eye = np.array([1.0, 5.5, 1.2])
+    pos = np.array([[x, y, H] for x, y in LAYOUT])
+    nrm = np.tile([0.0, 0.0, -1.0], (len(pos), 1))
+    half = (0.15, 0.15)
+    first = seen_shares(model, eye, pos, nrm, half)
+    traced = []
+    real = rg.segments_occluded
+    monkeypatch.setattr(rg, "segments_occluded",
+                        lambda *a: traced.append(len(a[1])) or real(*a))
+    again = seen_shares(model, eye, pos[::-1], nrm, half)
+    assert np.array_equal(again, first[::-1]) and traced == []
+    # one new position among the known ones: its 4 Gauss points are traced, alone
+    more = np.vstack([pos, [[6.5, 2.0, H]]])
+    got = seen_shares(model, eye, more, np.tile([0.0, 0.0, -1.0], (len(more), 1)), half)
+    assert traced == [4] and np.array_equal(got[:-1], first)
+    # another eye or opening is its own question
+    seen_shares(model, eye + [0.5, 0.0, 0.0], pos, nrm, half)
+    seen_shares(model, eye, pos, nrm, (0.3, 0.3))
+    assert traced[1:] == [4 * len(pos)] * 2
