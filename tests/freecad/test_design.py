@@ -41,6 +41,18 @@ class TestDesignFZK(FreeCADTestCase):
                 self.assertRoomMeetsDesign(r, req[r["name"]]["work_plane"])
                 # regular layouts: rows x columns of the room's axes
                 self.assertIn(" grid", r["layout"])
+        # UGR judged where the spec gives a limit: the Buero as any EN 12464-1 office (19,
+        # with its room type's walls, ceiling and Ez), the Küche as a kitchen (22); the
+        # catalogue's luminous areas rate it (a point source would only bound it)
+        rooms = {r["name"]: r for r in d["rooms"]}
+        self.assertEqual(req["Buero"].get("ugr_max"), 19)
+        self.assertTrue(rooms["Buero"]["cylindrical"]["judged"])
+        for name, rq in req.items():
+            if rq.get("ugr_max") is not None:
+                with self.subTest(room=name, item="UGR"):
+                    self.assertEqual(rooms[name]["ugr_limit"], rq["ugr_max"])
+                    self.assertTrue(rooms[name]["pass"]["UGR"])
+                    self.assertLessEqual(rooms[name]["ugr"], rq["ugr_max"])
         # nothing over the spiral stair, no ceiling light in the slab opening above it
         self.assertClearOfFZKStairAndOpening([lum.position for lum in res.luminaires])
         fx = all_fixtures(doc)
