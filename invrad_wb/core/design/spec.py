@@ -539,16 +539,18 @@ def _room(key, d, where, catalogue_names, default_hours=None):
         req = en12464.lookup(rtype)
         work_plane = _work_plane({"lux": req.em_lux, "u0": req.u0, **wp}, where / "work_plane",
                                  source=f"EN 12464-1 {req.reference}: {req.task}")
-        ugr_max = req.ugr_limit if ugr_max is None else ugr_max
     elif wp is not None:
         work_plane = _work_plane(wp, where / "work_plane")
     elif rtype is not None:
         req = en12464.lookup(rtype)
         work_plane = WorkPlaneRequirement(req.em_lux, req.u0,
                                           source=f"EN 12464-1 {req.reference}: {req.task}")
-        ugr_max = req.ugr_limit if ugr_max is None else ugr_max
     else:
         work_plane = None
+    if rtype is not None and "ugr_max" not in d:
+        # the type's limit, whether its work plane is the type's or given (a level of its
+        # own does not make the room another type); "ugr_max": null is "no limit"
+        ugr_max = en12464.lookup(rtype).ugr_limit
     cat = d.get("catalogue")
     if cat is not None:
         if not isinstance(cat, list) or not cat:

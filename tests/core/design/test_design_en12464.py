@@ -155,6 +155,19 @@ def test_surfaces_obey_energy_conservation_with_interreflection():
     assert met.surfaces["ceiling"][0] > 0 and met.surfaces["ceiling"][2] > 0.3
 
 
+def test_a_room_type_keeps_its_ugr_limit_when_the_work_plane_gives_a_level():
+    """An office with a level of its own is still an office: UGR 19 as for its walls,
+    ceiling and Ez (it was None: FZK's Buero had to state ugr_max); null is no limit."""
+    own = _spec({"room_type": "office", "work_plane": {"lux": 600, "u0": 0.6}}).rooms["0"]
+    assert own.work_plane.lux == 600 and own.ugr_max == 19
+    assert own.surfaces["walls"].lux == 75 and own.cylindrical["lux"] == 150
+    assert _spec({"room_type": "office", "work_plane": {"height_m": 0.8}}).rooms["0"].ugr_max == 19
+    assert _spec({"room_type": "office", "work_plane": {"lux": 600},
+                  "ugr_max": 22}).rooms["0"].ugr_max == 22
+    assert _spec({"room_type": "office", "ugr_max": None}).rooms["0"].ugr_max is None
+    assert _spec({"work_plane": {"lux": 600}}).rooms["0"].ugr_max is None
+
+
 def test_spec_walls_ceiling_defaults_minimums_and_cylindrical():
     from invrad_wb.errors import SettingsError
     office = _spec({"room_type": "office"}).rooms["0"]
