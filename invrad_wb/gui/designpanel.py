@@ -17,6 +17,10 @@ MOUNTINGS = [("ceiling", "Ceiling"), ("pendant", "Pendant")]
 #: The requirement table's "room type" for rooms designed to an Em/U0 of their own, and
 #: for rooms left out.
 CUSTOM, SKIP = "custom", "skip"
+#: a room's keys that the requirements table shows (the others are kept, not shown)
+ROOM_COLUMNS_KEYS = ("work_plane", "room_type", "mounting")
+#: the item data role (Qt.UserRole + 1) that holds a room's other keys, as JSON
+ROOM_EXTRA_ROLE = 0x0100 + 1
 
 
 class DesignPanel(Panel):
@@ -147,6 +151,10 @@ class DesignPanel(Panel):
     def show_spec(self, spec):
         """Fill the panel from a DESIGN.json dict (rooms keyed by label or name)."""
         self.widget("maintenance_factor").setValue(float(spec.get("maintenance_factor", 0.8)))
+        # what the panel has no field for (a project's name, default operating hours...)
+        # goes back into the spec as the file gave it
+        self._spec_extra = {k: v for k, v in spec.items()
+                            if k not in ("maintenance_factor", "catalogue", "rooms")}
         cat = self.widget("catalogue")
         cat.setRowCount(0)
         for e in spec.get("catalogue") or []:
@@ -227,6 +235,10 @@ class DesignPanel(Panel):
         item = QtGui.QTableWidgetItem(room_name(space))
         item.setFlags(item.flags() & ~QtCore.Qt.ItemIsEditable)
         item.setData(QtCore.Qt.UserRole, space.Name)
+        # the room's keys the table has no column for (its own catalogue, ugr_max, walls,
+        # ceiling, cylindrical, background, operating hours...): kept as the file gave them
+        extra = {k: v for k, v in (r or {}).items() if k not in ROOM_COLUMNS_KEYS}
+        item.setData(ROOM_EXTRA_ROLE, json.dumps(extra) if extra else "")
         req.setItem(row, 0, item)
         wp = r.get("work_plane") if isinstance(r, dict) else None
         wp = {"lux": wp} if isinstance(wp, (int, float)) else (wp or {})
@@ -328,6 +340,8 @@ class DesignPanel(Panel):
             kind = self.room_type(row)
             if kind == SKIP:
                 continue
+            extra = req.item(row, 0).data(ROOM_EXTRA_ROLE)
+            extra = json.loads(extra) if extra else {}
             if kind == CUSTOM:
                 try:
                     lux, u0 = float(req.item(row, 2).text()), float(req.item(row, 3).text())
@@ -335,10 +349,10 @@ class DesignPanel(Panel):
                     raise SettingsError(f"room {label}: Em and U0 must be numbers, got"
                                         f" {req.item(row, 2).text()!r},"
                                         f" {req.item(row, 3).text()!r}")
-                rooms[label] = {"work_plane": {"lux": lux, "u0": u0, **plane},
+                rooms[label] = {**extra, "work_plane": {"lux": lux, "u0": u0, **plane},
                                 "mounting": mounting}
             else:
-                rooms[label] = {"room_type": kind, "work_plane": dict(plane),
+                rooms[label] = {**extra, "room_type": kind, "work_plane": dict(plane),
                                 "mounting": mounting}
             # the task areas drawn in the document (Set task areas) replace the margin
             from PySide import QtCore
@@ -346,7 +360,8 @@ class DesignPanel(Panel):
             space = self.doc.getObject(req.item(row, 0).data(QtCore.Qt.UserRole) or "")
             if space is not None:
                 rooms[label] = with_task_areas(rooms[label], space)
-        return {"maintenance_factor": get_value(self.widget("maintenance_factor")),
+        return {**getattr(self, "_spec_extra", {}),
+                "maintenance_factor": get_value(self.widget("maintenance_factor")),
                 "catalogue": entries, "rooms": rooms}
 
     def check(self):

@@ -65,3 +65,29 @@ class TestDesignPanelCatalogue(FreeCADTestCase):
         size.setValue(0.0)                     # "point": the key goes, none is invented
         self.assertNotIn("radius_m", panel.check()[0]["catalogue"][1])
         self.assertAlmostEqual(panel.check()[0]["catalogue"][new]["radius_m"], 0.1)
+
+    def test_a_rooms_keys_without_a_column_come_back_from_the_panel(self):
+        # FZK's example gives rooms their own catalogue and a UGR limit: the panel rebuilt
+        # each room from its row (type, Em, U0) and dropped them, so the GUI designed the
+        # Bad with 600 mm panels and the Kueche without its UGR 22
+        from invrad_wb.gui import designpanel
+        panel = designpanel.DesignPanel(self.doc, [self.space])
+        spec, _ = panel.check()
+        names = [e["name"] for e in spec["catalogue"]]
+        room = {"work_plane": {"lux": 400, "u0": 0.5}, "catalogue": names[:1],
+                "ugr_max": 22, "walls": {"lux": 90, "u0": 0.2}, "operating_hours": 2000}
+        panel.show_spec({**spec, "project": "Haus", "rooms": {"Office": room}})
+        out, _ = panel.check()
+        got = out["rooms"]["Office"]
+        self.assertEqual(got["catalogue"], names[:1])
+        self.assertEqual(got["ugr_max"], 22)
+        self.assertEqual(got["walls"], {"lux": 90, "u0": 0.2})
+        self.assertEqual(got["operating_hours"], 2000)
+        self.assertEqual((got["work_plane"]["lux"], got["work_plane"]["u0"]), (400, 0.5))
+        self.assertEqual(out["project"], "Haus")
+        # the room type chosen in the panel still rules its Em and U0; the keys stay
+        panel.widget("requirements").selectRow(0)
+        panel.set_room_type(0, "office")
+        got = panel.check()[0]["rooms"]["Office"]
+        self.assertEqual((got["room_type"], got["ugr_max"]), ("office", 22))
+        self.assertNotIn("lux", got["work_plane"])
