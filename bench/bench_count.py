@@ -329,6 +329,20 @@ refreshes) do not need the gradient: the count is right in every scene at every 
 (7/7 at 0.2 m, and each fine mesh), and the last refit from their answer ends at the bound
 (rms/sd 1.05 and 1.44 here, 0.6-1.25 at h11's meshes, the gap to the truth's own refit
 0.1-1.1 noise variances): no error is left that starts there.
+
+Round 13, 2026-11-26, flux given at 0.04 m (main df90e11; 2 cores at load 4-6 with other
+sessions' jobs; 5 % noise, one draw each; count / ok / max cm / locate wall s / CPU s / rss
+MB / sd cm / rms/sd):
+  given array9_1.0h   0.04 m 170856 v   9/9  yes 0.51  30 15 1613 | 0.49 1.30
+  given array20_1.2h  0.04 m 313008 v  20/20 yes 0.91 1236 672    - |    -    -
+  (array20: read from the running process, whose bound was stopped after 50 min: the
+  bound's interreflection gradient at every vertex, not locate's, is the slow step; before:
+  0.1 m 2.69 cm, 0.07 m 2.81 cm)
+With these, every scene but array16 meets the Done-when with the flux given (array12_issue
+0.52 cm, cluster4 1.16 cm) and without it (the rows above). array16 without the flux at
+0.013 m (1 781 920 vertices) was stopped after 110 min wall (58 CPU min at load 5-6, still
+in locate's last refit: each interreflection refresh at every vertex is about 11 CPU min
+here); with the flux at 0.02 m not run.
 """
 import argparse
 import os
