@@ -1,44 +1,10 @@
 """The design panel's catalogue form under freecadcmd (FreeCADGui stood in for: its form
 loader only): what an architect types for an entry is what the design gets."""
-import sys
-import types
-
-import FreeCAD
-
-from fctest import FreeCADTestCase, make_box_space
-from test_task_areas import _qt
+from test_task_areas import PanelTestCase
 
 
-class TestDesignPanelCatalogue(FreeCADTestCase):
-
-    def setUp(self):
-        super().setUp()
-        qt = _qt()
-        if qt is None:
-            self.skipTest("no PySide QtUiTools")
-        uitools, widgets = qt
-        self.app = widgets.QApplication.instance() or widgets.QApplication([])
-        from invrad_wb.gui import params
-        self.params, self._root = params, params.ROOT
-        params.ROOT = "User parameter:BaseApp/Preferences/Mod/InvRadDesignPanelTest"
-        params.reset()
-        fake = types.ModuleType("FreeCADGui")
-        fake.PySideUic = types.SimpleNamespace(
-            loadUi=lambda path: uitools.QUiLoader().load(path))
-        self._saved = sys.modules.get("FreeCADGui")
-        sys.modules["FreeCADGui"] = fake
-        self.space = make_box_space(self.doc, hi=(6, 4, 2.7), label="Office")
-
-    def tearDown(self):
-        if self._saved is None:
-            sys.modules.pop("FreeCADGui", None)
-        else:
-            sys.modules["FreeCADGui"] = self._saved
-        self.params.reset()
-        FreeCAD.ParamGet("User parameter:BaseApp/Preferences/Mod").RemGroup(
-            "InvRadDesignPanelTest")
-        self.params.ROOT = self._root
-        super().tearDown()
+class TestDesignPanelCatalogue(PanelTestCase):
+    PARAM_GROUP = "InvRadDesignPanelTest"
 
     def test_luminous_size_is_shown_and_edited_for_each_entry(self):
         # UGR needs a luminous area: without one an entry is rated as a CIE 147 small

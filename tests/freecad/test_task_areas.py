@@ -203,9 +203,11 @@ def _qt():
     return None
 
 
-class TestTaskAreasGui(FreeCADTestCase):
-    """The command and the design panel under freecadcmd, FreeCADGui stood in for (its
-    form loader, selection and doCommand; the panel's settings in a group of their own)."""
+class PanelTestCase(FreeCADTestCase):
+    """A task panel under freecadcmd, FreeCADGui stood in for (its form loader; a test may
+    add more to ``self.fake_gui``), the panel's settings in a group of their own
+    (``PARAM_GROUP``) and a 6 x 4 m space labelled Office."""
+    PARAM_GROUP = "InvRadPanelTest"
 
     def setUp(self):
         super().setUp()
@@ -216,21 +218,14 @@ class TestTaskAreasGui(FreeCADTestCase):
         self.app = widgets.QApplication.instance() or widgets.QApplication([])
         from invrad_wb.gui import params
         self.params, self._root = params, params.ROOT
-        params.ROOT = "User parameter:BaseApp/Preferences/Mod/InvRadTaskAreasTest"
+        params.ROOT = f"User parameter:BaseApp/Preferences/Mod/{self.PARAM_GROUP}"
         params.reset()
-        fake = types.ModuleType("FreeCADGui")
-        fake.PySideUic = types.SimpleNamespace(
+        self.fake_gui = types.ModuleType("FreeCADGui")
+        self.fake_gui.PySideUic = types.SimpleNamespace(
             loadUi=lambda path: uitools.QUiLoader().load(path))
-        self.lines, console = [], {"App": FreeCAD, "FreeCAD": FreeCAD}
-
-        def do(line):              # FreeCAD's Python console: one namespace for all lines
-            self.lines.append(line)
-            exec(line, console)
-        fake.doCommand = do
         self._saved = sys.modules.get("FreeCADGui")
-        sys.modules["FreeCADGui"] = fake
+        sys.modules["FreeCADGui"] = self.fake_gui
         self.space = make_box_space(self.doc, hi=(6, 4, 2.7), label="Office")
-        self.desks = _rectangle(self.doc, 800, 800, 3200, 2400, label="desk row")
 
     def tearDown(self):
         if self._saved is None:
@@ -239,9 +234,25 @@ class TestTaskAreasGui(FreeCADTestCase):
             sys.modules["FreeCADGui"] = self._saved
         self.params.reset()
         FreeCAD.ParamGet("User parameter:BaseApp/Preferences/Mod").RemGroup(
-            "InvRadTaskAreasTest")
+            self.PARAM_GROUP)
         self.params.ROOT = self._root
         super().tearDown()
+
+
+class TestTaskAreasGui(PanelTestCase):
+    """The command and the design panel under freecadcmd, FreeCADGui stood in for (its
+    form loader, selection and doCommand; the panel's settings in a group of their own)."""
+    PARAM_GROUP = "InvRadTaskAreasTest"
+
+    def setUp(self):
+        super().setUp()
+        self.lines, console = [], {"App": FreeCAD, "FreeCAD": FreeCAD}
+
+        def do(line):              # FreeCAD's Python console: one namespace for all lines
+            self.lines.append(line)
+            exec(line, console)
+        self.fake_gui.doCommand = do
+        self.desks = _rectangle(self.doc, 800, 800, 3200, 2400, label="desk row")
 
     def _select(self, *items):
         from invrad_wb.gui import selection
