@@ -54,6 +54,16 @@ def room_mesh(scene, room):
                  check_winding=False)
 
 
+#: :func:`unit_response` of a lambertian disk: a receiver at least this many radii from its
+#: centre, whose own plane keeps more than a radius from it (no horizon across the disk),
+#: takes the 6-point ring of :func:`~invrad_wb.core.model.luminaires.disk_quadrature`
+#: (1 ring x 6 angles) instead of the full rule (3 x 8): measured against a 40 x 96 rule at
+#: random such receivers, worst 0.11 % at 5 radii, 0.06 % at 6, 0.01 % at 10 (the full
+#: rule: 0.05 % at 3 radii, 0.9 % at 2); most of a room's receivers are that far from a
+#: luminaire, and the fast model's disks then cost a quarter
+DISK_FAR_RADII = 5.0
+
+
 def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photometry=None,
                   c0=None):
     """Direct illuminance per lumen: (k, L) lux/lm of L luminaires at k receivers, no shadows.
@@ -62,7 +72,9 @@ def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photome
     ----------
     points, normals : (k, 3) float64, receivers (metres, unit normals)
     positions, lum_normals : (L, 3) float64, luminaire centres and facing directions
-    radius_m : float, disk radius (integrated by the disk quadrature of the luminaires module)
+    radius_m : float, disk radius (integrated by the disk quadrature of the luminaires module;
+        lambertian disks with a lighter rule at receivers far from them, see
+        :data:`DISK_FAR_RADII`)
     photometry : object with ``intensity_per_lm(local_dirs)``, optional
         Intensity per lumen (cd/lm) for (..., 3) unit directions in the luminaire's frame
         (x, y in its plane, z along its facing normal); None: lambertian ``cos(gamma) / pi``.
@@ -73,29 +85,59 @@ def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photome
     normals = np.asarray(normals, dtype=np.float64)
     positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
     lum_normals = np.asarray(lum_normals, dtype=np.float64).reshape(-1, 3)
+    far = None
     if radius_m > 0:
         qp, qw = disk_quadrature()
         qp = radius_m * qp
+        if photometry is None:
+            fp, fw = disk_quadrature(1, 6)
+            far = (radius_m * fp, fw)
     else:
         qp, qw = opening_quadrature(photometry)
     out = np.zeros((len(points), len(positions)))
+    step = max(1, _BLOCK * 64 // max(1, len(points)))
     for key in np.unique(np.round(lum_normals, 9), axis=0):
         cols = np.flatnonzero(np.all(np.abs(lum_normals - key) < 1e-8, axis=1))
         n = lum_normals[cols[0]]
         u, v = photometric_frame(n, c0)
-        for q, w in zip(qp, qw):
-            c = positions[cols] + q[0] * u + q[1] * v
-            for b in range(0, len(cols), max(1, _BLOCK * 64 // max(1, len(points)))):
-                cb = slice(b, b + max(1, _BLOCK * 64 // max(1, len(points))))
-                r = points[:, None, :] - c[None, cb]
-                r2 = np.maximum(np.einsum("kli,kli->kl", r, r), 1e-12)
-                d = r / np.sqrt(r2)[..., None]
-                cos_s = np.maximum(-np.einsum("ki,kli->kl", normals, d), 0.0)
-                if photometry is None:
-                    i_lm = np.maximum(d @ n, 0.0) / np.pi
-                else:
-                    i_lm = photometry.intensity_per_lm(np.stack([d @ u, d @ v, d @ n], -1))
-                out[:, cols[cb]] += w * i_lm * cos_s / r2
+        for b in range(0, len(cols), step):
+            cb = cols[b:b + step]
+            if far is None:
+                out[:, cb] = _quadrature_sum(points, normals, positions[cb], n, u, v,
+                                             qp, qw, photometry)
+                continue
+            # the light ring at receivers far from a disk, the full rule near it (pairs)
+            out[:, cb] = _quadrature_sum(points, normals, positions[cb], n, u, v, *far, None)
+            off = positions[cb][None] - points[:, None]                        # (k, l, 3)
+            near = ((np.einsum("kli,kli->kl", off, off) < (DISK_FAR_RADII * radius_m) ** 2)
+                    | (np.abs(np.einsum("kli,ki->kl", off, normals)) <= radius_m))
+            i, j = np.nonzero(near)
+            if len(i):
+                out[i, cb[j]] = _quadrature_sum(points[i], normals[i], positions[cb[j]], n,
+                                                u, v, qp, qw, None, pairs=True)
+    return out
+
+
+def _quadrature_sum(points, normals, centres, n, u, v, qp, qw, photometry, pairs=False):
+    """The quadrature ``qp`` (q, 2) metres along (u, v), weights ``qw``, of luminaires
+    centred at ``centres`` facing ``n``: (k, l) lux/lm at the receivers, or with ``pairs``
+    (k,) for receiver i and luminaire i (k == l)."""
+    out = 0.0
+    for q, w in zip(qp, qw):
+        c = centres + q[0] * u + q[1] * v
+        r = points - c if pairs else points[:, None, :] - c[None]
+        r2 = np.maximum(np.einsum("...i,...i->...", r, r), 1e-12)
+        along = (np.einsum("ki,ki->k", normals, r) if pairs
+                 else np.einsum("ki,kli->kl", normals, r))
+        if photometry is None:
+            # cos(gamma) / pi x cos(receiver) / r^2 with both cosines' 1 / |r| folded in
+            out = out + (w / np.pi) * (np.maximum(r @ n, 0.0) * np.maximum(-along, 0.0)
+                                       / (r2 * r2))
+            continue
+        inv = 1.0 / np.sqrt(r2)
+        d = r * inv[..., None]
+        i_lm = photometry.intensity_per_lm(np.stack([d @ u, d @ v, d @ n], -1))
+        out = out + w * i_lm * np.maximum(-along * inv, 0.0) / r2
     return out
 
 
