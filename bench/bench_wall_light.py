@@ -22,7 +22,7 @@ read 3.5-5 % above Radiance). Two causes, both fixed:
   are its brightest spots (148 / 78 lx against a 37 lx mean beside a PN-3600 0.45 m from
   the wall). Box, PN-3600, ceiling: 0.45 m from the wall 43.16 lx (+16.5 %) -> 36.95,
   Radiance 37.04; 0.32 m 44.30 (+18.1 %) -> 37.68, Radiance 37.49.
-  (:meth:`evaluate.RoomModel.exact`, :func:`evaluate.behind_openings`.)
+  (:meth:`evaluate.RoomModel.exact`, :func:`openings.behind_openings`.)
 * a patch's direct light near a luminaire with an intensity distribution took the
   distribution's ratio to a Lambertian emitter at one point of the patch: a cos^4
   downlight 0.22 m from a wall put 15 % too few lumens on it (0.3 m patches: 428.8 lm

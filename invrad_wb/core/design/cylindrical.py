@@ -43,7 +43,7 @@ import math
 import numpy as np
 
 from invrad_wb.core.design import en12464
-from invrad_wb.core.design.evaluate import luminous_samples
+from invrad_wb.core.design.openings import luminous_samples
 from invrad_wb.core.forward.direct import direct_illuminance
 from invrad_wb.core.model.targets import WORK_PLANE_HEADROOM_M
 

@@ -21,6 +21,9 @@ import numpy as np
 from invrad_wb import constants as C
 from invrad_wb.errors import SceneError
 from invrad_wb.core.design import en12464
+from invrad_wb.core.design.openings import (OPENING_REFLECTANCE, behind_openings,
+                                            covered_share, luminous_samples,
+                                            opening_quadrature, triangle_reach)
 from invrad_wb.core.design.spec import TASK_PART
 from invrad_wb.core.forward.direct import direct_illuminance
 from invrad_wb.core.forward.occlusion import segments_occluded
@@ -72,9 +75,8 @@ def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photome
     ----------
     points, normals : (k, 3) float64, receivers (metres, unit normals)
     positions, lum_normals : (L, 3) float64, luminaire centres and facing directions
-    radius_m : float, disk radius (integrated by the disk quadrature of the luminaires module;
-        lambertian disks with a lighter rule at receivers far from them, see
-        :data:`DISK_FAR_RADII`)
+    radius_m : float, disk radius (the disk quadrature of the luminaires module; a lighter
+        rule far from a lambertian disk, :data:`DISK_FAR_RADII`)
     photometry : object with ``intensity_per_lm(local_dirs)``, optional
         Intensity per lumen (cd/lm) for (..., 3) unit directions in the luminaire's frame
         (x, y in its plane, z along its facing normal); None: lambertian ``cos(gamma) / pi``.
@@ -141,124 +143,6 @@ def _quadrature_sum(points, normals, centres, n, u, v, qp, qw, photometry, pairs
     return out
 
 
-#: Gauss-Legendre abscissa of the 2-point rule on [-1/2, 1/2]
-_GAUSS2 = 0.5 / math.sqrt(3.0)
-
-
-def opening_quadrature(photometry):
-    """Points (q, 2) metres along (C0, C90) and weights (q,) summing to 1 over the luminous
-    opening of a photometry file: the 2 x 2 Gauss-Legendre rule on its rectangle (a round
-    opening, given by its area only: on the square of that area); one point at the centre
-    where the file gives no opening.
-
-    Radiance (ies2rad) and DIALux emit a photometry file's light from its luminous opening,
-    each part with the file's intensity distribution scaled by its share of the area; a
-    point source at the centre overstates the light straight below a 0.6 m panel by 3 % at
-    2 m (9 % at 1 m), and the rule leaves 0.03 % (0.4 % at 1 m)."""
-    ext = getattr(photometry, "luminous_extent_m", None) if photometry is not None else None
-    if not ext:
-        area = getattr(photometry, "luminous_area_m2", None) if photometry is not None else None
-        if not area:
-            return np.zeros((1, 2)), np.ones(1)
-        ext = (math.sqrt(area), math.sqrt(area))
-    a, b = _GAUSS2 * ext[0], _GAUSS2 * ext[1]
-    return np.array([[-a, -b], [a, -b], [-a, b], [a, b]]), np.full(4, 0.25)
-
-
-def luminous_samples(luminaires):
-    """The luminaires as point emitters for direct light: a photometric luminaire with a
-    luminous opening becomes the points of :func:`opening_quadrature` (same photometry and
-    C0, its flux shared by the weights); the others are kept as they are (a disk is
-    integrated by the direct-light code itself)."""
-    out = []
-    for lum in luminaires:
-        ph = getattr(lum, "photometry", None)
-        qp, qw = (np.zeros((1, 2)), np.ones(1)) if lum.radius_m > 0 or ph is None \
-            else opening_quadrature(ph)
-        if len(qw) == 1:
-            out.append(lum)
-            continue
-        u, v = photometric_frame(lum.normal, lum.c0)
-        out += [replace(lum, position=lum.position + q[0] * u + q[1] * v,
-                        flux_lm=lum.flux_lm * w, c0=u) for q, w in zip(qp, qw)]
-    return out
-
-
-#: reflectance of a luminaire's luminous opening in the interreflection: light falling on
-#: it enters the luminaire (diffuser, louvre, optic) rather than being reflected like the
-#: ceiling around it (Radiance's light polygons reflect nothing either)
-OPENING_REFLECTANCE = 0.0
-#: a surface within this distance of an opening's plane, facing the same way, lies behind it
-_BEHIND_M = 0.05
-#: sample points per mesh triangle for the share of it an opening covers
-_COVER_SAMPLES = np.array([[1 / 3, 1 / 3, 1 / 3], [2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6],
-                           [1 / 6, 1 / 6, 2 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5],
-                           [0.5, 0.0, 0.5]])
-
-
-def opening_half_sides(lum):
-    """(half along C0, half along C90) metres of a luminaire's luminous opening, or None
-    (a point source: no opening; a disk as the square of its area)."""
-    return half_sides(lum.radius_m, getattr(lum, "photometry", None))
-
-
-def half_sides(radius_m, ph):
-    """:func:`opening_half_sides` of a disk of ``radius_m`` (> 0) or of a photometry."""
-    if radius_m > 0:
-        h = 0.5 * math.sqrt(math.pi) * radius_m
-        return h, h
-    ext = getattr(ph, "luminous_extent_m", None) if ph is not None else None
-    if ext:
-        return 0.5 * ext[0], 0.5 * ext[1]
-    area = getattr(ph, "luminous_area_m2", None) if ph is not None else None
-    return (0.5 * math.sqrt(area),) * 2 if area else None
-
-
-def covered_share(triangles, normals, luminaires):
-    """(T,) share of each triangle (T, 3, 3) that lies behind a luminous opening (within
-    ``_BEHIND_M`` of its plane, facing the way it faces, inside its rectangle)."""
-    out = np.zeros(len(triangles))
-    if len(triangles) == 0:
-        return out
-    pts = np.einsum("sj,tjk->tsk", _COVER_SAMPLES, triangles)          # (T, S, 3)
-    # only triangles that can reach the opening are tested (same answer: a sample inside
-    # the opening's box lies within the triangle's radius of its centroid)
-    cen = triangles.mean(axis=1)
-    reach = np.sqrt(np.max(np.sum((triangles - cen[:, None]) ** 2, axis=2), axis=1))
-    for lum in luminaires:
-        half = opening_half_sides(lum)
-        if half is None:
-            continue
-        u, v = photometric_frame(lum.normal, lum.c0)
-        lim = math.hypot(half[0], half[1], _BEHIND_M) + 1e-9
-        sel = np.flatnonzero((np.linalg.norm(cen - lum.position, axis=1) <= lim + reach)
-                             & (normals @ lum.normal > 0.9))
-        if len(sel) == 0:
-            continue
-        d = pts[sel] - lum.position
-        near = ((np.abs(d @ lum.normal) < _BEHIND_M)
-                & (np.abs(d @ u) <= half[0]) & (np.abs(d @ v) <= half[1]))
-        out[sel] = np.maximum(out[sel], near.mean(axis=1))
-    return out
-
-
-def behind_openings(points, normals, luminaires):
-    """(k,) bool: receivers that lie behind a luminous opening (within ``_BEHIND_M`` of its
-    plane, facing the way it faces, inside its rectangle): a spot of the ceiling there is
-    the luminaire, not ceiling (a calculation grid of the ceiling leaves it out, as
-    Radiance's opaque light polygon does)."""
-    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
-    out = np.zeros(len(points), dtype=bool)
-    for lum in luminaires:
-        half = opening_half_sides(lum)
-        if half is None:
-            continue
-        u, v = photometric_frame(lum.normal, lum.c0)
-        d = points - lum.position
-        out |= ((normals @ lum.normal > 0.9) & (np.abs(d @ lum.normal) < _BEHIND_M)
-                & (np.abs(d @ u) <= half[0] + 1e-9) & (np.abs(d @ v) <= half[1] + 1e-9))
-    return out
 
 
 class Layout:
@@ -413,6 +297,23 @@ def _plane_cells(n, c, p):
 INSIDE_PROBE_M = 0.05
 
 
+#: solves :meth:`RoomModel.solve` keeps (a check's grid, UGR background, cylindrical eyes)
+SOLVES_KEPT = 4
+
+
+def _solve_key(luminaires, covering):
+    """What a radiosity solve of ``luminaires`` under ``covering``'s openings depends on."""
+
+    def one(lums):
+        if lums is None:
+            return None
+        return tuple((lum.position.tobytes(), lum.normal.tobytes(), float(lum.flux_lm),
+                      float(lum.radius_m), id(getattr(lum, "photometry", None)),
+                      None if lum.c0 is None else np.asarray(lum.c0, float).tobytes())
+                     for lum in lums)
+    return one(list(luminaires)), one(None if covering is None else list(covering))
+
+
 class RoomModel:
     """Exact and fast light of designs in one room, on its calculation grid.
 
@@ -460,6 +361,8 @@ class RoomModel:
         self.correction = np.ones(len(self.points))
         self.indirect_per_lm = {}
         self._air_ops = {}        # indirect_at's gather operators, by receivers
+        self._reach = triangle_reach(self.mesh.triangles)
+        self._solved = []         # (key, luminaires, exitance) of the last SOLVES_KEPT
 
     def _point_patches(self):
         """Patch below each receiver: the floor patch under a work-plane point (its room,
@@ -486,12 +389,22 @@ class RoomModel:
         luminaires whose openings cover the ceiling (default: ``luminaires``; a part of
         an installation lit alone, with the whole installation's openings in place,
         adds up to the whole: the reflectances stay those of the whole)."""
+        key = _solve_key(luminaires, covering)
+        for k, _held, b in self._solved:
+            if k == key:
+                return b
+        b = self._solve(luminaires, covering)
+        b.flags.writeable = False      # (the luminaires held: their photometry's id stays)
+        self._solved = [(key, (luminaires, covering), b)] + self._solved[:SOLVES_KEPT - 1]
+        return b
+
+    def _solve(self, luminaires, covering):
         rad = self.rad
         e = rad.patch_direct(luminous_samples(luminaires), self.bvh, self.bvh is not None,
                              self.backend)
         m = self.mesh
         share = covered_share(m.triangles, m.face_normals,
-                              luminaires if covering is None else covering)
+                              luminaires if covering is None else covering, self._reach)
         if not share.any():
             return rad.solve(e)
         cov = np.bincount(rad.face_patch[rad.face_patch >= 0],

@@ -46,7 +46,8 @@ import math
 
 import numpy as np
 
-from invrad_wb.core.design.evaluate import half_sides, unit_response
+from invrad_wb.core.design.evaluate import unit_response
+from invrad_wb.core.design.openings import half_sides
 from invrad_wb.core.design.roomglare import seen_shares
 from invrad_wb.core.design.search import (EXACT_ONLY, Candidate, Metrics, margin_kept,
                                           metrics_comply)

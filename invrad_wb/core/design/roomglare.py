@@ -27,7 +27,7 @@ import math
 
 import numpy as np
 
-from invrad_wb.core.design.evaluate import half_sides
+from invrad_wb.core.design.openings import half_sides
 from invrad_wb.core.forward.occlusion import segments_occluded
 from invrad_wb.core.model.aiming import photometric_frame
 

@@ -18,8 +18,9 @@ import math
 
 import numpy as np
 
-from invrad_wb.core.design.evaluate import (Layout, entry_c0, half_sides, luminaires_of,
-                                            turned_entries, unit_response)
+from invrad_wb.core.design.evaluate import (Layout, entry_c0, luminaires_of, turned_entries,
+                                            unit_response)
+from invrad_wb.core.design.openings import half_sides
 from invrad_wb.core.design.spec import SurfaceRequirement
 from invrad_wb.core.design.roomglare import luminaire_shares, seen_shares
 from invrad_wb.core.output.glare import observers, ugr_from_sum, unit_glare

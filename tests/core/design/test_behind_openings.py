@@ -6,22 +6,29 @@ corridor (bench_wall_light.py)."""
 import numpy as np
 import pytest
 
+from invrad_wb.core.design import openings
 from invrad_wb.core.synthetic import generate as g
 
 
 def _panel_model():
     from invrad_wb.core.design import evaluate as ev
-    from invrad_wb.core.design.room import DesignRoom
     from invrad_wb.core.model.photometry import Photometry
     lam = Photometry.lambertian()
     panel = Photometry(lam.table, 1.0, name="panel", luminous_area_m2=0.36,
                        luminous_extent_m=(0.6, 0.6))
+    model = ev.RoomModel(*_panel_model_args())
+    return ev, model, panel, lam
+
+
+def _panel_model_args():
+    """RoomModel's arguments for a 4 x 3 x 2.6 m box (numpy backend)."""
+    from invrad_wb.core.design import evaluate as ev
+    from invrad_wb.core.design.room import DesignRoom
     sc = g.with_reflectances(g.box_room(size=(4.0, 3.0, 2.6), cell=0.3))
     droom = DesignRoom(sc, 0)
     surfaces = ev.surface_grids(sc, 0, droom)
     pts = np.array([[2.0, 1.5, 0.8], [1.0, 1.0, 0.8]])
-    model = ev.RoomModel(sc, droom, pts, 0.8, "numpy", surfaces=surfaces)
-    return ev, model, panel, lam
+    return sc, droom, pts, 0.8, "numpy", None, surfaces
 
 
 def _lum(at, ph, flux=3000.0):
@@ -34,12 +41,12 @@ def test_ceiling_figures_leave_out_the_receivers_behind_an_opening():
     ev, model, panel, lam = _panel_model()
     lum = _lum([0.45, 1.5, 2.6], panel)          # its opening 0.15 m from the wall
     sl, w = model.layout.parts["ceiling"]
-    hidden = ev.behind_openings(model.points[sl], model.normals[sl], [lum])
+    hidden = openings.behind_openings(model.points[sl], model.normals[sl], [lum])
     assert 0 < hidden.sum() < len(hidden)
     # only ceiling receivers inside the opening's rectangle
     d = model.points[sl][hidden] - lum.position
     assert np.all(np.abs(d[:, :2]) <= 0.3 + 1e-9) and np.all(np.abs(d[:, 2]) < 0.05)
-    assert not ev.behind_openings(model.points[sl], model.normals[sl],
+    assert not openings.behind_openings(model.points[sl], model.normals[sl],
                                   [_lum([0.45, 1.5, 2.6], lam)]).any()   # a point source
     lux, direct = model.exact([lum])
     raw = model._behind
@@ -73,5 +80,30 @@ def test_left_out_receivers_keep_the_light_linear_for_one_installation():
     assert np.allclose(pad + pbd, wd, rtol=1e-9, atol=1e-9)
     # and the hidden receivers are those of both openings in every part
     sl, _ = model.layout.parts["ceiling"]
-    h = ev.behind_openings(model.points[sl], model.normals[sl], [a, b])
+    h = openings.behind_openings(model.points[sl], model.normals[sl], [a, b])
     assert np.ptp(pa[sl][h]) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_kept_solve_is_given_back_only_for_the_same_luminaires_and_openings():
+    """RoomModel.solve keeps its last solves (a design check solves each layout for its
+    grid, the UGR background and the cylindrical eyes): the same layout gets the kept
+    exitance, any change of position, flux, distribution or covering openings a new one,
+    equal to what a fresh model solves."""
+    from dataclasses import replace
+    ev, model, panel, lam = _panel_model()
+    a, b = _lum([0.45, 1.5, 2.6], panel), _lum([3.0, 1.0, 2.6], panel, 2000.0)
+    first = model.solve([a, b])
+    assert model.solve([replace(a), replace(b)]) is first       # equal copies: kept
+    with pytest.raises(ValueError):
+        first[0] = 0.0                                           # kept solves are read-only
+    fresh = ev.RoomModel(*_panel_model_args())
+    for change in ([replace(a, position=a.position + [0.1, 0.0, 0.0]), b],
+                   [replace(a, flux_lm=2500.0), b],
+                   [replace(a, photometry=lam), b]):
+        got = model.solve(change)
+        assert got is not first
+        assert np.allclose(got, fresh.solve(change), rtol=1e-12, atol=0.0)
+    alone = model.solve([a], covering=[a, b])
+    assert alone is not model.solve([a])
+    assert np.allclose(alone, fresh.solve([a], covering=[a, b]), rtol=1e-12, atol=0.0)
+    assert not np.allclose(alone, fresh.solve([a]))

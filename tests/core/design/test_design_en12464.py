@@ -368,8 +368,8 @@ def test_a_panel_lights_from_its_luminous_opening_not_from_a_point():
     integral over its opening (as Radiance's ies2rad and DIALux emit it; a point source
     overstates it by 11 %), in the fast model and in the exact one alike; a file without an
     opening stays a point."""
-    from invrad_wb.core.design.evaluate import (RoomModel, luminous_samples,
-                                                unit_response)
+    from invrad_wb.core.design.evaluate import RoomModel, unit_response
+    from invrad_wb.core.design.openings import luminous_samples
     from invrad_wb.core.design.room import DesignRoom
     from invrad_wb.core.model.luminaires import Luminaire
     from invrad_wb.core.model.photometry import Photometry
@@ -469,6 +469,7 @@ def test_the_ceiling_behind_a_luminous_opening_reflects_as_the_opening():
     polygons reflect nothing, found 8-13 % less interreflected light than invrad did
     before)."""
     from invrad_wb.core.design import evaluate as ev
+    from invrad_wb.core.design import openings
     from invrad_wb.core.design.room import DesignRoom
     from invrad_wb.core.model.luminaires import Luminaire
     from invrad_wb.core.model.photometry import Photometry
@@ -480,7 +481,7 @@ def test_the_ceiling_behind_a_luminous_opening_reflects_as_the_opening():
     model = ev.RoomModel(sc, DesignRoom(sc, 0), pts, 1.0, "numpy")
     at, down = [2.0, 1.5, 2.8], [0.0, 0.0, -1.0]
     m = model.mesh
-    share = ev.covered_share(m.triangles, m.face_normals,
+    share = openings.covered_share(m.triangles, m.face_normals,
                              [Luminaire(at, down, 1000.0, photometry=panel)])
     # the covered area is the opening's (the mesh's triangles straddle its edges)
     assert np.sum(share * m.face_areas) == pytest.approx(0.36, rel=0.15)
