@@ -111,8 +111,10 @@ def unit_response(points, normals, positions, lum_normals, radius_m=0.0, photome
             # the light ring at receivers far from a disk, the full rule near it (pairs)
             out[:, cb] = _quadrature_sum(points, normals, positions[cb], n, u, v, *far, None)
             off = positions[cb][None] - points[:, None]                        # (k, l, 3)
-            near = ((np.einsum("kli,kli->kl", off, off) < (DISK_FAR_RADII * radius_m) ** 2)
-                    | (np.abs(np.einsum("kli,ki->kl", off, normals)) <= radius_m))
+            # (a receiver on or behind the disk's plane gets nothing from any of it)
+            near = (((np.einsum("kli,kli->kl", off, off) < (DISK_FAR_RADII * radius_m) ** 2)
+                     | (np.abs(np.einsum("kli,ki->kl", off, normals)) <= radius_m))
+                    & (off @ n < 0.0))
             i, j = np.nonzero(near)
             if len(i):
                 out[i, cb[j]] = _quadrature_sum(points[i], normals[i], positions[cb[j]], n,

@@ -73,3 +73,14 @@ def test_disk_at_any_receiver_clear_of_it_matches_a_brute_force_integral(tilt):
     # near: the full 3 x 8 rule, as before (its own error, 1 % at 2 radii)
     assert rel[~far[lit]].max() < 2e-2
     assert np.array_equal(e[~lit], np.zeros((~lit).sum()))
+
+
+def test_nothing_reaches_receivers_on_or_behind_the_disks_plane():
+    rng = np.random.default_rng(3)
+    centre, n = np.array([2.0, 1.5, 2.7]), np.array([0.0, 0.0, -1.0])
+    ceiling = np.c_[rng.uniform(0, 4, 500), rng.uniform(0, 3, 500), np.full(500, 2.7)]
+    above = ceiling + [0.0, 0.0, 0.4]
+    pts = np.concatenate([ceiling, above])
+    for nrm in ([0.0, 0.0, -1.0], [1.0, 0.0, 0.0]):
+        e = ev.unit_response(pts, np.tile(nrm, (len(pts), 1)), centre[None], n[None], R)
+        assert not e.any()
