@@ -588,7 +588,10 @@ def main():
                     help="print the Cramer-Rao bounds of the scenes only (no locate)")
     ap.add_argument("--points-max", type=int, default=None,
                     help="target vertices of the last refit and of the bound (default:"
-                         " locate_problem.VERTEX_POINTS_MAX); the votes keep their sample")
+                         " locate_problem.VERTEX_POINTS_MAX); the votes keep their sample."
+                         " At or above the room's vertex count the subset problem is the"
+                         " whole room: no streamed refit, no interreflection gradient in"
+                         " the last refit, each refresh a gather at every vertex (slow)")
     ap.add_argument("--cells", default="",
                     help="--bound-only: mesh spacings (m), comma-separated (default --cell)")
     ap.add_argument("--no-bound", action="store_true",

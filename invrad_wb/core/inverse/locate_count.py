@@ -193,6 +193,7 @@ class CountSearch:
             if step is None:
                 break
             what, lights, cost, b = step
+            self.fit.rejected_split = None
             trace.append({"count_search": what, "lights": len(lights), "bic_before": best,
                           "bic_after": b})
             best = b
@@ -264,6 +265,7 @@ class CountSearch:
         where the found luminaires reproduce the targets to the model's own error, the
         split trials were 10-19 CPU s per room)."""
         prob, fit = self.prob, self.fit
+        fit.rejected_split = None
         if best <= self.k * np.log(MODEL_FLOOR ** 2) + (_params(lights) + 3) * np.log(self.k):
             return None
         trials = []
@@ -289,10 +291,17 @@ class CountSearch:
                         best_i = (c, pair)
             if best_i is not None:
                 trials.append((best_i[0], i, best_i[1]))
+        near = None
         for c, i, pair in sorted(trials, key=lambda x: x[0])[:3]:
             got, cost, sc = self._refit(lights[:i] + lights[i + 1:] + pair)
             if sc < best and not self._one_extended(got[:-2], got[-2:], sc):
                 return "split", got, cost, sc
+            if sc >= best and (near is None or sc < near[0]):
+                near = (sc, got)
+        # the best split the criterion turned down on these points: the last refit on
+        # every target vertex of a finely meshed room judges it again with their
+        # information (locate_fit._RoomFit.count_on_every_vertex)
+        fit.rejected_split = None if near is None else near[1]
         return None
 
     def _one_extended(self, rest, pieces, split_score):

@@ -149,3 +149,48 @@ def test_locate_refits_on_every_target_vertex_beyond_the_subset(monkeypatch):
     assert len(res.luminaires) == 1
     err = np.linalg.norm(np.asarray(res.luminaires[0].position) - true[0].position)
     assert err < 0.02 and res.luminaires[0].flux_lm == pytest.approx(3000.0, rel=0.03)
+
+
+def _judged_on_every_vertex(room, got_lums, alt_lums):
+    """locate_fit._RoomFit.count_on_every_vertex of ``alt_lums`` (the count search's split
+    that its subset turned down) against ``got_lums`` refitted on every vertex, the subset
+    a quarter of the room's vertices."""
+    from types import SimpleNamespace
+    from invrad_wb.core.inverse.locate_fit import _RoomFit
+    scene, pts, _exact, _lights = room
+    quarter = lp.vertex_points(scene, most=len(pts) // 4)
+    sub, ind, lights_sub = _problem(scene, quarter, True)
+    sub.indirect_gradient = True
+    vp = lv.VertexProblem(pts, sub, quarter.plane, indirect_model=ind)
+    got = lights_sub(got_lums)
+    vp.exact_indirect(got)
+    got, _c = vp.levenberg_marquardt(got, iterations=100)
+    fit = SimpleNamespace(trace=[], rejected_split=lights_sub(alt_lums))
+    out = _RoomFit.count_on_every_vertex(fit, vp, sub, got, 4)
+    return out, fit.trace[-1]
+
+
+def test_every_vertex_keeps_the_luminaire_the_subset_turned_down(room):
+    # one luminaire of the pair's flux between them (what a subset's criterion may keep)
+    # against the split it turned down: every vertex holds the second luminaire
+    s = sum(t.flux_lm for t in TRUE)
+    centre = sum(t.flux_lm * np.asarray(t.position) for t in TRUE) / s
+    one = [Luminaire(centre, [0, 0, -1], s)]
+    out, said = _judged_on_every_vertex(room, one, _moved([0.05, 0.04, 0.0]))
+    assert said["count_search"] == "every vertex" and said["kept"]
+    assert len(out) == 2
+    for t in TRUE:
+        near = min(out, key=lambda L: np.linalg.norm(L.position - t.position))
+        assert np.linalg.norm(near.position - t.position) < 0.05
+        assert near.flux_scale * 2000.0 == pytest.approx(t.flux_lm, rel=0.05)
+
+
+def test_every_vertex_turns_down_a_split_the_data_do_not_need(room):
+    # the true pair against a split of its brighter luminaire into halves 0.3 m apart
+    a, b = TRUE
+    halves = [Luminaire(np.asarray(b.position) + [dx, 0.0, 0.0], [0, 0, -1], b.flux_lm / 2)
+              for dx in (-0.15, 0.15)]
+    out, said = _judged_on_every_vertex(room, TRUE, [a] + halves)
+    assert said["count_search"] == "every vertex" and not said["kept"]
+    assert said["bic_after"] > said["bic_before"]
+    assert len(out) == 2
