@@ -343,6 +343,23 @@ With these, every scene but array16 meets the Done-when with the flux given (arr
 0.013 m (1 781 920 vertices) was stopped after 110 min wall (58 CPU min at load 5-6, still
 in locate's last refit: each interreflection refresh at every vertex is about 11 CPU min
 here); with the flux at 0.02 m not run.
+
+Round 14, 2026-11-27, array16 on the default path (the 20 000-vertex subset, then the
+streamed refit on every vertex; round 13's --points-max 100000000 made the subset the whole
+room: no streamed refit, no interreflection gradient, each refresh a gather at all 1.78
+million vertices, hence its unfinished 110 min). 5 % noise, one draw each, 2 cores, the
+other core busy (count / ok / max cm / max flux % / locate wall s / CPU s / rss MB):
+  given array16_0.8h 0.016 m 1176758 v 16/16 yes 0.83        433  296 2961
+  free  array16_0.8h 0.013 m 1781920 v 15/16 NO 32.38 34.52 1452 1461 3793  (before)
+  free  array16_0.8h 0.013 m 1781920 v 16/16 yes 2.77  1.65 2381 2450        (after)
+Bound at 0.016 m (--bound-only --cells 0.016): flux free 1.40 cm 0.86 %, given 0.69 cm
+(the given row 1.2 sd); at 0.013 m about 1.14 cm free (by the spacing), so 2.77 cm is
+about 2.4 sd, the worst of sixteen. 'before': the count search's criterion on the subset
+turned the 16th luminaire's split down (at 0.07 m it had gained only 3.8 there); 'after':
+that split judged again on every vertex (locate_fit._RoomFit.count_on_every_vertex), kept.
+At 0.07 m (63 106 vertices, count right both ways) the check turned the 17th down by 29,
++55 CPU s. With the flux given every scene is now within 2 cm; without it array16 is the
+one scene beyond 2 cm (2.77 cm, count and flux within the Done-when).
 """
 import argparse
 import os
