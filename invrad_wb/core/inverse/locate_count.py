@@ -102,8 +102,12 @@ def _params(lights):
 def bic(prob, lights, k=None):
     """The criterion of the module docstring for ``lights`` (lower is better)."""
     k = len(prob.target) if k is None else k
-    m = max(_mean_square(prob, lights), MODEL_FLOOR ** 2)
-    return k * np.log(m) + _params(lights) * np.log(k)
+    return bic_of(_mean_square(prob, lights), _params(lights), k)
+
+
+def bic_of(mean_square, params, k):
+    """The criterion from the robust mean square, the parameter count and the lit points."""
+    return k * np.log(max(mean_square, MODEL_FLOOR ** 2)) + params * np.log(k)
 
 
 def _mount_distance(prob, L):
@@ -329,8 +333,7 @@ class CountSearch:
         p_one = _params(rest) + _params([one]) + 1
         for f in EXTENDED_RADII:
             disk = _disk(one, centre, s, min(f * r0, rmax))
-            m = max(_mean_square(prob, rest + disk), MODEL_FLOOR ** 2)
-            b = self.k * np.log(m) + p_one * np.log(self.k)
+            b = bic_of(_mean_square(prob, rest + disk), p_one, self.k)
             if b <= split_score:
                 self.fit.trace.append({"count_search": "split kept as one luminous disk",
                                        "radius_m": round(min(f * r0, rmax), 3),

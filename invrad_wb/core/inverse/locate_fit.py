@@ -527,13 +527,12 @@ class _RoomFit:
         vertices; a 0.013 m mesh's subset turned it down, 15 of 16); each vertex is a
         measurement of its own, and the gain of a luminaire the data hold grows with
         them while the penalty grows as ln(vertices). Returns ``got`` or the split."""
-        from invrad_wb.core.inverse.locate_count import _params, robust_mean_square
-        from invrad_wb.core.inverse.select import MODEL_FLOOR
+        from invrad_wb.core.inverse.locate_count import _params, bic_of, robust_mean_square
         k = int(np.sum(vp.target > 0)) or len(vp.target)
 
         def score(lights):
-            m = max(robust_mean_square(vp.residuals(lights), vp.w_area), MODEL_FLOOR ** 2)
-            return k * np.log(m) + _params(lights) * np.log(k)
+            return bic_of(robust_mean_square(vp.residuals(lights), vp.w_area),
+                          _params(lights), k)
         b_got = score(got)                   # with got's exact interreflection (vp._exact)
         alt = _rebase(sub, self.rejected_split)
         vp.exact_indirect(alt)
