@@ -501,7 +501,10 @@ class _RoomFit:
         if every is None or len(every) <= len(sub_pts):
             return lights
         vp = lv.VertexProblem(every, sub, sub_pts.plane, indirect_model=sub_indirect)
-        vp.exact_indirect(lights)
+        # the split the count check below judges, gathered in the same pass as these
+        alt = (_rebase(sub, self.rejected_split)
+               if sub.free_flux and self.rejected_split is not None else None)
+        alt_exact = vp.exact_indirect(lights, *([alt] if alt is not None else []))
         c_start = vp.cost(lights)
         got = lights
         for _round in range(rounds):
@@ -513,11 +516,11 @@ class _RoomFit:
                     for a, b in zip(lights, got))
         self.trace.append({"polish_vertices": len(every), "cost_before": c_start,
                            "cost_after": vp.cost(got), "moved_m": round(moved, 4)})
-        if sub.free_flux and self.rejected_split is not None:
-            got = self.count_on_every_vertex(vp, sub, got, rounds)
+        if alt is not None:
+            got = self.count_on_every_vertex(vp, sub, got, rounds, alt, alt_exact[0])
         return got
 
-    def count_on_every_vertex(self, vp, sub, got, rounds):
+    def count_on_every_vertex(self, vp, sub, got, rounds, alt=None, alt_exact=None):
         """The count search's best split that its criterion turned down on the subset
         (``rejected_split``: one luminaire more, refitted there) judged again by the same
         criterion (:func:`~invrad_wb.core.inverse.locate_count.bic`) on every target
@@ -526,7 +529,10 @@ class _RoomFit:
         (array16_0.8h at a 0.07 m mesh: the 16th luminaire's split gained 3.8 on 20 000
         vertices; a 0.013 m mesh's subset turned it down, 15 of 16); each vertex is a
         measurement of its own, and the gain of a luminaire the data hold grows with
-        them while the penalty grows as ln(vertices). Returns ``got`` or the split."""
+        them while the penalty grows as ln(vertices). ``alt``: the split rebased on
+        ``sub`` (default: ``rejected_split``'s); ``alt_exact``: its interreflection at
+        every vertex, gathered with ``got``'s start (:meth:`VertexProblem.exact_indirect`'s
+        ``more``; None: a pass of its own). Returns ``got`` or the split."""
         from invrad_wb.core.inverse.locate_count import _params, bic_of, robust_mean_square
         k = int(np.sum(vp.target > 0)) or len(vp.target)
 
@@ -534,8 +540,12 @@ class _RoomFit:
             return bic_of(robust_mean_square(vp.residuals(lights), vp.w_area),
                           _params(lights), k)
         b_got = score(got)                   # with got's exact interreflection (vp._exact)
-        alt = _rebase(sub, self.rejected_split)
-        vp.exact_indirect(alt)
+        if alt is None:
+            alt = _rebase(sub, self.rejected_split)
+        if alt_exact is None:
+            vp.exact_indirect(alt)
+        else:
+            vp.use_exact(alt_exact)
         for _round in range(rounds):
             alt, _c = vp.levenberg_marquardt(alt, iterations=100)
             alt, changed = vp.refresh_indirect(alt, moved=0.005)

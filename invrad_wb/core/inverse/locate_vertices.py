@@ -227,7 +227,7 @@ class VertexProblem:
         r, _ = self.separation(lights)
         return float(np.sum(r * r))
 
-    def exact_indirect(self, lights):
+    def exact_indirect(self, lights, *more):
         """Gather each luminaire's interreflected light exactly at every vertex (one pass
         of the radiosity model's form factors over the vertices, in chunks, for all of
         them at once) and keep it; from then on a luminaire's interreflection here is
@@ -237,16 +237,40 @@ class VertexProblem:
         tests/core/inverse/test_locate_vertices.py). Needs ``indirect_model`` (the
         base problem's :class:`~invrad_wb.core.inverse.locate_problem._Indirect`); the
         lights keep their order in the refit that follows (the values are per index).
-        Memory: 4 bytes per vertex and luminaire."""
+        Memory: 4 bytes per vertex and luminaire.
+
+        ``more``: other arrangements gathered in the same pass, not kept: returned, one
+        per arrangement (None where it has no interreflection to gather), for
+        :meth:`use_exact`. The pass costs its form factors (0.36 ms a vertex for
+        array16's room, bench/bench_count.py), hardly the number of luminaires: the
+        count check on every vertex (locate_fit._RoomFit.count_on_every_vertex) had
+        a pass of its own for its one other arrangement."""
         m = self.indirect_model
+        groups = [lights, *more]
         if m is None or self.interp.identity or not lights:
-            return
-        if any(L.indirect is None for L in lights):
-            return
-        B = np.stack([m.exitance([L], self.flux) for L in lights], axis=1)     # (P, K)
+            return [None] * len(more)
+        ok = [bool(g) and all(L.indirect is not None for L in g) for g in groups]
+        todo = [L for g, y in zip(groups, ok) if y for L in g]
+        if not todo:
+            return [None] * len(more)
+        B = np.stack([m.exitance([L], self.flux) for L in todo], axis=1)        # (P, K)
         fine = gather_at(m.model, self.pts, B)                                  # (k, K)
-        self._exact = [(np.array(L.indirect, dtype=np.float64), fine[:, i])
-                       for i, L in enumerate(lights)]
+        out, col = [], 0
+        for g, y in zip(groups, ok):
+            if not y:
+                out.append(None)
+                continue
+            out.append([(np.array(L.indirect, dtype=np.float64), fine[:, col + i])
+                        for i, L in enumerate(g)])
+            col += len(g)
+        if out[0] is not None:
+            self._exact = out[0]
+        return out[1:]
+
+    def use_exact(self, values):
+        """Keep ``values`` (one of :meth:`exact_indirect`'s returned arrangements) as the
+        exact interreflection of the lights refitted next, in their order."""
+        self._exact = values
 
     def _at(self, lights, sl):
         """Shallow copies of ``lights`` with their interreflection at chunk ``sl``."""

@@ -151,10 +151,11 @@ def test_locate_refits_on_every_target_vertex_beyond_the_subset(monkeypatch):
     assert err < 0.02 and res.luminaires[0].flux_lm == pytest.approx(3000.0, rel=0.03)
 
 
-def _judged_on_every_vertex(room, got_lums, alt_lums):
+def _judged_on_every_vertex(room, got_lums, alt_lums, one_pass=False):
     """locate_fit._RoomFit.count_on_every_vertex of ``alt_lums`` (the count search's split
     that its subset turned down) against ``got_lums`` refitted on every vertex, the subset
-    a quarter of the room's vertices."""
+    a quarter of the room's vertices. ``one_pass``: the split's interreflection gathered
+    with ``got_lums``' (as polish_every_vertex does), else in a pass of its own."""
     from types import SimpleNamespace
     from invrad_wb.core.inverse.locate_fit import _RoomFit
     scene, pts, _exact, _lights = room
@@ -163,11 +164,44 @@ def _judged_on_every_vertex(room, got_lums, alt_lums):
     sub.indirect_gradient = True
     vp = lv.VertexProblem(pts, sub, quarter.plane, indirect_model=ind)
     got = lights_sub(got_lums)
-    vp.exact_indirect(got)
+    alt = _rebase(sub, lights_sub(alt_lums))
+    alt_exact = vp.exact_indirect(got, *([alt] if one_pass else []))
     got, _c = vp.levenberg_marquardt(got, iterations=100)
-    fit = SimpleNamespace(trace=[], rejected_split=lights_sub(alt_lums))
-    out = _RoomFit.count_on_every_vertex(fit, vp, sub, got, 4)
+    fit = SimpleNamespace(trace=[], rejected_split=alt)
+    if one_pass:
+        out = _RoomFit.count_on_every_vertex(fit, vp, sub, got, 4, alt, alt_exact[0])
+    else:
+        out = _RoomFit.count_on_every_vertex(fit, vp, sub, got, 4)
     return out, fit.trace[-1]
+
+
+def test_more_arrangements_gather_in_the_same_pass_as_one_alone(room):
+    # exact_indirect(lights, alt): lights' values kept, alt's returned, each what a pass
+    # of its own gathers; an arrangement without interreflection comes back as None
+    scene, pts, _exact, _lights = room
+    quarter = lp.vertex_points(scene, most=len(pts) // 4)
+    sub, ind, lights_sub = _problem(scene, quarter, True)
+    got, alt = lights_sub(TRUE), lights_sub(_moved([0.4, -0.3, 0.0]))
+    vp = lv.VertexProblem(pts, sub, quarter.plane, indirect_model=ind)
+    bare = [L.copy() for L in alt]
+    for L in bare:
+        L.indirect = None
+    more = vp.exact_indirect(got, alt, bare)
+    assert len(more) == 2 and more[1] is None and len(more[0]) == len(alt)
+    both = [f for _c, f in vp._exact] + [f for _c, f in more[0]]
+    alone = lv.VertexProblem(pts, sub, quarter.plane, indirect_model=ind)
+    alone.exact_indirect(got)
+    first = [f for _c, f in alone._exact]
+    alone.exact_indirect(alt)
+    want = first + [f for _c, f in alone._exact]
+    for a, b in zip(both, want):
+        np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-6 * float(np.max(b)))
+    assert np.max(np.abs(want[0] - want[2])) > 0.01 * np.max(want[0])   # alt's differ
+    vp.use_exact(more[0])
+    np.testing.assert_allclose(vp._at(alt, slice(None))[0].indirect, want[2], rtol=1e-6)
+    # nothing to gather: the kept values stay, nothing is returned for the others
+    vp.exact_indirect(bare, alt)
+    assert vp._exact is more[0]
 
 
 def test_every_vertex_keeps_the_luminaire_the_subset_turned_down(room):
@@ -178,6 +212,13 @@ def test_every_vertex_keeps_the_luminaire_the_subset_turned_down(room):
     one = [Luminaire(centre, [0, 0, -1], s)]
     out, said = _judged_on_every_vertex(room, one, _moved([0.05, 0.04, 0.0]))
     assert said["count_search"] == "every vertex" and said["kept"]
+    # the split gathered in the start's pass (polish_every_vertex's way): the same check
+    out1, said1 = _judged_on_every_vertex(room, one, _moved([0.05, 0.04, 0.0]), True)
+    assert said1["kept"] and len(out1) == len(out)
+    for k in ("bic_before", "bic_after"):
+        assert said1[k] == pytest.approx(said[k], rel=1e-6)
+    for a, b in zip(out, out1):
+        np.testing.assert_allclose(b.position, a.position, atol=1e-5)
     assert len(out) == 2
     for t in TRUE:
         near = min(out, key=lambda L: np.linalg.norm(L.position - t.position))
@@ -190,7 +231,8 @@ def test_every_vertex_turns_down_a_split_the_data_do_not_need(room):
     a, b = TRUE
     halves = [Luminaire(np.asarray(b.position) + [dx, 0.0, 0.0], [0, 0, -1], b.flux_lm / 2)
               for dx in (-0.15, 0.15)]
-    out, said = _judged_on_every_vertex(room, TRUE, [a] + halves)
-    assert said["count_search"] == "every vertex" and not said["kept"]
-    assert said["bic_after"] > said["bic_before"]
-    assert len(out) == 2
+    for one_pass in (False, True):
+        out, said = _judged_on_every_vertex(room, TRUE, [a] + halves, one_pass)
+        assert said["count_search"] == "every vertex" and not said["kept"]
+        assert said["bic_after"] > said["bic_before"]
+        assert len(out) == 2
