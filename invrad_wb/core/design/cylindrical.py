@@ -14,12 +14,13 @@ default, a seated person's face), maintained (x maintenance factor):
   divided by pi. A disk luminaire's quadrature points are seen by the receiver facing its
   centre (exact for a point source, a small error for a large disk close by);
 * interreflected light, from the design model's radiosity (the room's patches' exitance
-  and the point-to-patch form factors, occlusion as the floor patch under the point sees
-  the room, as the work plane is gathered; a point in the air belongs to no plane, so
-  every patch counts, the floor too): the vertical illuminance in :data:`N_DIRECTIONS`
-  horizontal directions, averaged. The room surfaces' light is diffuse and spread, so the discrete
-  average is close to the continuous one (8 directions: within about 1 % for a source
-  well off the point's vertical; the discrete mean of ``max(cos, 0)`` is 0.302 to 0.328 of
+  and the point-to-patch form factors; a point in the air belongs to no plane, so every
+  patch counts, the floor too; occlusion: in a room with occluders (pillars, partitions,
+  re-entrant walls) the point's own, by segments to the patches' samples, else the floor
+  patch's under it, as the work plane is gathered): the vertical illuminance in
+  :data:`N_DIRECTIONS` horizontal directions, averaged. The room surfaces' light is diffuse
+  and spread, so the discrete average is close to the continuous one (8 directions:
+  within about 1 % for a source well off the point's vertical; the discrete mean of ``max(cos, 0)`` is 0.302 to 0.328 of
   the exact ``1 / pi`` = 0.318 for a single small source).
 
 Judged: ``Em,z >= lux`` and ``U0,z = Emin,z / Em,z >= u0``. The modelling ratio Ez / Eh
@@ -120,12 +121,16 @@ class CylindricalGrid:
         pts = np.concatenate([np.tile(self.points, (N_DIRECTIONS, 1)), self.points])
         nrm = np.concatenate([np.repeat(dirs, k, axis=0), np.tile([0.0, 0.0, 1.0], (k, 1))])
         under = np.tile(model.floor_patches(self.points), N_DIRECTIONS + 1)
-        self._op = model.air_gather(pts, nrm, under)
+        # a room with occluders (pillars, partitions, re-entrant walls): each point's own
+        # visibility, by segments from it to the patches' samples; the floor patch under
+        # a point beside a pillar sees past it what the point does not
+        self._op = model.air_gather(pts, nrm, under, own_visibility=model.bvh is not None)
 
     def gather(self, exitance):
         """Interreflected (ez (k,), eh (k,)) lux for patch exitances ``exitance`` (P,)
         (:class:`~.evaluate.AirGather`: a point in the air belongs to no plane, every
-        patch counts; occlusion is the visibility row of the floor patch under it)."""
+        patch counts; occlusion is the point's own where the room has occluders, else
+        the visibility row of the floor patch under it, the same in a convex room)."""
         k = len(self.points)
         e = self._op(exitance)
         return e[:N_DIRECTIONS * k].reshape(N_DIRECTIONS, k).mean(axis=0), e[N_DIRECTIONS * k:]

@@ -603,7 +603,10 @@ class AirGather:
                     visibility=None if own else room.vis,
                     backend=rad.backend, centre=room.centre)
                 if own:
-                    mat[s:s + len(r)] *= _seen_patches(room, points[r], bvh, backend)
+                    # receivers at one point (a cylinder's directions) share its rays
+                    at, back = np.unique(points[r], axis=0, return_inverse=True)
+                    mat[s:s + len(r)] *= _seen_patches(room, at, bvh, backend)[
+                        back.reshape(-1)]
             self._blocks.append((rows, room.sl, mat))
 
     def __call__(self, exitance):
