@@ -20,8 +20,9 @@ default, a seated person's face), maintained (x maintenance factor):
   patch's under it, as the work plane is gathered): the vertical illuminance in
   :data:`N_DIRECTIONS` horizontal directions, averaged. The room surfaces' light is diffuse
   and spread, so the discrete average is close to the continuous one (8 directions:
-  within about 1 % for a source well off the point's vertical; the discrete mean of ``max(cos, 0)`` is 0.302 to 0.328 of
-  the exact ``1 / pi`` = 0.318 for a single small source).
+  within about 1 % for a source well off the point's vertical; the discrete mean of
+  ``max(cos, 0)`` is 0.302 to 0.328 of the exact ``1 / pi`` = 0.318 for a single small
+  source).
 
 Judged: ``Em,z >= lux`` and ``U0,z = Emin,z / Em,z >= u0``. The modelling ratio Ez / Eh
 (Eh the horizontal illuminance at the same points) is reported against EN 12464-1's
