@@ -372,6 +372,7 @@ the start's pass (VertexProblem.exact_indirect(lights, *more)); before, a pass o
 same answer, the other core busy (locate wall s / CPU s):
   0.07 m  63106 v 16/16 11.07 cm 3.33 %  before 181.9 / 176.6  after 177.5 / 170.9
   0.03 m 335766 v 16/16  2.86 cm 2.35 %  before 452.0 / 443.4  after 417.2 / 383.7
+  0.013 m 1781920 v 16/16 2.77 cm 1.65 %  before 2381 / 2450 (round 14)  after 1961 / 1945
 array16_0.8h flux free at 0.009 m (the old code: two passes; alone on one core for its first
 35 min, then beside CI runs and the rows above; count / ok / max cm / max flux % / locate
 wall s / CPU s / peak RSS of the whole process, its diagnosis stopped unfinished):
