@@ -506,12 +506,7 @@ class _RoomFit:
                if sub.free_flux and self.rejected_split is not None else None)
         alt_exact = vp.exact_indirect(lights, *([alt] if alt is not None else []))
         c_start = vp.cost(lights)
-        got = lights
-        for _round in range(rounds):
-            got, _c = vp.levenberg_marquardt(got, iterations=100)
-            got, changed = vp.refresh_indirect(got, moved=0.005)
-            if not changed:
-                break
+        got = _streamed_refit(vp, lights, rounds)
         moved = max(float(np.linalg.norm(a.position - b.position))
                     for a, b in zip(lights, got))
         self.trace.append({"polish_vertices": len(every), "cost_before": c_start,
@@ -546,11 +541,7 @@ class _RoomFit:
             vp.exact_indirect(alt)
         else:
             vp.use_exact(alt_exact)
-        for _round in range(rounds):
-            alt, _c = vp.levenberg_marquardt(alt, iterations=100)
-            alt, changed = vp.refresh_indirect(alt, moved=0.005)
-            if not changed:
-                break
+        alt = _streamed_refit(vp, alt, rounds)
         b_alt = score(alt)
         self.trace.append({"count_search": "every vertex", "lights": len(alt),
                            "bic_before": b_got, "bic_after": b_alt,
@@ -613,6 +604,18 @@ SPREAD_TOLERANCE = 0.03
 #: 0.013 in direct light; with interreflection 14 of 20 scenes below 0.003 and 6 above
 #: 0.02, as many as it gets wrong), not requirements (FZK-Haus' Kueche + Wohnen zone: 0.060)
 NEAR_EXACT_FIT = 0.02
+
+
+def _streamed_refit(vp, lights, rounds):
+    """The last refit on every vertex (a VertexProblem ``vp``): Levenberg-Marquardt, then
+    the interreflection refreshed where a luminaire moved more than 5 mm, at most
+    ``rounds`` times."""
+    for _round in range(rounds):
+        lights, _c = vp.levenberg_marquardt(lights, iterations=100)
+        lights, changed = vp.refresh_indirect(lights, moved=0.005)
+        if not changed:
+            break
+    return lights
 
 
 def _rebase(prob, lights):
