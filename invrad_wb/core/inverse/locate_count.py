@@ -27,7 +27,8 @@ with k the lit voting points, m the area-weighted mean square of the log residua
 residual clipped at :data:`OUTLIER_CLIP` robust standard deviations: a gross error at a
 few points is not a luminaire's light) and p
 the number of fitted parameters (per luminaire its position on its surface, 2, or in
-mid-air, 3, and its flux). The noise level enters through m: the gain a luminaire must
+mid-air, 3, and its flux; a flux shared by luminaires of one kind once:
+:mod:`~invrad_wb.core.inverse.locate_ties`). The noise level enters through m: the gain a luminaire must
 bring, k ln(m_before / m_after) > 3 ln(k), is a fixed number of noise variances. m is held
 at least :data:`MODEL_FLOOR` squared: a forward model's own error (interpolated targets,
 the interreflection of patches) is not noise a further luminaire should fit.
@@ -96,7 +97,13 @@ def _mean_square(prob, lights):
 
 
 def _params(lights):
-    return sum((2 if L.kind == "surface" else 3) + 1 for L in lights)
+    """The fit's parameter count: each luminaire's position and flux, a flux shared by
+    luminaires of one kind (:attr:`~invrad_wb.core.inverse.refine.Light.flux_group`)
+    counted once."""
+    groups = [getattr(L, "flux_group", -1) if getattr(L, "free_flux", False) else -1
+              for L in lights]
+    return (len({gr for gr in groups if gr >= 0}) + sum(gr < 0 for gr in groups)
+            + sum(2 if L.kind == "surface" else 3 for L in lights))
 
 
 def bic(prob, lights, k=None):

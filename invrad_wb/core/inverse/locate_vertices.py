@@ -32,6 +32,7 @@ import numpy as np
 
 from invrad_wb.core.inverse import optim
 from invrad_wb.core.inverse.refine import RefineProblem
+from invrad_wb.core.inverse.tiedparams import tied_fit
 
 #: vertices per chunk of the streamed refit: the largest arrays of a chunk are the
 #: refinement's (luminaires, chunk) light planes and the (chunk, parameters) Jacobian,
@@ -400,10 +401,12 @@ class VertexProblem:
             if any(M is None for M in moved):
                 moved = [L if M is None else M for L, M in zip(unpack(x_old[0]), moved)]
             return np.concatenate([L.params() for L in moved])[None]
+        project = None if self.inside is None else project
+        if self.free_flux:              # luminaires of one kind share a flux (tiedparams)
+            x0, step, project = tied_fit(lights, x0, step, project, normal=True)
 
         res = optim.levenberg_marquardt(
-            fun, x0[None], cost=cost, step=step,
-            project=None if self.inside is None else project, max_iter=None,
+            fun, x0[None], cost=cost, step=step, project=project, max_iter=None,
             max_steps=iterations, max_tries=8, ftol=tol, xtol=1e-5, lam_up=10.0,
             lam_min=1e-9, lam_max=np.inf)
         assert res.x.shape[1] == n

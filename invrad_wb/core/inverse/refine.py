@@ -34,6 +34,7 @@ import numpy as np
 from invrad_wb import constants as C
 from invrad_wb.core.geometry.bvh import segments_occluded_numpy
 from invrad_wb.core.inverse import optim
+from invrad_wb.core.inverse.tiedparams import tied_fit
 
 #: a luminaire's fitted flux stays within exp(+-this) of the problem's flux
 LOG_SCALE_LIMIT = np.log(100.0)
@@ -86,6 +87,9 @@ class Light:
     #: :func:`invrad_wb.core.model.aiming.aim_offset`), its tilt at most ``max_tilt``
     free_aim: bool = False
     max_tilt: float = 70.0
+    #: free fluxes: luminaires of one group (>= 0) share one flux (:mod:`.tiedparams`,
+    #: :mod:`.locate_ties`); -1: a flux of its own
+    flux_group: int = -1
 
     def facing(self):
         """The direction the luminaire's body faces: its mount normal, else its normal."""
@@ -689,18 +693,6 @@ class RefineProblem:
             return [L.with_params(x[a:b]) for L, a, b in parts]
         return x0, unpack
 
-    def _project(self, unpack):
-        """x_new (n,) -> the parameters of its lights moved into the allowed region
-        (:attr:`inside`); None where a luminaire cannot be placed there."""
-        def project(x):
-            if self.inside is None:
-                return x
-            moved = [self.inside(L) for L in unpack(x)]
-            if any(L is None for L in moved):
-                return None
-            return np.concatenate([L.params() for L in moved])
-        return project
-
     def levenberg_marquardt(self, lights, iterations=25, tol=1e-7, fixed=None):
         """Jointly refine all positions; returns (lights, cost).
 
@@ -761,10 +753,13 @@ class RefineProblem:
                 moved = [L if M is None else M for L, M in zip(unpack(x_old[0]), moved)]
             return np.concatenate([L.params() for L in moved])[None]
 
+        def step(J, r, lam):
+            return optim.dense_step(J, r, lam, weights(r), ridge=0.0)
+        project = None if self.inside is None else project
+        if self.free_flux:              # luminaires of one kind share a flux (tiedparams)
+            x0, step, project = tied_fit(lights, x0, step, project)
         res = optim.levenberg_marquardt(
-            fun, x0[None], cost=cost,
-            step=lambda J, r, lam: optim.dense_step(J, r, lam, weights(r), ridge=0.0),
-            project=None if self.inside is None else project, max_iter=None,
+            fun, x0[None], cost=cost, step=step, project=project, max_iter=None,
             max_steps=iterations, max_tries=8, ftol=tol, xtol=1e-5, lam_up=10.0,
             lam_min=1e-9, lam_max=np.inf)
         return unpack(res.x[0]), float(res.cost[0])
@@ -778,11 +773,16 @@ class RefineProblem:
             return lights, self.cost([], extra=fixed)
         x0, unpack = self._packing(lights)
         vis = [self.visibility(L) for L in lights]
-        inside = self._project(unpack)
 
         def project(X):
-            p = inside(X[0])
-            return np.full_like(X, np.nan) if p is None else p[None]
+            # its lights moved into the allowed region (:attr:`inside`); NaN (an
+            # infinite cost) where a luminaire cannot be placed there
+            if self.inside is None:
+                return X
+            moved = [self.inside(L) for L in unpack(X[0])]
+            if any(L is None for L in moved):
+                return np.full_like(X, np.nan)
+            return np.concatenate([L.params() for L in moved])[None]
 
         def cost(X):
             if not np.all(np.isfinite(X)):
