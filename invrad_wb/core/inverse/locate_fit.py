@@ -413,7 +413,10 @@ class _RoomFit:
         (:func:`~invrad_wb.core.inverse.locate_count.regroup`). The points are at most
         :data:`~invrad_wb.core.inverse.locate_problem.VERTEX_POINTS_MAX` vertices (an
         even subset); a room with more is refitted once more on every one of them
-        (:meth:`polish_every_vertex`, streamed in chunks). In such a room each
+        (:meth:`polish_every_vertex`, streamed in chunks). Fluxes free, the fluxes the
+        data cannot tell apart are then tied, one per kind of luminaire
+        (:mod:`~invrad_wb.core.inverse.locate_ties`), on the last refit's points: every
+        vertex, the subset, or the room's own problem (:meth:`tie`). In such a room each
         luminaire's interreflection follows its position to first order in these refits
         (:attr:`~invrad_wb.core.inverse.refine.RefineProblem.indirect_gradient`): held
         between refreshes, the refit stopped off the likelihood's minimum (bench/
@@ -433,7 +436,7 @@ class _RoomFit:
         _refine_problem = lp._refine_problem
         pts = lp.vertex_points(run.scene, most=lp.VERTEX_POINTS_MAX)   # read at call time
         if pts is None or len(pts) <= len(prob.target):
-            return lights, cost
+            return self.tie(prob, lights, cost)
         _s, backend, photometry, has_rho = run.remake
         big, big_indirect = _refine_problem(run.scene, pts, run.canvas, run.occluders, s,
                                             run.flux, backend, has_rho, {"radiosity": 0.0},
@@ -473,8 +476,12 @@ class _RoomFit:
                            "cost_after": big.cost(got),
                            "moved_m": round(moved, 4)})
         # more target vertices than that subset: the same refit on every one, streamed
-        if s.optimiser == "lm":
+        # (fluxes of one kind tied there), else the ties judged on the subset
+        if s.optimiser == "lm" and lp.target_vertex_count(run.scene) > len(pts):
             got = self.polish_every_vertex(big, big_indirect, pts, got, rounds)
+        elif big.free_flux and s.optimiser == "lm":
+            from invrad_wb.core.inverse.locate_ties import tie_fluxes
+            got = tie_fluxes(big, got, lambda L: refit(L)[0], self.trace)
         back = _rebase(prob, got)
         c_back = prob.cost(back)
         return back, c_back
@@ -513,7 +520,27 @@ class _RoomFit:
                            "cost_after": vp.cost(got), "moved_m": round(moved, 4)})
         if alt is not None:
             got = self.count_on_every_vertex(vp, sub, got, rounds, alt, alt_exact[0])
+        if vp.free_flux:
+            from invrad_wb.core.inverse.locate_ties import tie_fluxes
+            got = tie_fluxes(vp, got, lambda L: _streamed_refit(vp, L, rounds), self.trace)
         return got
+
+    def tie(self, prob, lights, cost):
+        """Free fluxes the data cannot tell apart tied to one
+        (:func:`~invrad_wb.core.inverse.locate_ties.tie_fluxes`) on the room's own
+        problem ``prob``, refitted until each luminaire's interreflection is computed
+        where it is (:meth:`converge`). Not for aimed luminaires (``--aim free``), the
+        evolution strategy, a poor fit or a stopped room. Returns (lights, cost)."""
+        s, run = self.s, self.run
+        if (not prob.free_flux or len(lights) < 2 or s.aim == "free" or s.optimiser != "lm"
+                or run.stopped_after_s is not None or fit_quality(prob, lights) > s.poor_fit):
+            return lights, cost
+        from invrad_wb.core.inverse.locate_ties import tie_fluxes
+
+        def refit(L):
+            return self.converge(*self.opt(L))[0]
+        got = tie_fluxes(prob, lights, refit, self.trace)
+        return (lights, cost) if got is lights else (got, prob.cost(got))
 
     def count_on_every_vertex(self, vp, sub, got, rounds, alt=None, alt_exact=None):
         """The count search's best split that its criterion turned down on the subset
@@ -535,6 +562,7 @@ class _RoomFit:
             return bic_of(robust_mean_square(vp.residuals(lights), vp.w_area),
                           _params(lights), k)
         b_got = score(got)                   # with got's exact interreflection (vp._exact)
+        got_exact = vp._exact
         if alt is None:
             alt = _rebase(sub, self.rejected_split)
         if alt_exact is None:
@@ -546,7 +574,10 @@ class _RoomFit:
         self.trace.append({"count_search": "every vertex", "lights": len(alt),
                            "bic_before": b_got, "bic_after": b_alt,
                            "kept": bool(b_alt < b_got)})
-        return alt if b_alt < b_got else got
+        if b_alt < b_got:
+            return alt
+        vp.use_exact(got_exact)              # got's again, for what follows on vp
+        return got
 
     def spread(self, lights, cost):
         """Luminaires crowded in pairs moved apart where that costs the fit (almost)
