@@ -262,6 +262,13 @@ def _say_fit(result, names=None):
             continue
         name = (names or {}).get(int(run.room)) or f"room {int(run.room)}"
         print(f"{name}: {fq.words()}")
+        kinds = {}
+        for lum in result.luminaires:
+            if lum.room == run.room and "flux_group" in lum.extra:
+                kinds.setdefault(lum.extra["flux_group"], []).append(lum.flux_lm)
+        for _group, fluxes in sorted(kinds.items()):
+            print(f"{name}: {len(fluxes)} luminaires of one kind, {fluxes[0]:.0f} lm each"
+                  " (the targets do not tell their fluxes apart: fitted as one)")
         warn = poor_fit_warning(name, fq)
         if warn:
             print(f"invrad: {warn}", file=sys.stderr)

@@ -25,11 +25,24 @@ def test_locate_without_flux_fits_each_luminaires_flux(tmp_path):
     run("example", "wall_and_ceiling", "-o", str(scene), "--truth", str(truth), check=True)
     p = run("locate", str(scene), "-o", str(result), check=True)
     assert "each luminaire are fitted" in p.stdout and "2 luminaire(s) in" in p.stdout
+    assert "of one kind" not in p.stdout                  # 800 and 2500 lm stay apart
     found = sorted(json.loads(result.read_text())["luminaires"], key=lambda l: l["flux_lm"])
     true = sorted(json.loads(truth.read_text())["luminaires"], key=lambda l: l["flux_lm"])
     for f, t in zip(found, true):
         assert np.linalg.norm(np.subtract(f["position"], t["position"])) < 0.02
         assert f["flux_lm"] == pytest.approx(t["flux_lm"], rel=0.05)
+
+
+def test_locate_without_flux_says_which_luminaires_are_of_one_kind(tmp_path):
+    # two 3000 lm downlights: their fluxes fitted as one, said on the command line and
+    # in the JSON (the same flux group)
+    scene, result = tmp_path / "s.ply", tmp_path / "r.json"
+    run("example", "two_ceiling", "-o", str(scene), check=True)
+    p = run("locate", str(scene), "-o", str(result), check=True)
+    assert "2 luminaires of one kind, 3000 lm each" in p.stdout
+    found = json.loads(result.read_text())["luminaires"]
+    assert [f["flux_group"] for f in found] == [1, 1]
+    assert found[0]["flux_lm"] == found[1]["flux_lm"] == pytest.approx(3000.0, rel=0.01)
 
 
 def test_example_locate_verify_round_trip(tmp_path):

@@ -143,6 +143,9 @@ def _collect(rooms):
             if run.free_flux:
                 flux = float(np.round(flux, 1))
             extra, c0 = {"mount": "surface" if L.kind == "surface" else "pendant"}, None
+            if run.free_flux and getattr(L, "flux_group", -1) >= 0:
+                # luminaires of one kind: their fluxes fitted as one (locate_ties)
+                extra["flux_group"] = int(L.flux_group) + 1
             if L.mount is not None:
                 from invrad_wb.core.inverse.aim import aim_extra
                 more, c0 = aim_extra(L)
