@@ -476,12 +476,13 @@ class _RoomFit:
                            "cost_after": big.cost(got),
                            "moved_m": round(moved, 4)})
         # more target vertices than that subset: the same refit on every one, streamed
-        # (fluxes of one kind tied there), else the ties judged on the subset
-        if s.optimiser == "lm" and lp.target_vertex_count(run.scene) > len(pts):
-            got = self.polish_every_vertex(big, big_indirect, pts, got, rounds)
-        elif big.free_flux and s.optimiser == "lm":
-            from invrad_wb.core.inverse.locate_ties import tie_fluxes
-            got = tie_fluxes(big, got, lambda L: refit(L)[0], self.trace)
+        # (fluxes of one kind tied there); else the ties judged on the subset
+        if s.optimiser == "lm":
+            every = self.polish_every_vertex(big, big_indirect, pts, got, rounds)
+            if every is got and big.free_flux:          # the subset is every vertex
+                from invrad_wb.core.inverse.locate_ties import tie_fluxes
+                every = tie_fluxes(big, got, lambda L: refit(L)[0], self.trace)
+            got = every
         back = _rebase(prob, got)
         c_back = prob.cost(back)
         return back, c_back
@@ -495,8 +496,10 @@ class _RoomFit:
         ``lights``, the answer on the subset problem ``sub`` (its points ``sub_pts``):
         direct light exact at every vertex, each luminaire's interreflection gathered
         exactly at every vertex once, then its change interpolated from ``sub``'s points.
-        Returns the refitted lights (their interreflection at ``sub``'s points); the
-        lights as they are where the room has no more vertices than ``sub``.
+        Fluxes free, those the data cannot tell apart are then tied there
+        (:mod:`~invrad_wb.core.inverse.locate_ties`). Returns the refitted lights (their
+        interreflection at ``sub``'s points); ``lights`` itself where the room has no
+        more vertices than ``sub``.
 
         Measured (bench/bench_count.py, 5 % noise per vertex, flux unknown): see its
         docstring, the rows of 2026-11-26 (h10)."""
