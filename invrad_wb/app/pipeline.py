@@ -671,6 +671,12 @@ def describe_rooms(summary):
                 line += (f"; {part.replace('_', ' ')} {st['mean_achieved_lux']:.0f} lx for"
                          f" {st['mean_target_lux']:.0f} lx")
         lines.append(line)
+        kinds = {}
+        for lum in summary["luminaires"]:
+            if lum["room_name"] == room["room"] and "flux_group" in lum:
+                kinds.setdefault(lum["flux_group"], []).append(lum["flux_lm"])
+        lines += [f"  {len(f)} of one kind, {f[0]:.0f} lm each (their fluxes fitted as one)"
+                  for _g, f in sorted(kinds.items())]
         v = room.get("verdict")
         if v:
             lines.append(f"  {'met' if v['met'] else 'NOT met'}: {v['words']}")

@@ -48,6 +48,18 @@ def test_locate_message_says_the_point_source_note_once():
     assert lines.count("    keep this") == 2
 
 
+def test_locate_message_says_which_luminaires_are_of_one_kind():
+    # flux unknown: luminaires whose fluxes were fitted as one (their flux_group) are
+    # named per room under its luminaire count; a room without groups says nothing more
+    lum = [{"room_name": "A", "flux_group": 1, "flux_lm": 2490.0}] * 3 + [
+        {"room_name": "A", "flux_lm": 900.0}, {"room_name": "B", "flux_lm": 2000.0}]
+    summary = {"luminaires": lum, "rooms": [{"room": "A"}, {"room": "B"}]}
+    lines = pipeline.describe_rooms(summary)
+    assert lines == ["room A: 4 luminaire(s)",
+                     "  3 of one kind, 2490 lm each (their fluxes fitted as one)",
+                     "room B: 1 luminaire(s)"]
+
+
 def test_task_areas_each_reported_against_their_own_requirement():
     # a design with task areas judges each on its own cells: the message gives each
     # area's Em and U0 against its own requirement, not the work plane's over all of them
