@@ -138,6 +138,7 @@ class LocateResult:
 def _collect(rooms):
     out = []
     for run in rooms:
+        number = {}            # a room's flux groups numbered 1, 2, ... as they come
         for L in run.lights:
             flux = run.flux * L.flux_scale
             if run.free_flux:
@@ -145,7 +146,7 @@ def _collect(rooms):
             extra, c0 = {"mount": "surface" if L.kind == "surface" else "pendant"}, None
             if run.free_flux and getattr(L, "flux_group", -1) >= 0:
                 # luminaires of one kind: their fluxes fitted as one (locate_ties)
-                extra["flux_group"] = int(L.flux_group) + 1
+                extra["flux_group"] = number.setdefault(int(L.flux_group), len(number) + 1)
             if L.mount is not None:
                 from invrad_wb.core.inverse.aim import aim_extra
                 more, c0 = aim_extra(L)

@@ -155,6 +155,7 @@ def test_locate_keeps_two_kinds_apart():
     res = locate(_scene(lums, seed=2), None)
     assert len(res.luminaires) == 4
     assert len({L.flux_lm for L in res.luminaires}) == 2
+    assert sorted({L.extra["flux_group"] for L in res.luminaires}) == [1, 2]   # as said
     for t in lums:
         near = min(res.luminaires, key=lambda L: np.linalg.norm(np.asarray(L.position)
                                                                 - t.position))
