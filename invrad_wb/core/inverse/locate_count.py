@@ -28,10 +28,11 @@ residual clipped at :data:`OUTLIER_CLIP` robust standard deviations: a gross err
 few points is not a luminaire's light) and p
 the number of fitted parameters (per luminaire its position on its surface, 2, or in
 mid-air, 3, and its flux; a flux shared by luminaires of one kind once:
-:mod:`~invrad_wb.core.inverse.locate_ties`). The noise level enters through m: the gain a luminaire must
-bring, k ln(m_before / m_after) > 3 ln(k), is a fixed number of noise variances. m is held
-at least :data:`MODEL_FLOOR` squared: a forward model's own error (interpolated targets,
-the interreflection of patches) is not noise a further luminaire should fit.
+:mod:`~invrad_wb.core.inverse.locate_ties`). The noise level enters through m: the gain
+a luminaire must bring, k ln(m_before / m_after) > 3 ln(k), is a fixed number of noise
+variances. m is held at least :data:`MODEL_FLOOR` squared: a forward model's own error
+(interpolated targets, the interreflection of patches) is not noise a further luminaire
+should fit.
 
 Measured with bench/bench_count.py (5 % noise, interreflection): see its docstring.
 """
