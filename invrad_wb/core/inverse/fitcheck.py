@@ -41,14 +41,25 @@ def position_sd(prob, lights, sigma=None):
     if not lights:
         return np.zeros(0), None
     lights = prob._own_copies(lights)
-    vis = [prob.visibility(L) for L in lights]
-    r, J = prob.residuals(lights, vis, with_jac=True)
+    r, F = fisher_of(prob, lights)
     lit = prob.target > 0
     if sigma is None:
         sigma = float(np.sqrt(np.sum(prob.w_area[lit] * r[lit] ** 2)
                               / max(np.sum(prob.w_area[lit]), 1e-300)))
-    Jl = J[lit]
-    return sd_of(np.linalg.pinv(Jl.T @ Jl) * sigma ** 2, lights)
+    return sd_of(np.linalg.pinv(F) * sigma ** 2, lights)
+
+
+def fisher_of(prob, lights):
+    """(log residuals (k,), the Fisher information J^T J (n, n) of the log residuals over
+    the lit points) of ``prob`` at ``lights``: a RefineProblem, or a streamed
+    :class:`~invrad_wb.core.inverse.locate_vertices.VertexProblem` (summed chunk by
+    chunk)."""
+    if hasattr(prob, "normal_equations"):
+        r, F, _g = prob.normal_equations(prob._own_copies(lights), weights=False)
+        return r, F
+    r, J = prob.residuals(lights, [prob.visibility(L) for L in lights], with_jac=True)
+    lit = prob.target > 0
+    return r, J[lit].T @ J[lit]
 
 
 def sd_of(cov, lights):

@@ -26,6 +26,7 @@ import time
 
 import numpy as np
 
+from invrad_wb.core.inverse.fitcheck import fisher_of
 from invrad_wb.core.inverse.locate_count import _params, bic_of, robust_mean_square
 from invrad_wb.core.inverse.tiedparams import flux_ties
 
@@ -72,18 +73,6 @@ def common_flux(theta, cov, members):
     return float(w @ th) / float(w @ one)
 
 
-def _fit_state(prob, lights):
-    """(log residuals (k,), Fisher information (n, n) of the log residuals over the lit
-    points) of ``prob`` (a RefineProblem or a streamed VertexProblem) at ``lights``."""
-    lights = prob._own_copies(lights)
-    if hasattr(prob, "normal_equations"):
-        r, F, _g = prob.normal_equations(lights, weights=False)
-        return r, F
-    r, J = prob.residuals(lights, [prob.visibility(L) for L in lights], with_jac=True)
-    lit = prob.target > 0
-    return r, J[lit].T @ J[lit]
-
-
 def _residuals(prob, lights):
     if hasattr(prob, "normal_equations"):
         return prob.residuals(lights)
@@ -94,7 +83,7 @@ def _tied_state(prob, lights):
     """(robust mean square of the log residuals, log flux (m,) and covariance (m, m) of
     each flux parameter of ``lights``' fit on ``prob`` (a tied group's one parameter
     once), the lights of each parameter (lists of indices))."""
-    r, F = _fit_state(prob, lights)
+    r, F = fisher_of(prob, prob._own_copies(lights))
     ms = robust_mean_square(r, prob.w_area)
     n = F.shape[0]
     T = flux_ties(lights)
